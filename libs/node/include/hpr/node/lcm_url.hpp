@@ -1,0 +1,39 @@
+#pragma once
+/// \file Opening LCM with a clear failure: the URL comes from the command line, the configuration
+/// or LCM_DEFAULT_URL; before LCM is created the multicast route is checked so that a missing
+/// loopback route gives one message with the command that fixes it.
+
+#include <memory>
+#include <stdexcept>
+#include <string>
+
+namespace lcm {
+class LCM;
+}
+
+namespace hpr::node {
+
+/// LCM could not be opened. what() says why and how to fix it.
+class LcmError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// The default multicast URL of LCM.
+inline constexpr const char* kDefaultLcmUrl = "udpm://239.255.76.67:7667?ttl=0";
+
+/// First non-empty of: `explicit_url`, `configured_url`, $LCM_DEFAULT_URL, kDefaultLcmUrl.
+std::string resolve_lcm_url(const std::string& explicit_url, const std::string& configured_url);
+
+/// The command (as root) that sets up loopback multicast for LCM.
+inline constexpr const char* kMulticastFixCommand =
+    "sudo ip link set lo multicast on && sudo ip route add 239.0.0.0/8 dev lo";
+
+/// Checks that a udpm URL's multicast group is routable. Throws LcmError with the fix otherwise.
+/// Non-udpm URLs (memq://, file://) are accepted as they are.
+void check_multicast_route(const std::string& url);
+
+/// check_multicast_route, then creates the LCM instance; throws LcmError on any failure.
+std::unique_ptr<lcm::LCM> open_lcm(const std::string& url);
+
+}  // namespace hpr::node

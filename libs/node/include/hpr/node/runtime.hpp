@@ -1,0 +1,256 @@
+#pragma once
+/// \file
+/// The node runtime shared by every process of the stack.
+///
+/// A Runtime owns the LCM handle, typed inputs and outputs, the event loop and HEALTH reporting:
+///  - Inputs decode into a preallocated message; a message that fails to decode or to validate is
+///    counted, reported in HEALTH and logged (rate limited), never a crash.
+///  - A tick trigger runs the node's step when the primary input has a new tick and every synced
+///    input has reached that tick (plus an offset), or when a timeout expires.
+///  - SIGINT and SIGTERM end run() (and spin_until()) promptly; the process then exits 0.
+///  - HEALTH goes out at about 10 Hz: node, last tick, step-time median/p99/max, deadline misses,
+///    decode errors, stale inputs and the current faults.
+
+#include <lcm/lcm-cpp.hpp>
+
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "hpr/common/config.hpp"
+#include "hpr/common/log.hpp"
+#include "hpr/common/stats.hpp"
+#include "hpr/common/time.hpp"
+
+namespace hpr::node {
+
+class Runtime;
+
+/// Type-independent state of one subscribed channel.
+class InputBase {
+ public:
+  virtual ~InputBase() = default;
+  InputBase(const InputBase&) = delete;
+  InputBase& operator=(const InputBase&) = delete;
+
+  [[nodiscard]] const std::string& channel() const { return channel_; }
+  [[nodiscard]] bool has_value() const { return count_ > 0; }
+  /// Tick of the latest valid message, -1 before the first.
+  [[nodiscard]] std::int64_t tick() const { return tick_; }
+  /// Monotonic time [s] at which the latest valid message arrived.
+  [[nodiscard]] double receive_time() const { return receive_time_; }
+  [[nodiscard]] std::int64_t count() const { return count_; }
+  [[nodiscard]] std::int64_t errors() const { return errors_; }
+  [[nodiscard]] const std::string& last_error() const { return last_error_; }
+
+ protected:
+  InputBase(Runtime& rt, std::string channel) : runtime_(rt), channel_(std::move(channel)) {}
+  void accept(std::int64_t tick);
+  void reject(std::size_t bytes, const std::string& why);
+
+  Runtime& runtime_;
+  std::string channel_;
+  std::int64_t tick_ = -1, count_ = 0, errors_ = 0;
+  double receive_time_ = 0.0;
+  std::string last_error_;
+};
+
+/// A typed input. `Msg` is an lcm-gen type with an int64 `tick` field.
+template <class Msg>
+class Input final : public InputBase {
+ public:
+  /// Returns an empty string when the message is acceptable, else the reason to reject it.
+  using Validator = std::function<std::string(const Msg&)>;
+  using Callback = std::function<void(const Msg&)>;
+
+  Input(Runtime& rt, lcm::LCM& lcm, std::string channel, Validator validate, Callback on_message)
+      : InputBase(rt, std::move(channel)), validate_(std::move(validate)), on_message_(std::move(on_message)) {
+    lcm.subscribe(channel_, &Input::handle, this);
+  }
+
+  /// The latest valid message (default-constructed before the first).
+  [[nodiscard]] const Msg& latest() const { return latest_; }
+
+ private:
+  void handle(const lcm::ReceiveBuffer* rbuf, const std::string& /*channel*/) {
+    std::string why;
+    try {
+      const int used = spare_.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size));
+      if (used < 0) {
+        why = "not a valid " + std::string(Msg::getTypeName());
+      } else if (validate_) {
+        why = validate_(spare_);
+      }
+    } catch (const std::exception& e) {
+      why = "not a valid " + std::string(Msg::getTypeName()) + " (" + e.what() + ")";
+    }
+    if (!why.empty()) {
+      reject(rbuf->data_size, why);
+      return;
+    }
+    std::swap(latest_, spare_);
+    accept(latest_.tick);
+    if (on_message_) on_message_(latest_);
+  }
+
+  Validator validate_;
+  Callback on_message_;
+  Msg latest_{}, spare_{};
+};
+
+/// A typed output; encodes into a buffer reused across calls.
+template <class Msg>
+class Output {
+ public:
+  Output() = default;
+  Output(lcm::LCM* lcm, std::string channel) : lcm_(lcm), channel_(std::move(channel)) {}
+  void publish(const Msg& m) {
+    const int n = m.getEncodedSize();
+    if (buffer_.size() < static_cast<std::size_t>(n)) buffer_.resize(static_cast<std::size_t>(n));
+    const int used = m.encode(buffer_.data(), 0, n);
+    if (used >= 0) lcm_->publish(channel_, buffer_.data(), static_cast<unsigned>(used));
+  }
+  [[nodiscard]] const std::string& channel() const { return channel_; }
+
+ private:
+  lcm::LCM* lcm_ = nullptr;
+  std::string channel_;
+  std::vector<std::uint8_t> buffer_;
+};
+
+/// An input that must reach the triggering tick (plus `tick_offset`) before the step runs.
+struct Sync {
+  InputBase* input;
+  std::int64_t tick_offset = 0;
+};
+
+/// What the step is told about its tick.
+struct TickInfo {
+  std::int64_t tick = 0;        ///< tick of the primary input
+  bool timed_out = false;       ///< a synced input did not arrive within the timeout
+  std::vector<const InputBase*> late;  ///< the synced inputs that had not arrived
+};
+
+struct RuntimeOptions {
+  std::string channel_prefix;   ///< prepended to every channel name
+  double health_period_s = 0.1; ///< HEALTH rate
+  double deadline_s = 1e-3;     ///< a step longer than this counts as a deadline miss
+};
+
+class Runtime {
+ public:
+  using StepFn = std::function<void(const TickInfo&)>;
+
+  /// Opens LCM on `lcm_url` (throws LcmError with the fix when multicast is not routable).
+  Runtime(std::string node_name, const std::string& lcm_url, RuntimeOptions options = {});
+  ~Runtime();
+  Runtime(const Runtime&) = delete;
+  Runtime& operator=(const Runtime&) = delete;
+
+  [[nodiscard]] lcm::LCM& lcm() { return *lcm_; }
+  [[nodiscard]] const std::string& name() const { return name_; }
+  /// The full channel name with the configured prefix.
+  [[nodiscard]] std::string channel(const std::string& name) const { return options_.channel_prefix + name; }
+
+  template <class Msg>
+  Input<Msg>& subscribe(const std::string& name, typename Input<Msg>::Validator validate = {},
+                        typename Input<Msg>::Callback on_message = {}) {
+    auto in = std::make_unique<Input<Msg>>(*this, *lcm_, channel(name), std::move(validate), std::move(on_message));
+    auto& ref = *in;
+    inputs_.push_back(std::move(in));
+    return ref;
+  }
+
+  template <class Msg>
+  Output<Msg> advertise(const std::string& name) {
+    return Output<Msg>(lcm_.get(), channel(name));
+  }
+
+  /// Runs `step` for every new tick of `primary` once the `synced` inputs have caught up, or after
+  /// `timeout_s` without them (TickInfo::timed_out). A tick older than the last stepped one is ignored.
+  void on_tick(InputBase& primary, std::vector<Sync> synced, double timeout_s, StepFn step);
+  /// Calls `fn` every `period_s` of wall-clock time (monotonic) from the loop.
+  void every(double period_s, std::function<void()> fn);
+
+  /// Processes messages until stop is requested. Returns the process exit code (0).
+  int run();
+  /// Processes messages until `done()` holds, `timeout_s` passes or stop is requested.
+  /// Returns done().
+  bool spin_until(const std::function<bool()>& done, double timeout_s);
+  /// Handles whatever is pending, waiting at most `timeout_s`.
+  void spin_once(double timeout_s);
+  void request_stop() { stop_ = true; }
+  [[nodiscard]] bool stop_requested() const;
+
+  /// Records one step's compute time (on_tick steps are timed automatically).
+  void record_step(std::int64_t tick, double seconds);
+  /// Counts a step that ran without a fresh input.
+  void count_stale() { ++stale_inputs_; }
+  /// Sets or clears a named fault shown in HEALTH; a fault makes the state DEGRADED (or FAULT).
+  void set_fault(const std::string& key, const std::string& text, bool fatal = false);
+  void clear_fault(const std::string& key);
+  [[nodiscard]] bool has_fault(const std::string& key) const { return faults_.count(key) != 0; }
+  void publish_health();
+
+  [[nodiscard]] std::int64_t decode_errors() const;
+  [[nodiscard]] const RollingStats& cycle_stats() const { return cycle_; }
+  [[nodiscard]] std::int64_t deadline_misses() const { return deadline_misses_; }
+
+ private:
+  friend class InputBase;
+  struct Trigger {
+    InputBase* primary;
+    std::vector<Sync> synced;
+    double timeout_s;
+    StepFn step;
+    std::int64_t last_tick = -1;
+    std::int64_t pending_tick = -1;
+    double deadline = 0.0;
+  };
+  struct Timer {
+    double period, next;
+    std::function<void()> fn;
+  };
+  void on_input(InputBase& in);
+  void on_reject(InputBase& in, std::size_t bytes, const std::string& why);
+  void check_triggers(double now);
+  void run_timers(double now);
+  double next_wakeup(double now) const;
+
+  std::string name_;
+  RuntimeOptions options_;
+  std::unique_ptr<lcm::LCM> lcm_;
+  std::vector<std::unique_ptr<InputBase>> inputs_;
+  std::vector<Trigger> triggers_;
+  std::vector<Timer> timers_;
+  bool stop_ = false;
+
+  RollingStats cycle_{1000};
+  std::int64_t steps_ = 0, last_tick_ = -1, deadline_misses_ = 0, stale_inputs_ = 0;
+  std::int64_t steps_at_last_health_ = 0;
+  double last_health_ = 0.0, start_time_ = 0.0, last_reject_log_ = -1e9;
+  struct Fault {
+    std::string text;
+    bool fatal;
+  };
+  std::map<std::string, Fault> faults_;
+  std::vector<std::uint8_t> health_buffer_;
+};
+
+/// Exit codes shared by every process.
+enum ExitCode : int { kExitOk = 0, kExitFailure = 1, kExitConfig = 2, kExitLcm = 3 };
+
+/// Standard main body: parses the command line, loads the configuration, opens the runtime and
+/// calls `body`. ConfigError exits 2 and LcmError exits 3, each with one message on stderr.
+int run_main(int argc, char** argv, const std::string& process, const std::string& summary,
+             const std::function<int(const struct CommandLine&, const Config&)>& body);
+
+/// RuntimeOptions from the `lcm` section of a configuration (channel_prefix) and a deadline.
+RuntimeOptions runtime_options(const Config& cfg, double deadline_s);
+/// The LCM URL: --lcm-url, else lcm.url of the configuration, else $LCM_DEFAULT_URL, else LCM's default.
+std::string lcm_url(const struct CommandLine& cl, const Config& cfg);
+
+}  // namespace hpr::node

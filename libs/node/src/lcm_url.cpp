@@ -1,0 +1,68 @@
+#include "hpr/node/lcm_url.hpp"
+
+#include <arpa/inet.h>
+#include <fmt/format.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdlib>
+#include <cstring>
+#include <lcm/lcm-cpp.hpp>
+
+namespace hpr::node {
+
+std::string resolve_lcm_url(const std::string& explicit_url, const std::string& configured_url) {
+  if (!explicit_url.empty()) return explicit_url;
+  if (!configured_url.empty()) return configured_url;
+  if (const char* env = std::getenv("LCM_DEFAULT_URL"); env != nullptr && *env != '\0') return env;
+  return kDefaultLcmUrl;
+}
+
+void check_multicast_route(const std::string& url) {
+  const std::string scheme = "udpm://";
+  if (url.rfind(scheme, 0) != 0) return;
+  std::string rest = url.substr(scheme.size());
+  const size_t q = rest.find('?');
+  if (q != std::string::npos) rest = rest.substr(0, q);
+  std::string host = rest;
+  int port = 7667;
+  if (const size_t colon = rest.find(':'); colon != std::string::npos) {
+    host = rest.substr(0, colon);
+    try {
+      port = std::stoi(rest.substr(colon + 1));
+    } catch (...) {
+      throw LcmError(fmt::format("LCM URL '{}': the port is not a number", url));
+    }
+  }
+  if (host.empty()) host = "239.255.76.67";
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_port = htons(static_cast<uint16_t>(port));
+  if (inet_pton(AF_INET, host.c_str(), &addr.sin_addr) != 1) {
+    throw LcmError(fmt::format("LCM URL '{}': '{}' is not an IPv4 multicast address", url, host));
+  }
+  const int fd = ::socket(AF_INET, SOCK_DGRAM, 0);
+  if (fd < 0) throw LcmError(fmt::format("LCM: cannot create a UDP socket: {}", std::strerror(errno)));
+  const int rc = ::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof(addr));
+  const int err = errno;
+  ::close(fd);
+  if (rc != 0) {
+    throw LcmError(fmt::format(
+        "LCM cannot reach multicast group {}:{} ({}): there is no multicast route. Fix (as root): {}", host,
+        port, std::strerror(err), kMulticastFixCommand));
+  }
+}
+
+std::unique_ptr<lcm::LCM> open_lcm(const std::string& url) {
+  check_multicast_route(url);
+  auto lcm = std::make_unique<lcm::LCM>(url);
+  if (!lcm->good()) {
+    throw LcmError(fmt::format("LCM could not be opened on '{}'. If this is a multicast problem, fix (as root): {}",
+                               url, kMulticastFixCommand));
+  }
+  return lcm;
+}
+
+}  // namespace hpr::node

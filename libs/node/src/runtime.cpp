@@ -1,0 +1,295 @@
+#include "hpr/node/runtime.hpp"
+
+#include <fcntl.h>
+#include <poll.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cerrno>
+#include <cmath>
+#include <csignal>
+#include <cstring>
+#include <humanoid/health_t.hpp>
+
+#include "hpr/node/command_line.hpp"
+#include "hpr/node/lcm_url.hpp"
+
+namespace hpr::node {
+namespace {
+
+std::atomic<bool> g_signalled{false};
+int g_signal_pipe[2] = {-1, -1};
+
+void on_signal(int /*sig*/) {
+  g_signalled.store(true);
+  const char c = 's';
+  const ssize_t ignored = ::write(g_signal_pipe[1], &c, 1);
+  (void)ignored;
+}
+
+void install_signal_handlers() {
+  static bool installed = false;
+  if (installed) return;
+  installed = true;
+  if (::pipe2(g_signal_pipe, O_NONBLOCK | O_CLOEXEC) != 0) g_signal_pipe[0] = g_signal_pipe[1] = -1;
+  struct sigaction sa {};
+  sa.sa_handler = on_signal;
+  sigemptyset(&sa.sa_mask);
+  sa.sa_flags = SA_RESTART;
+  sigaction(SIGINT, &sa, nullptr);
+  sigaction(SIGTERM, &sa, nullptr);
+  std::signal(SIGPIPE, SIG_IGN);
+}
+
+std::string host_name() {
+  char buf[256] = {};
+  if (::gethostname(buf, sizeof(buf) - 1) != 0) return "?";
+  return buf;
+}
+
+}  // namespace
+
+void InputBase::accept(std::int64_t tick) {
+  tick_ = tick;
+  ++count_;
+  receive_time_ = monotonic_s();
+  runtime_.on_input(*this);
+}
+
+void InputBase::reject(std::size_t bytes, const std::string& why) {
+  ++errors_;
+  last_error_ = why;
+  runtime_.on_reject(*this, bytes, why);
+}
+
+Runtime::Runtime(std::string node_name, const std::string& lcm_url, RuntimeOptions options)
+    : name_(std::move(node_name)), options_(std::move(options)) {
+  install_signal_handlers();
+  lcm_ = open_lcm(lcm_url);
+  start_time_ = monotonic_s();
+  last_health_ = start_time_ - options_.health_period_s;  // first HEALTH at once
+}
+
+Runtime::~Runtime() = default;
+
+bool Runtime::stop_requested() const { return stop_ || g_signalled.load(); }
+
+void Runtime::on_tick(InputBase& primary, std::vector<Sync> synced, double timeout_s, StepFn step) {
+  triggers_.push_back(Trigger{&primary, std::move(synced), timeout_s, std::move(step)});
+}
+
+void Runtime::every(double period_s, std::function<void()> fn) {
+  timers_.push_back(Timer{period_s, monotonic_s() + period_s, std::move(fn)});
+}
+
+void Runtime::on_input(InputBase& in) {
+  const double now = monotonic_s();
+  for (auto& t : triggers_) {
+    if (t.primary == &in && in.tick() > t.last_tick && in.tick() != t.pending_tick) {
+      t.pending_tick = in.tick();
+      t.deadline = now + t.timeout_s;
+    }
+  }
+  check_triggers(now);
+}
+
+void Runtime::on_reject(InputBase& in, std::size_t bytes, const std::string& why) {
+  const double now = monotonic_s();
+  if (now - last_reject_log_ > 1.0) {
+    last_reject_log_ = now;
+    log::warn("{}: rejected a message of {} bytes: {} ({} rejected so far)", in.channel(), bytes, why,
+              in.errors());
+  }
+  set_fault("decode:" + in.channel(), in.channel() + ": " + why);
+}
+
+void Runtime::check_triggers(double now) {
+  for (auto& t : triggers_) {
+    if (t.pending_tick < 0 || t.pending_tick <= t.last_tick) continue;
+    TickInfo info;
+    info.tick = t.pending_tick;
+    for (const auto& s : t.synced) {
+      if (s.input->tick() < t.pending_tick + s.tick_offset) info.late.push_back(s.input);
+    }
+    if (!info.late.empty()) {
+      if (now < t.deadline) continue;
+      info.timed_out = true;
+      ++stale_inputs_;
+    }
+    t.last_tick = t.pending_tick;
+    const double t0 = monotonic_s();
+    try {
+      t.step(info);
+      clear_fault("step");
+    } catch (const std::exception& e) {
+      log::error("step of tick {} failed: {}", info.tick, e.what());
+      set_fault("step", std::string("step failed: ") + e.what());
+    }
+    record_step(info.tick, monotonic_s() - t0);
+  }
+}
+
+void Runtime::record_step(std::int64_t tick, double seconds) {
+  ++steps_;
+  last_tick_ = tick;
+  cycle_.add(seconds * 1e6);
+  if (seconds > options_.deadline_s) ++deadline_misses_;
+}
+
+void Runtime::run_timers(double now) {
+  for (auto& t : timers_) {
+    if (now >= t.next) {
+      t.next += t.period;
+      if (t.next < now) t.next = now + t.period;  // skip missed periods rather than bursting
+      t.fn();
+    }
+  }
+  if (now - last_health_ >= options_.health_period_s) {
+    publish_health();
+    last_health_ = now;
+  }
+}
+
+double Runtime::next_wakeup(double now) const {
+  double next = last_health_ + options_.health_period_s;
+  for (const auto& t : timers_) next = std::min(next, t.next);
+  for (const auto& t : triggers_) {
+    if (t.pending_tick > t.last_tick) next = std::min(next, t.deadline);
+  }
+  return std::max(next, now);
+}
+
+void Runtime::spin_once(double timeout_s) {
+  double now = monotonic_s();
+  run_timers(now);
+  check_triggers(now);
+  const double wake = std::min(next_wakeup(now), now + std::max(0.0, timeout_s));
+  const int timeout_ms = static_cast<int>(std::ceil(std::max(0.0, wake - now) * 1e3));
+  pollfd fds[2] = {{lcm_->getFileno(), POLLIN, 0}, {g_signal_pipe[0], POLLIN, 0}};
+  const int n = ::poll(fds, g_signal_pipe[0] >= 0 ? 2 : 1, timeout_ms);
+  if (n > 0 && (fds[0].revents & POLLIN) != 0) {
+    lcm_->handle();
+    // Drain whatever else is already queued, without blocking.
+    pollfd more{lcm_->getFileno(), POLLIN, 0};
+    while (!stop_requested() && ::poll(&more, 1, 0) > 0 && (more.revents & POLLIN) != 0) lcm_->handle();
+  }
+  now = monotonic_s();
+  check_triggers(now);
+  run_timers(now);
+}
+
+int Runtime::run() {
+  while (!stop_requested()) spin_once(0.1);
+  stop_ = true;
+  publish_health();
+  return kExitOk;
+}
+
+bool Runtime::spin_until(const std::function<bool()>& done, double timeout_s) {
+  const double end = monotonic_s() + timeout_s;
+  while (!done()) {
+    const double now = monotonic_s();
+    if (stop_requested() || now >= end) return done();
+    spin_once(std::min(end - now, 0.1));
+  }
+  return true;
+}
+
+void Runtime::set_fault(const std::string& key, const std::string& text, bool fatal) {
+  auto it = faults_.find(key);
+  if (it == faults_.end()) {
+    faults_.emplace(key, Fault{text, fatal});
+  } else {
+    it->second = Fault{text, fatal};
+  }
+}
+
+void Runtime::clear_fault(const std::string& key) {
+  if (!faults_.empty()) faults_.erase(key);
+}
+
+std::int64_t Runtime::decode_errors() const {
+  std::int64_t n = 0;
+  for (const auto& in : inputs_) n += in->errors();
+  return n;
+}
+
+void Runtime::publish_health() {
+  static const std::string host = host_name();
+  humanoid::health_t h;
+  const double now = monotonic_s();
+  h.tick = last_tick_;
+  h.utime = wall_us();
+  h.node = name_;
+  h.host = host;
+  h.pid = static_cast<int32_t>(::getpid());
+  bool fatal = false;
+  for (const auto& [key, f] : faults_) {
+    h.faults.push_back(f.text);
+    fatal = fatal || f.fatal;
+  }
+  h.num_faults = static_cast<int32_t>(h.faults.size());
+  if (stop_requested()) {
+    h.state = humanoid::health_t::STATE_STOPPING;
+  } else if (fatal) {
+    h.state = humanoid::health_t::STATE_FAULT;
+  } else if (!faults_.empty()) {
+    h.state = humanoid::health_t::STATE_DEGRADED;
+  } else {
+    h.state = steps_ > 0 || triggers_.empty() ? humanoid::health_t::STATE_OK : humanoid::health_t::STATE_STARTING;
+  }
+  h.steps = steps_;
+  const double dt = now - last_health_;
+  h.rate_hz = dt > 0 ? static_cast<double>(steps_ - steps_at_last_health_) / dt : 0.0;
+  steps_at_last_health_ = steps_;
+  h.cycle_median_us = cycle_.median();
+  h.cycle_p99_us = cycle_.percentile(0.99);
+  h.cycle_max_us = cycle_.max();
+  h.deadline_misses = deadline_misses_;
+  h.decode_errors = decode_errors();
+  h.stale_inputs = stale_inputs_;
+  const int n = h.getEncodedSize();
+  health_buffer_.resize(static_cast<std::size_t>(n));
+  if (h.encode(health_buffer_.data(), 0, n) >= 0) {
+    lcm_->publish(channel("HEALTH"), health_buffer_.data(), static_cast<unsigned>(n));
+  }
+}
+
+RuntimeOptions runtime_options(const Config& cfg, double deadline_s) {
+  RuntimeOptions o;
+  o.deadline_s = deadline_s;
+  if (cfg.has("lcm")) {
+    const Config l = cfg.section("lcm");
+    o.channel_prefix = l.string_or("channel_prefix", "");
+    o.health_period_s = 1.0 / l.real_or("health_rate_hz", 10.0, 0.1, 1000.0);
+  }
+  return o;
+}
+
+std::string lcm_url(const CommandLine& cl, const Config& cfg) {
+  std::string configured;
+  if (cfg.has("lcm")) configured = cfg.section("lcm").string_or("url", "");
+  return resolve_lcm_url(cl.lcm_url, configured);
+}
+
+int run_main(int argc, char** argv, const std::string& process, const std::string& summary,
+             const std::function<int(const CommandLine&, const Config&)>& body) {
+  const CommandLine cl = CommandLine::parse(argc, argv, process, summary);
+  log::init_from_env(cl.name);
+  try {
+    const Config cfg = Config::load(cl.config_path, cl.overrides);
+    return body(cl, cfg);
+  } catch (const ConfigError& e) {
+    log::error("configuration error: {}", e.what());
+    return kExitConfig;
+  } catch (const LcmError& e) {
+    log::error("{}", e.what());
+    return kExitLcm;
+  } catch (const std::exception& e) {
+    log::error("{}", e.what());
+    return kExitFailure;
+  }
+}
+
+}  // namespace hpr::node

@@ -1,0 +1,130 @@
+// The node runtime over real LCM between separate processes.
+#include <gtest/gtest.h>
+
+#include <csignal>
+#include <fstream>
+#include <sstream>
+#include <thread>
+
+#include "all_types.hpp"
+#include "lcm_listener.hpp"
+#include "process_group.hpp"
+
+namespace {
+
+using namespace std::chrono_literals;
+using hpr::test::LcmListener;
+using hpr::test::ProcessGroup;
+
+// Starts the echo node and waits until its HEALTH is seen.
+pid_t start_echo(ProcessGroup& group, LcmListener& lcm, const std::string& log = "") {
+  auto health = lcm.collect<humanoid::health_t>("HEALTH");
+  const pid_t pid = group.start("lcm_echo_node", {"--name", "echo"}, {}, log);
+  EXPECT_TRUE(lcm.wait_for([&] { return !health->empty(); }, 10s)) << "no HEALTH from lcm_echo_node";
+  return pid;
+}
+
+TEST(Transport, EveryTypeRoundTripsBetweenProcesses) {
+  ProcessGroup group;
+  LcmListener lcm(group.lcm_url());
+  ASSERT_TRUE(lcm.good());
+  start_echo(group, lcm);
+  int checked = 0;
+  hpr::test::Filler filler(42);
+  hpr::test::for_each_type([&]<class Msg>(const std::string& channel) {
+    if (channel == "HEALTH") return;  // the node publishes its own HEALTH on that channel
+    Msg sent;
+    filler.fill(sent);
+    auto echoed = lcm.collect<Msg>(channel + "_ECHO");
+    const bool got = lcm.wait_for(
+        [&] {
+          if (echoed->empty()) lcm.publish(channel, sent);
+          return !echoed->empty();
+        },
+        5s);
+    ASSERT_TRUE(got) << channel << " was not echoed";
+    EXPECT_EQ(hpr::test::encode(echoed->front()), hpr::test::encode(sent)) << channel << " changed in transit";
+    ++checked;
+  });
+  // HEALTH round trip: a health_t with random content on another channel name.
+  {
+    humanoid::health_t sent;
+    filler.fill(sent);
+    auto echoed = lcm.collect<humanoid::health_t>("HEALTH_ECHO");
+    ASSERT_TRUE(lcm.wait_for([&] {
+      if (echoed->empty()) lcm.publish("HEALTH", sent);
+      for (const auto& m : *echoed) {
+        if (m.node == sent.node && m.pid == sent.pid) return true;
+      }
+      return false;
+    }, 5s));
+    ++checked;
+  }
+  EXPECT_EQ(checked, 11);
+}
+
+TEST(Transport, GarbageIsCountedInHealthAndTheNodeKeepsRunning) {
+  ProcessGroup group;
+  LcmListener lcm(group.lcm_url());
+  const pid_t pid = start_echo(group, lcm);
+  auto health = lcm.collect<humanoid::health_t>("HEALTH");
+  const std::string garbage = "this is not an LCM message at all";
+  for (int i = 0; i < 3; ++i) {
+    lcm.lcm().publish("ROBOT_SENSORS", garbage.data(), static_cast<unsigned>(garbage.size()));
+  }
+  // A message with the right fingerprint but truncated.
+  humanoid::robot_sensors_t m;
+  hpr::test::Filler(1).fill(m);
+  auto bytes = hpr::test::encode(m);
+  lcm.lcm().publish("ROBOT_SENSORS", bytes.data(), static_cast<unsigned>(bytes.size() / 2));
+  ASSERT_TRUE(lcm.wait_for([&] { return !health->empty() && health->back().decode_errors >= 4; }, 5s))
+      << "decode errors not reported in HEALTH";
+  const auto& h = health->back();
+  EXPECT_EQ(h.node, "echo");
+  ASSERT_GE(h.num_faults, 1);
+  EXPECT_NE(h.faults[0].find("ROBOT_SENSORS"), std::string::npos) << h.faults[0];
+  EXPECT_TRUE(group.running(pid));
+  // Still works.
+  auto echoed = lcm.collect<humanoid::robot_sensors_t>("ROBOT_SENSORS_ECHO");
+  EXPECT_TRUE(lcm.wait_for([&] {
+    lcm.publish("ROBOT_SENSORS", m);
+    return !echoed->empty();
+  }, 5s));
+}
+
+TEST(Transport, SigtermExitsZeroWithinOneSecond) {
+  for (int sig : {SIGTERM, SIGINT}) {
+    ProcessGroup group;
+    LcmListener lcm(group.lcm_url());
+    const pid_t pid = start_echo(group, lcm);
+    const auto t0 = std::chrono::steady_clock::now();
+    group.signal(pid, sig);
+    const auto r = group.wait(pid, 1000ms);
+    const auto dt = std::chrono::steady_clock::now() - t0;
+    EXPECT_TRUE(r.exited) << "signal " << sig << ": did not exit within 1 s";
+    EXPECT_EQ(r.exit_code, 0);
+    EXPECT_LT(dt, 1s);
+  }
+}
+
+TEST(Transport, MissingMulticastRouteGivesOneMessageWithTheFix) {
+  // A network namespace of its own has a loopback without multicast and no route at all.
+  if (std::system("unshare --net true 2>/dev/null") != 0) {
+    GTEST_SKIP() << "cannot create a network namespace here (unshare --net needs CAP_SYS_ADMIN)";
+  }
+  const std::string log = hpr::test::temp_dir("noroute") + "/out.txt";
+  const std::string cmd = "unshare --net env LCM_DEFAULT_URL=udpm://239.255.76.67:7667?ttl=0 " +
+                          hpr::test::bin_dir() + "/lcm_echo_node > " + log + " 2>&1";
+  const int rc = std::system(cmd.c_str());
+  ASSERT_TRUE(WIFEXITED(rc));
+  EXPECT_EQ(WEXITSTATUS(rc), 3);
+  std::ifstream f(log);
+  std::stringstream ss;
+  ss << f.rdbuf();
+  const std::string out = ss.str();
+  EXPECT_NE(out.find("no multicast route"), std::string::npos) << out;
+  EXPECT_NE(out.find("ip route add 239.0.0.0/8 dev lo"), std::string::npos) << out;
+  EXPECT_EQ(std::count(out.begin(), out.end(), '\n'), 1) << "expected exactly one line:\n" << out;
+}
+
+}  // namespace
