@@ -3,7 +3,7 @@
 function(hpr_set_warnings target)
   target_compile_options(${target} PRIVATE
     -Wall -Wextra -Wpedantic -Wshadow -Wnon-virtual-dtor -Wold-style-cast -Wcast-align
-    -Woverloaded-virtual -Wnull-dereference -Wdouble-promotion -Wformat=2 -Wimplicit-fallthrough
+    -Woverloaded-virtual -Wdouble-promotion -Wformat=2 -Wimplicit-fallthrough
     -Wmisleading-indentation -Wduplicated-cond -Wlogical-op)
   if(HPR_WERROR)
     target_compile_options(${target} PRIVATE -Werror)

@@ -1,0 +1,123 @@
+#include "hpr/model/robot.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+
+#include "hpr/model/algorithms.hpp"
+
+namespace hpr::model {
+
+namespace {
+SE3 pose_from(const Config& c, const std::string& xyz_key, const std::string& rpy_key) {
+  SE3 X;
+  X.p = c.vec3_or(xyz_key, Vector3d::Zero());
+  const Vector3d rpy = c.vec3_or(rpy_key, Vector3d::Zero());
+  X.R = (Eigen::AngleAxisd(rpy.z(), Vector3d::UnitZ()) * Eigen::AngleAxisd(rpy.y(), Vector3d::UnitY()) *
+         Eigen::AngleAxisd(rpy.x(), Vector3d::UnitX()))
+            .toRotationMatrix();
+  return X;
+}
+}  // namespace
+
+std::vector<int> RobotSpec::joints(const std::vector<std::string>& names, const Config& where,
+                                   const std::string& key) const {
+  std::vector<int> out;
+  for (const auto& n : names) {
+    bool found = false;
+    for (int j = 0; j < model.nj; ++j) {
+      if (model.joint_name[static_cast<size_t>(j)] == n) {
+        out.push_back(j);
+        found = true;
+      }
+    }
+    if (!found) where.fail(key, fmt::format("'{}' is not a joint of {}", n, model.source));
+  }
+  return out;
+}
+
+RobotSpec RobotSpec::load(const Config& c) {
+  RobotSpec r;
+  r.name = c.string("name");
+  const std::string urdf = c.file_path("urdf");
+  try {
+    r.model = Model::from_urdf(urdf, c.string_or("base_link", ""));
+  } catch (const ModelError& e) {
+    c.fail("urdf", e.what());
+  }
+  const Config feet = c.section("feet");
+  for (int k = 0; k < 2; ++k) {
+    const std::string side = kFootNames[static_cast<size_t>(k)];
+    const Config f = feet.section(side);
+    FootSpec& fs = r.feet[static_cast<size_t>(k)];
+    fs.link = f.string("link");
+    if (!r.model.has_frame(fs.link)) f.fail("link", "no such link in the URDF");
+    fs.sole_frame = r.model.add_frame(side + "_sole", fs.link, pose_from(f, "sole_xyz", "sole_rpy"));
+    const auto size = f.reals("sole_size", 2, 0.01, 1.0);
+    fs.length = size[0];
+    fs.width = size[1];
+    fs.ft_link = f.string_or("ft_link", fs.link);
+    if (!r.model.has_frame(fs.ft_link)) f.fail("ft_link", "no such link in the URDF");
+    fs.ft_frame = r.model.add_frame(side + "_ft", fs.ft_link, pose_from(f, "ft_xyz", "ft_rpy"));
+    fs.leg_joints = r.model.support[static_cast<size_t>(r.model.frames[static_cast<size_t>(fs.sole_frame)].body)];
+    if (fs.leg_joints.size() != 6) {
+      f.fail("link", fmt::format("the {} leg has {} joints between the base and the foot; the task Jacobian (2) "
+                                 "needs 6 per leg", side, fs.leg_joints.size()));
+    }
+  }
+  r.leg_joints = r.feet[kRight].leg_joints;
+  r.leg_joints.insert(r.leg_joints.end(), r.feet[kLeft].leg_joints.begin(), r.feet[kLeft].leg_joints.end());
+  for (int j = 0; j < r.model.nj; ++j) {
+    if (std::find(r.leg_joints.begin(), r.leg_joints.end(), j) == r.leg_joints.end()) r.free_joints.push_back(j);
+  }
+
+  const Config imu = c.section("imu");
+  const std::string imu_link = imu.string("link");
+  if (!r.model.has_frame(imu_link)) imu.fail("link", "no such link in the URDF");
+  r.imu_frame = r.model.add_frame("imu", imu_link, pose_from(imu, "xyz", "rpy"));
+
+  r.q_joints_stand = Eigen::VectorXd::Zero(r.model.nj);
+  if (c.has("standing_posture")) {
+    const Config s = c.section("standing_posture");
+    for (const auto& key : s.keys()) {
+      const int j = r.joints({key}, s, key).front();
+      const double v = s.real(key);
+      const auto ju = static_cast<size_t>(j);
+      if (v < r.model.q_lower[ju] || v > r.model.q_upper[ju]) {
+        s.fail(key, fmt::format("outside the joint limits [{}, {}]", r.model.q_lower[ju], r.model.q_upper[ju]));
+      }
+      r.q_joints_stand(j) = v;
+    }
+  }
+  if (c.has("segments")) {
+    const Config s = c.section("segments");
+    for (const auto& key : s.keys()) r.segments[key] = r.joints(s.strings(key), s, key);
+  }
+  return r;
+}
+
+Eigen::VectorXd RobotSpec::standing_configuration() const {
+  Eigen::VectorXd q = model.neutral();
+  q.tail(model.nj) = q_joints_stand;
+  Data data(model);
+  forward_kinematics(model, data, q);
+  update_frame_placements(model, data);
+  const SE3& r = data.oMf[static_cast<size_t>(feet[kRight].sole_frame)];
+  const SE3& l = data.oMf[static_cast<size_t>(feet[kLeft].sole_frame)];
+  // Level the base so that the mean sole orientation is flat, then put the soles on z = 0, centred.
+  const Vector3d tilt = log3(r.R) * 0.5 + log3(l.R) * 0.5;
+  const Matrix3d Rb = exp3(Vector3d(-tilt.x(), -tilt.y(), 0.0));
+  Eigen::Quaterniond qb(Rb);
+  q(3) = qb.x();
+  q(4) = qb.y();
+  q(5) = qb.z();
+  q(6) = qb.w();
+  forward_kinematics(model, data, q);
+  update_frame_placements(model, data);
+  const Vector3d mid = 0.5 * (data.oMf[static_cast<size_t>(feet[kRight].sole_frame)].p +
+                              data.oMf[static_cast<size_t>(feet[kLeft].sole_frame)].p);
+  q.head<3>() -= mid;
+  return q;
+}
+
+}  // namespace hpr::model
