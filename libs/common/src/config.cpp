@@ -154,6 +154,20 @@ Config Config::section(std::string_view key) const {
   return Config(doc_, std::make_unique<YAML::Node>(n), full_key(key));
 }
 
+std::vector<Config> Config::items(std::string_view key) const {
+  const YAML::Node n = required(key);
+  if (!n.IsSequence()) fail(key, "expected a list");
+  std::vector<Config> out;
+  for (std::size_t i = 0; i < n.size(); ++i) {
+    const std::string name = full_key(key) + "[" + std::to_string(i) + "]";
+    if (!n[i].IsMap()) {
+      throw ConfigError(fmt::format("{}: {} = {}: expected a mapping", where(n[i]), name, scalar_text(n[i])));
+    }
+    out.push_back(Config(doc_, std::make_unique<YAML::Node>(n[i]), name));
+  }
+  return out;
+}
+
 std::vector<std::string> Config::keys() const {
   std::vector<std::string> out;
   if (!node_->IsMap()) return out;

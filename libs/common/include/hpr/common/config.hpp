@@ -73,6 +73,8 @@ class Config {
                                         double lo = -kInf, double hi = kInf) const;
   /// A file path; a relative path is resolved against the directory of the configuration file.
   [[nodiscard]] std::string file_path(std::string_view key) const;
+  /// The elements of a required list of mappings, each a Config named "key[i]".
+  [[nodiscard]] std::vector<Config> items(std::string_view key) const;
   /// Keys of this mapping, in file order.
   [[nodiscard]] std::vector<std::string> keys() const;
   /// Throws if the mapping holds a key not in `known` (catches misspelt keys).

@@ -1,0 +1,177 @@
+#pragma once
+/// \file
+/// The Bullet physics stand-in for the robot (no LCM here; the node does the I/O).
+///
+/// A btMultiBody built from the shared model stands on a flat ground. Every physics sub-step each
+/// joint gets the torque of a torque-controlled drive,
+///     τ = sat(τ_ff + kp (q_des − q) + kd (q̇_des − q̇)),
+/// saturated at the joint's effort limit (modes: run, damp = kd only towards rest, off). Sensors are
+/// those of a real robot (joint encoders and torques, a pelvis IMU, ankle force/torque sensors) with
+/// optional noise, bias and quantization. Ground truth is computed from Bullet's own link states.
+
+#include <Eigen/Core>
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "hpr/common/config.hpp"
+#include "hpr/common/robot_io.hpp"
+#include "hpr/model/robot.hpp"
+
+namespace hpr::sim {
+
+struct NoiseConfig {
+  bool enabled = false;
+  unsigned seed = 1;
+  double gyro_noise_density = 0.005;     ///< [rad/s/√Hz]
+  double gyro_bias_random_walk = 1e-4;   ///< [rad/s²/√Hz]
+  double gyro_bias_initial = 0.005;      ///< [rad/s], per axis, random sign
+  double accel_noise_density = 0.05;     ///< [m/s²/√Hz]
+  int encoder_bits = 16;                 ///< per revolution; 0 = exact
+  double joint_torque_noise = 0.0;       ///< [Nm]
+  double ft_force_noise = 1.0;           ///< [N]
+  double ft_torque_noise = 0.05;         ///< [Nm]
+};
+
+struct SimConfig {
+  double dt = 0.001;                ///< control period [s]
+  Eigen::Vector3d gravity{0.0, 0.0, -9.81};  ///< [m/s²]
+  int substeps = 1;                 ///< physics steps per control period
+  int solver_iterations = 20;
+  double ground_friction = 0.9;
+  double ground_restitution = 0.0;
+  double contact_stiffness = 0.0;   ///< 0: rigid contact (Bullet's default constraint)
+  double contact_damping = 0.0;
+  double contact_erp = 0.2;         ///< Bullet's error reduction for contacts (penetration recovery)
+  double contact_cfm = 0.0;         ///< constraint force mixing (softness) for contacts
+  bool joint_limits = true;
+  bool feet_only_collisions = true;     ///< only the feet collide with the ground (faster); else every link
+  int friction_directions = 2;          ///< 2: isotropic friction; 1: Bullet's single direction
+  double joint_friction_coulomb = 0.0;  ///< [Nm]
+  double joint_friction_viscous = 0.0;  ///< [Nm s/rad]
+  int actuation_delay_ticks = 0;        ///< 0 or 1
+  double command_timeout = 0.02;        ///< a command older than this [s] is replaced by damping
+  double damping_kd = 10.0;             ///< [Nm s/rad] used when damping by itself
+  double settle_time = 0.5;             ///< [s] holding the standing posture before tick 0
+  double settle_kp = 3000.0, settle_kd = 60.0;
+  double fallen_base_height = 0.45;     ///< [m] pelvis below this: fallen
+  double fallen_tilt_deg = 45.0;        ///< pelvis tilt above this: fallen
+  NoiseConfig noise;
+
+  /// Reads and validates the `sim` section.
+  static SimConfig load(const Config& sim_section);
+};
+
+using JointCommand = hpr::JointCommand;
+using SensorData = hpr::SensorSample;
+
+/// An external force profile on a link.
+struct Push {
+  enum class Profile { kHalfSine, kRectangle };
+  std::int64_t id = 0;
+  std::string link;                             ///< URDF link
+  Eigen::Vector3d point_L = Eigen::Vector3d::Zero();  ///< application point in the link frame [m]
+  Eigen::Vector3d force_W = Eigen::Vector3d::Zero();  ///< peak force [N]
+  double start = 0.0;                           ///< simulation time [s]
+  double duration = 0.0;                        ///< [s]
+  Profile profile = Profile::kHalfSine;
+  /// Force at time t (zero outside [start, start + duration)).
+  [[nodiscard]] Eigen::Vector3d force_at(double t) const;
+  /// Impulse of the whole profile [N s].
+  [[nodiscard]] Eigen::Vector3d impulse() const;
+};
+
+struct TruthData {
+  std::int64_t tick = 0;
+  double time = 0.0;
+  Eigen::Vector3d p_WB, v_WB, omega_WB, p_WCom, v_WCom, h_lin_W, l_WCom;
+  Eigen::Vector4d quat_WB{1, 0, 0, 0};
+  std::array<Eigen::Vector3d, 2> p_WF;
+  std::array<Eigen::Vector4d, 2> quat_WF;
+  std::array<Eigen::Matrix<double, 6, 1>, 2> contact_wrench_W;  ///< ground on foot at the sole centre
+  std::array<bool, 2> foot_contact{};
+  std::array<double, 2> foot_tilt{};
+  std::int64_t push_id = -1;
+  bool push_active = false;
+  Eigen::Vector3d push_force_W = Eigen::Vector3d::Zero();
+  Eigen::Vector3d push_impulse_W = Eigen::Vector3d::Zero();
+  bool fallen = false;
+  Eigen::VectorXd q, v;  ///< the model's coordinates of Bullet's state (for tests)
+};
+
+class Simulator {
+ public:
+  Simulator(const model::RobotSpec& robot, const model::RobotDescription& description, SimConfig config);
+  ~Simulator();
+  Simulator(const Simulator&) = delete;
+  Simulator& operator=(const Simulator&) = delete;
+
+  /// Places the standing posture with the soles on the ground, settles, and starts at tick 0.
+  void reset();
+  /// Places an arbitrary state (tests); no settling.
+  void set_state(const Eigen::VectorXd& q, const Eigen::VectorXd& v);
+  /// Takes a joint command after validating it; returns false (and counts it) when it is rejected
+  /// (wrong size, non-finite value, negative gains), keeping the last valid command.
+  bool set_command(const JointCommand& command, std::string* why = nullptr);
+  /// Schedules a push (start time in simulation time; negative: now).
+  void add_push(Push push);
+  /// Advances one control period.
+  void step();
+
+  [[nodiscard]] const SensorData& sensors() const { return sensors_; }
+  [[nodiscard]] const TruthData& truth() const { return truth_; }
+  [[nodiscard]] double time() const { return time_; }
+  [[nodiscard]] std::int64_t tick() const { return tick_; }
+  [[nodiscard]] std::int64_t rejected_commands() const { return rejected_; }
+  [[nodiscard]] bool command_stale() const { return stale_; }
+  [[nodiscard]] const SimConfig& config() const { return config_; }
+  [[nodiscard]] const model::RobotSpec& robot() const { return *robot_; }
+  /// Applied joint torques of the last sub-step (after saturation).
+  [[nodiscard]] const Eigen::VectorXd& applied_torque() const { return applied_; }
+
+ private:
+  struct Impl;
+  void apply_actuation();
+  void physics_substep(double h);
+  void compute_truth();
+  void compute_sensors();
+  Eigen::VectorXd settle_torque() const;
+
+  const model::RobotSpec* robot_;
+  SimConfig config_;
+  std::unique_ptr<Impl> impl_;
+  SensorData sensors_;
+  TruthData truth_;
+  JointCommand command_, delayed_;
+  bool have_command_ = false, stale_ = false;
+  double command_time_ = -1e9;
+  std::int64_t rejected_ = 0;
+  double time_ = 0.0;
+  std::int64_t tick_ = 0;
+  Eigen::VectorXd applied_, settle_kp_, settle_kd_;
+  std::vector<Push> pushes_;
+  std::mt19937_64 rng_;
+  Eigen::Vector3d gyro_bias_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d v_imu_prev_ = Eigen::Vector3d::Zero();
+  bool have_v_imu_prev_ = false;
+  Eigen::VectorXd q_meas_prev_;
+  std::array<Eigen::Matrix<double, 6, 1>, 2> foot_momentum_prev_{};
+  bool have_foot_momentum_prev_ = false;
+};
+
+/// Joint impedance gains (kp, kd) that hold a posture stably with torques evaluated every `dt`: the
+/// requested gains for the legs (their inertia in stance is the whole robot's), and for every other
+/// joint at most kp ≤ 0.2 I_j / dt² and kd ≤ 0.5 I_j / dt with I_j = 1 / (M⁻¹)_jj the inertia the
+/// joint's torque meets at q, so that an explicitly evaluated spring-damper on a light distal link
+/// stays stable.
+void hold_gains(const model::RobotSpec& robot, const Eigen::VectorXd& q, double kp, double kd, double dt,
+                Eigen::VectorXd& kp_out, Eigen::VectorXd& kd_out);
+
+/// Parses a push scenario file: a YAML list under `pushes:` of {link, point, force, start, duration,
+/// profile}. Errors name the file and key.
+std::vector<Push> load_scenario(const std::string& path);
+
+}  // namespace hpr::sim

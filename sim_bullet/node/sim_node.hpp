@@ -1,0 +1,53 @@
+#pragma once
+/// \file The sim_bullet process: the Simulator behind LCM.
+///
+/// Lockstep: publish ROBOT_SENSORS and SIM_TRUTH for tick k, wait (bounded) for the JOINT_COMMAND of
+/// tick k, step. Realtime: step on a 1 kHz absolute-time clock with the latest command, counting late
+/// steps. PUSH messages and a scenario file schedule pushes.
+
+#include <humanoid/joint_command_t.hpp>
+#include <humanoid/operator_t.hpp>
+#include <humanoid/push_t.hpp>
+#include <humanoid/robot_sensors_t.hpp>
+#include <humanoid/sim_truth_t.hpp>
+
+#include "hpr/node/messages.hpp"
+#include "hpr/node/runtime.hpp"
+#include "hpr/sim/simulator.hpp"
+
+namespace hpr::sim {
+
+struct SimNodeOptions {
+  bool lockstep = true;
+  double lockstep_timeout = 1.0;  ///< [s] wall time to wait for the command of a tick
+  double duration = 0.0;          ///< [s] simulated time to run, 0 = until stopped
+  bool publish_truth = true;
+  std::string scenario;           ///< push scenario file
+  static SimNodeOptions load(const Config& sim_section);
+};
+
+class SimNode {
+ public:
+  SimNode(node::Runtime& rt, Simulator& sim, SimNodeOptions options);
+  /// Runs until the duration is reached or a signal arrives. Returns the exit code.
+  int run();
+
+ private:
+  void publish();
+  int run_lockstep();
+  int run_realtime();
+
+  node::Runtime& rt_;
+  Simulator& sim_;
+  SimNodeOptions options_;
+  node::RobotNames names_;
+  node::Input<humanoid::joint_command_t>* command_in_ = nullptr;
+  node::Output<humanoid::robot_sensors_t> sensors_out_;
+  node::Output<humanoid::sim_truth_t> truth_out_;
+  humanoid::robot_sensors_t sensors_msg_;
+  humanoid::sim_truth_t truth_msg_;
+  JointCommand command_;
+  std::int64_t missed_ = 0, late_ = 0;
+};
+
+}  // namespace hpr::sim

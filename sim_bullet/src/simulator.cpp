@@ -1,0 +1,700 @@
+#include "hpr/sim/simulator.hpp"
+
+#include <BulletCollision/CollisionShapes/btBoxShape.h>
+#include <BulletCollision/CollisionShapes/btCompoundShape.h>
+#include <BulletCollision/CollisionShapes/btCylinderShape.h>
+#include <BulletCollision/CollisionShapes/btSphereShape.h>
+#include <BulletDynamics/Featherstone/btMultiBodyConstraintSolver.h>
+#include <BulletDynamics/Featherstone/btMultiBodyDynamicsWorld.h>
+#include <BulletDynamics/Featherstone/btMultiBodyJointLimitConstraint.h>
+#include <BulletDynamics/Featherstone/btMultiBodyLinkCollider.h>
+#include <btBulletDynamicsCommon.h>
+#include <fmt/format.h>
+
+#include <Eigen/Cholesky>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <limits>
+
+#include "hpr/common/log.hpp"
+#include "hpr/model/algorithms.hpp"
+#include "hpr/sim/multibody.hpp"
+
+namespace hpr::sim {
+
+using Eigen::Matrix3d;
+using Eigen::Vector3d;
+using Eigen::VectorXd;
+using model::SE3;
+using Vector6d = Eigen::Matrix<double, 6, 1>;
+
+namespace {
+constexpr int kGroundGroup = 1, kRobotGroup = 2;
+
+// Axis-aligned bounding box of a binary or ASCII STL file; false if it cannot be read.
+bool stl_bounding_box(const std::string& path, Vector3d& lo, Vector3d& hi) {
+  std::ifstream f(path, std::ios::binary);
+  if (!f) return false;
+  std::string head(80, '\0');
+  f.read(head.data(), 80);
+  lo = Vector3d::Constant(std::numeric_limits<double>::infinity());
+  hi = -lo;
+  std::uint32_t count = 0;
+  f.read(reinterpret_cast<char*>(&count), 4);
+  f.seekg(0, std::ios::end);
+  const auto size = static_cast<std::size_t>(f.tellg());
+  if (size == 84 + static_cast<std::size_t>(count) * 50) {
+    f.seekg(84);
+    for (std::uint32_t i = 0; i < count; ++i) {
+      float rec[12];
+      f.read(reinterpret_cast<char*>(rec), 48);
+      f.ignore(2);
+      for (int v = 1; v < 4; ++v) {
+        const Vector3d p(rec[3 * v], rec[3 * v + 1], rec[3 * v + 2]);
+        lo = lo.cwiseMin(p);
+        hi = hi.cwiseMax(p);
+      }
+    }
+    return count > 0;
+  }
+  f.clear();
+  f.seekg(0);
+  std::string word;
+  bool any = false;
+  while (f >> word) {
+    if (word == "vertex") {
+      Vector3d p;
+      f >> p.x() >> p.y() >> p.z();
+      lo = lo.cwiseMin(p);
+      hi = hi.cwiseMax(p);
+      any = true;
+    }
+  }
+  return any;
+}
+
+btTransform to_bt(const SE3& X) {
+  btTransform t;
+  t.setOrigin(sim::to_bt(X.p));
+  t.setRotation(to_bt_quaternion(X.R));
+  return t;
+}
+
+Eigen::Vector4d quat_wxyz(const Matrix3d& R) {
+  const Eigen::Quaterniond q(R);
+  return {q.w(), q.x(), q.y(), q.z()};
+}
+}  // namespace
+
+Eigen::Vector3d Push::force_at(double t) const {
+  if (t < start || t >= start + duration || duration <= 0.0) return Vector3d::Zero();
+  if (profile == Profile::kRectangle) return force_W;
+  return force_W * std::sin(M_PI * (t - start) / duration);
+}
+
+Eigen::Vector3d Push::impulse() const {
+  return profile == Profile::kRectangle ? Vector3d(force_W * duration) : Vector3d(force_W * (2.0 * duration / M_PI));
+}
+
+SimConfig SimConfig::load(const Config& c) {
+  SimConfig s;
+  s.dt = c.real_or("dt", s.dt, 1e-4, 0.01);
+  s.substeps = static_cast<int>(c.integer_or("substeps", s.substeps, 1, 20));
+  s.gravity = c.vec3_or("gravity", s.gravity, -100.0, 100.0);
+  s.solver_iterations = static_cast<int>(c.integer_or("solver_iterations", s.solver_iterations, 1, 1000));
+  if (c.has("ground")) {
+    const Config g = c.section("ground");
+    s.ground_friction = g.real_or("friction", s.ground_friction, 0.0, 5.0);
+    s.ground_restitution = g.real_or("restitution", s.ground_restitution, 0.0, 1.0);
+    s.contact_stiffness = g.real_or("contact_stiffness", s.contact_stiffness, 0.0, 1e9);
+    s.contact_damping = g.real_or("contact_damping", s.contact_damping, 0.0, 1e7);
+    s.contact_erp = g.real_or("contact_erp", s.contact_erp, 0.0, 1.0);
+    s.contact_cfm = g.real_or("contact_cfm", s.contact_cfm, 0.0, 1.0);
+  }
+  s.joint_limits = c.boolean_or("joint_limits", s.joint_limits);
+  s.feet_only_collisions = c.choice_or("collisions", s.feet_only_collisions ? "feet" : "all", {"feet", "all"}) == "feet";
+  s.friction_directions = static_cast<int>(c.integer_or("friction_directions", s.friction_directions, 1, 2));
+  if (c.has("joint_friction")) {
+    const Config j = c.section("joint_friction");
+    s.joint_friction_coulomb = j.real_or("coulomb", s.joint_friction_coulomb, 0.0, 100.0);
+    s.joint_friction_viscous = j.real_or("viscous", s.joint_friction_viscous, 0.0, 100.0);
+  }
+  s.actuation_delay_ticks = static_cast<int>(c.integer_or("actuation_delay_ticks", s.actuation_delay_ticks, 0, 1));
+  s.command_timeout = c.real_or("command_timeout", s.command_timeout, 1e-3, 10.0);
+  s.damping_kd = c.real_or("damping_kd", s.damping_kd, 0.0, 1e3);
+  if (c.has("start")) {
+    const Config st = c.section("start");
+    s.settle_time = st.real_or("settle_time", s.settle_time, 0.0, 10.0);
+    s.settle_kp = st.real_or("kp", s.settle_kp, 0.0, 1e5);
+    s.settle_kd = st.real_or("kd", s.settle_kd, 0.0, 1e4);
+  }
+  if (c.has("fallen")) {
+    const Config f = c.section("fallen");
+    s.fallen_base_height = f.real_or("base_height", s.fallen_base_height, 0.0, 3.0);
+    s.fallen_tilt_deg = f.real_or("tilt_deg", s.fallen_tilt_deg, 1.0, 180.0);
+  }
+  if (c.has("noise")) {
+    const Config n = c.section("noise");
+    NoiseConfig& nc = s.noise;
+    nc.enabled = n.boolean_or("enabled", nc.enabled);
+    nc.seed = static_cast<unsigned>(n.integer_or("seed", nc.seed, 0, 1L << 31));
+    nc.gyro_noise_density = n.real_or("gyro_noise_density", nc.gyro_noise_density, 0.0, 1.0);
+    nc.gyro_bias_random_walk = n.real_or("gyro_bias_random_walk", nc.gyro_bias_random_walk, 0.0, 1.0);
+    nc.gyro_bias_initial = n.real_or("gyro_bias_initial", nc.gyro_bias_initial, 0.0, 1.0);
+    nc.accel_noise_density = n.real_or("accel_noise_density", nc.accel_noise_density, 0.0, 10.0);
+    nc.encoder_bits = static_cast<int>(n.integer_or("encoder_bits", nc.encoder_bits, 0, 32));
+    nc.joint_torque_noise = n.real_or("joint_torque_noise", nc.joint_torque_noise, 0.0, 100.0);
+    nc.ft_force_noise = n.real_or("ft_force_noise", nc.ft_force_noise, 0.0, 100.0);
+    nc.ft_torque_noise = n.real_or("ft_torque_noise", nc.ft_torque_noise, 0.0, 10.0);
+  }
+  return s;
+}
+
+std::vector<Push> load_scenario(const std::string& path) {
+  const Config cfg = Config::load(path);
+  std::vector<Push> out;
+  std::int64_t id = 1;
+  for (const Config& p : cfg.items("pushes")) {
+    Push push;
+    push.id = id++;
+    push.link = p.string("link");
+    push.point_L = p.vec3_or("point", Vector3d::Zero());
+    push.force_W = p.vec3("force", -1e4, 1e4);
+    push.start = p.real("start", 0.0, 1e6);
+    push.duration = p.real("duration", 1e-3, 60.0);
+    push.profile = p.choice_or("profile", "half_sine", {"half_sine", "rectangle"}) == "rectangle"
+                       ? Push::Profile::kRectangle
+                       : Push::Profile::kHalfSine;
+    out.push_back(push);
+  }
+  return out;
+}
+
+void hold_gains(const model::RobotSpec& robot, const VectorXd& q, double kp, double kd, double dt, VectorXd& kp_out,
+                VectorXd& kd_out) {
+  const model::Model& m = robot.model;
+  model::Data data(m);
+  model::crba(m, data, q);
+  // The inertia a joint's torque meets when every other joint is torque-driven: 1 / (M⁻¹)_jj.
+  const Eigen::MatrixXd Minv = data.M.llt().solve(Eigen::MatrixXd::Identity(m.nv, m.nv));
+  kp_out = VectorXd::Constant(m.nj, kp);
+  kd_out = VectorXd::Constant(m.nj, kd);
+  for (int j : robot.free_joints) {
+    const double I = 1.0 / Minv(6 + j, 6 + j);
+    kp_out(j) = std::min(kp, 0.2 * I / (dt * dt));
+    kd_out(j) = std::min(kd, 0.5 * I / dt);
+  }
+}
+
+struct Simulator::Impl {
+  btDefaultCollisionConfiguration collision_config;
+  btCollisionDispatcher dispatcher{&collision_config};
+  btDbvtBroadphase broadphase;
+  btMultiBodyConstraintSolver solver;
+  std::unique_ptr<btMultiBodyDynamicsWorld> world;
+  std::unique_ptr<MultiBodyRobot> bullet;
+  std::vector<std::unique_ptr<btCollisionShape>> shapes;
+  std::vector<std::unique_ptr<btMultiBodyLinkCollider>> colliders;
+  std::vector<btMultiBodyLinkCollider*> body_collider;  // per model body (may be null)
+  std::vector<std::unique_ptr<btMultiBodyJointLimitConstraint>> limits;
+  std::unique_ptr<btCollisionShape> ground_shape;
+  std::unique_ptr<btCollisionObject> ground;
+  std::array<int, 2> foot_body{};
+  std::array<Vector6d, 2> contact_impulse_O{};  // Σ (F, p × F) h over the control period, world origin
+  std::vector<btVector3> omega, vel;            // Bullet link velocities (local frames)
+  btAlignedObjectArray<btQuaternion> world_to_local;
+  btAlignedObjectArray<btVector3> local_origin;
+
+  Impl() { world = std::make_unique<btMultiBodyDynamicsWorld>(&dispatcher, &broadphase, &solver, &collision_config); }
+  ~Impl() {
+    for (auto& l : limits) world->removeMultiBodyConstraint(l.get());
+    for (auto& c : colliders) world->removeCollisionObject(c.get());
+    if (ground) world->removeCollisionObject(ground.get());
+    if (bullet) world->removeMultiBody(bullet->multibody());
+    world.reset();
+  }
+  void refresh_kinematics() {
+    btMultiBody* mb = bullet->multibody();
+    mb->forwardKinematics(world_to_local, local_origin);
+    mb->updateCollisionObjectWorldTransforms(world_to_local, local_origin);
+  }
+  // World placement and twist (angular, CoM linear) of Bullet link `body` - 1 (base for 0).
+  SE3 link_frame(int body) const {
+    const btMultiBody* mb = bullet->multibody();
+    SE3 X;
+    if (body == 0) {
+      X.R = from_bt(mb->getWorldToBaseRot().inverse());
+      X.p = from_bt(mb->getBasePos());
+    } else {
+      const btTransform& t = mb->getLink(body - 1).m_cachedWorldTransform;
+      X.R = from_bt(t.getRotation());
+      X.p = from_bt(t.getOrigin());
+    }
+    return X;
+  }
+};
+
+Simulator::Simulator(const model::RobotSpec& robot, const model::RobotDescription& description, SimConfig config)
+    : robot_(&robot), config_(config), impl_(std::make_unique<Impl>()), rng_(config.noise.seed) {
+  const model::Model& m = robot.model;
+  Impl& I = *impl_;
+  I.world->setGravity(to_bt(config_.gravity));
+  btContactSolverInfo& info = I.world->getSolverInfo();
+  info.m_numIterations = config_.solver_iterations;
+  if (config_.friction_directions == 2) info.m_solverMode |= SOLVER_USE_2_FRICTION_DIRECTIONS;
+  info.m_erp2 = config_.contact_erp;
+  info.m_globalCfm = config_.contact_cfm;
+  info.m_timeStep = config_.dt / config_.substeps;
+
+  I.bullet = std::make_unique<MultiBodyRobot>(m);
+  btMultiBody* mb = I.bullet->multibody();
+  I.world->addMultiBody(mb, kRobotGroup, kGroundGroup);
+
+  // Collision shapes: every URDF link's geometries, merged per body, in the Bullet link frame.
+  I.body_collider.assign(static_cast<size_t>(m.nb), nullptr);
+  std::array<int, 2> foot_bodies{};
+  for (int k = 0; k < 2; ++k) {
+    foot_bodies[static_cast<size_t>(k)] = m.frames[static_cast<size_t>(robot.feet[static_cast<size_t>(k)].sole_frame)].body;
+  }
+  for (int b = 0; b < m.nb; ++b) {
+    if (config_.feet_only_collisions && b != foot_bodies[0] && b != foot_bodies[1]) continue;
+    auto compound = std::make_unique<btCompoundShape>();
+    const SE3 X_LB = I.bullet->bodies()[static_cast<size_t>(b)].X_BL.inverse();
+    for (const auto& frame : m.frames) {
+      if (frame.body != b) continue;
+      const model::LinkDesc* link = description.find_link(frame.name);
+      if (link == nullptr) continue;
+      for (const auto& g : link->collisions) {
+        SE3 X_BG = frame.X_BF * g.X_LG;
+        std::unique_ptr<btCollisionShape> shape;
+        switch (g.type) {
+          case model::Geometry::Type::kBox:
+            shape = std::make_unique<btBoxShape>(to_bt(Vector3d(0.5 * g.size)));
+            break;
+          case model::Geometry::Type::kCylinder:
+            shape = std::make_unique<btCylinderShapeZ>(btVector3(g.size.x(), g.size.x(), 0.5 * g.size.y()));
+            break;
+          case model::Geometry::Type::kSphere:
+            shape = std::make_unique<btSphereShape>(g.size.x());
+            break;
+          case model::Geometry::Type::kMesh: {
+            Vector3d lo, hi;
+            std::string path = g.mesh;
+            if (path.rfind("file://", 0) == 0) path = path.substr(7);
+            if (!stl_bounding_box(path, lo, hi)) {
+              log::warn("link '{}': mesh '{}' cannot be read; its collision shape is left out", link->name, g.mesh);
+              continue;
+            }
+            lo = lo.cwiseProduct(g.mesh_scale);
+            hi = hi.cwiseProduct(g.mesh_scale);
+            log::warn("link '{}': mesh '{}' replaced by its bounding box {:.3f} x {:.3f} x {:.3f} m", link->name,
+                      g.mesh, hi.x() - lo.x(), hi.y() - lo.y(), hi.z() - lo.z());
+            shape = std::make_unique<btBoxShape>(to_bt(Vector3d(0.5 * (hi - lo).cwiseAbs())));
+            SE3 X_GC;
+            X_GC.p = 0.5 * (hi + lo);
+            X_BG = X_BG * X_GC;
+            break;
+          }
+        }
+        compound->addChildShape(to_bt(X_LB * X_BG), shape.get());
+        I.shapes.push_back(std::move(shape));
+      }
+    }
+    if (compound->getNumChildShapes() == 0) continue;
+    auto collider = std::make_unique<btMultiBodyLinkCollider>(mb, b - 1);
+    collider->setCollisionShape(compound.get());
+    collider->setFriction(config_.ground_friction);
+    // Friction anchors: static friction holds the contact point in place instead of letting the
+    // iterative solver's residual creep the sole along the ground.
+    collider->setCollisionFlags(collider->getCollisionFlags() | btCollisionObject::CF_HAS_FRICTION_ANCHOR);
+    collider->setRestitution(config_.ground_restitution);
+    if (config_.contact_stiffness > 0) {
+      collider->setContactStiffnessAndDamping(config_.contact_stiffness, config_.contact_damping);
+    }
+    I.world->addCollisionObject(collider.get(), kRobotGroup, kGroundGroup);
+    if (b == 0) {
+      mb->setBaseCollider(collider.get());
+    } else {
+      mb->getLink(b - 1).m_collider = collider.get();
+    }
+    I.body_collider[static_cast<size_t>(b)] = collider.get();
+    I.shapes.push_back(std::move(compound));
+    I.colliders.push_back(std::move(collider));
+  }
+  for (int k = 0; k < 2; ++k) {
+    const int frame = robot.feet[static_cast<size_t>(k)].sole_frame;
+    I.foot_body[static_cast<size_t>(k)] = m.frames[static_cast<size_t>(frame)].body;
+    if (I.body_collider[static_cast<size_t>(I.foot_body[static_cast<size_t>(k)])] == nullptr) {
+      throw model::ModelError(fmt::format("{}: the {} foot link '{}' has no collision geometry", m.source,
+                                          model::kFootNames[static_cast<size_t>(k)], robot.feet[static_cast<size_t>(k)].link));
+    }
+  }
+  if (config_.joint_limits) {
+    for (int j = 0; j < m.nj; ++j) {
+      const double lo = m.q_lower[static_cast<size_t>(j)], hi = m.q_upper[static_cast<size_t>(j)];
+      if (!std::isfinite(lo) || !std::isfinite(hi)) continue;
+      auto c = std::make_unique<btMultiBodyJointLimitConstraint>(mb, j, lo, hi);
+      I.world->addMultiBodyConstraint(c.get());
+      I.limits.push_back(std::move(c));
+    }
+  }
+  // Ground: the plane z = 0.
+  I.ground_shape = std::make_unique<btStaticPlaneShape>(btVector3(0, 0, 1), 0.0);
+  I.ground = std::make_unique<btCollisionObject>();
+  I.ground->setCollisionShape(I.ground_shape.get());
+  btTransform gt;
+  gt.setIdentity();
+  I.ground->setWorldTransform(gt);
+  I.ground->setFriction(config_.ground_friction);
+  I.ground->setRestitution(config_.ground_restitution);
+  I.world->addCollisionObject(I.ground.get(), kGroundGroup, kRobotGroup);
+
+  I.omega.resize(static_cast<size_t>(m.nb));
+  I.vel.resize(static_cast<size_t>(m.nb));
+  applied_ = VectorXd::Zero(m.nj);
+  sensors_.resize(m.nj);
+  reset();
+}
+
+Simulator::~Simulator() = default;
+
+void Simulator::set_state(const VectorXd& q, const VectorXd& v) {
+  impl_->bullet->set_state(q, v);
+  impl_->refresh_kinematics();
+  have_v_imu_prev_ = false;
+  have_foot_momentum_prev_ = false;
+  compute_truth();
+  compute_sensors();
+}
+
+VectorXd Simulator::settle_torque() const {
+  const model::Model& m = robot_->model;
+  const btMultiBody* mb = impl_->bullet->multibody();
+  VectorXd tau(m.nj);
+  for (int j = 0; j < m.nj; ++j) {
+    tau(j) = settle_kp_(j) * (robot_->q_joints_stand(j) - mb->getJointPos(j)) - settle_kd_(j) * mb->getJointVel(j);
+  }
+  return tau;
+}
+
+void Simulator::reset() {
+  const model::Model& m = robot_->model;
+  time_ = 0.0;
+  tick_ = 0;
+  pushes_.clear();
+  have_command_ = false;
+  stale_ = false;
+  rng_.seed(config_.noise.seed);
+  gyro_bias_.setZero();
+  if (config_.noise.enabled) {
+    std::uniform_int_distribution<int> sign(0, 1);
+    for (int k = 0; k < 3; ++k) gyro_bias_(k) = (sign(rng_) != 0 ? 1.0 : -1.0) * config_.noise.gyro_bias_initial;
+  }
+  VectorXd q = robot_->standing_configuration();
+  hold_gains(*robot_, q, config_.settle_kp, config_.settle_kd, config_.dt / config_.substeps, settle_kp_, settle_kd_);
+  q(2) += 1e-4;  // a hair above the ground
+  impl_->bullet->set_state(q, VectorXd::Zero(m.nv));
+  impl_->refresh_kinematics();
+  // Settle: hold the standing posture with stiff joint springs.
+  const int settle_steps = static_cast<int>(std::round(config_.settle_time / config_.dt));
+  const double h = config_.dt / config_.substeps;
+  for (int k = 0; k < settle_steps * config_.substeps; ++k) {
+    const VectorXd tau = settle_torque();
+    btMultiBody* mb = impl_->bullet->multibody();
+    for (int j = 0; j < m.nj; ++j) {
+      const double lim = m.tau_max[static_cast<size_t>(j)];
+      mb->addJointTorque(j, std::clamp(tau(j), -lim, lim));
+    }
+    physics_substep(h);
+  }
+  for (auto& w : impl_->contact_impulse_O) w.setZero();
+  have_v_imu_prev_ = false;
+  have_foot_momentum_prev_ = false;
+  q_meas_prev_.resize(0);
+  // Tick 0 is the settled state; without a command the drives hold it with the settle gains.
+  command_.mode = JointCommand::Mode::kRun;
+  command_.tau_ff = VectorXd::Zero(m.nj);
+  command_.q_des = robot_->q_joints_stand;
+  command_.qd_des = VectorXd::Zero(m.nj);
+  command_.kp = settle_kp_;
+  command_.kd = settle_kd_;
+  delayed_ = command_;
+  command_time_ = 0.0;
+  compute_truth();
+  compute_sensors();
+}
+
+bool Simulator::set_command(const JointCommand& c, std::string* why) {
+  const std::string reason = c.check(robot_->model.nj);
+  if (!reason.empty()) {
+    ++rejected_;
+    if (why != nullptr) *why = reason;
+    return false;
+  }
+  delayed_ = command_;
+  command_ = c;
+  command_time_ = time_;
+  have_command_ = true;
+  return true;
+}
+
+void Simulator::add_push(Push push) {
+  if (push.start < 0) push.start = time_;
+  pushes_.push_back(std::move(push));
+}
+
+void Simulator::apply_actuation() {
+  const model::Model& m = robot_->model;
+  btMultiBody* mb = impl_->bullet->multibody();
+  const JointCommand& c = config_.actuation_delay_ticks > 0 ? delayed_ : command_;
+  stale_ = time_ - command_time_ > config_.command_timeout + 1e-9;
+  JointCommand::Mode mode = stale_ ? JointCommand::Mode::kDamp : c.mode;
+  for (int j = 0; j < m.nj; ++j) {
+    const double q = mb->getJointPos(j), qd = mb->getJointVel(j);
+    double tau = 0.0;
+    if (mode == JointCommand::Mode::kRun) {
+      tau = c.tau_ff(j) + c.kp(j) * (c.q_des(j) - q) + c.kd(j) * (c.qd_des(j) - qd);
+    } else if (mode == JointCommand::Mode::kDamp) {
+      const double kd = stale_ ? config_.damping_kd : c.kd(j);
+      tau = -kd * qd;
+    }
+    const double lim = m.tau_max[static_cast<size_t>(j)];
+    tau = std::clamp(tau, -lim, lim);
+    applied_(j) = tau;
+    // Joint friction acts in the joint on top of the motor torque.
+    double fric = -config_.joint_friction_viscous * qd;
+    if (config_.joint_friction_coulomb > 0) fric -= config_.joint_friction_coulomb * std::tanh(qd / 0.01);
+    mb->addJointTorque(j, tau + fric);
+  }
+}
+
+void Simulator::physics_substep(double h) {
+  Impl& I = *impl_;
+  btMultiBody* mb = I.bullet->multibody();
+  const model::Model& m = robot_->model;
+  // Pushes.
+  for (const Push& p : pushes_) {
+    const Vector3d F = p.force_at(time_);
+    if (F.isZero()) continue;
+    const int frame = m.frame_index(p.link);
+    const int body = m.frames[static_cast<size_t>(frame)].body;
+    const SE3 X_WL = I.link_frame(body);  // Bullet link frame (CoM)
+    const SE3 X_WB = X_WL * I.bullet->bodies()[static_cast<size_t>(body)].X_BL.inverse();
+    const Vector3d point = (X_WB * m.frames[static_cast<size_t>(frame)].X_BF).act(p.point_L);
+    const Vector3d torque = (point - X_WL.p).cross(F);
+    if (body == 0) {
+      mb->addBaseForce(to_bt(F));
+      mb->addBaseTorque(to_bt(torque));
+    } else {
+      mb->addLinkForce(body - 1, to_bt(F));
+      mb->addLinkTorque(body - 1, to_bt(torque));
+    }
+    truth_.push_impulse_W += F * h;
+  }
+  I.world->stepSimulation(h, 0, h);
+  I.refresh_kinematics();
+  static const bool debug = std::getenv("HPR_SIM_DEBUG") != nullptr;
+  if (debug && tick_ % 1000 == 0) {
+    int pts = 0;
+    for (int i = 0; i < I.dispatcher.getNumManifolds(); ++i) pts += I.dispatcher.getManifoldByIndexInternal(i)->getNumContacts();
+    log::info("t {:.3f}: {} manifolds, {} contact points", time_, I.dispatcher.getNumManifolds(), pts);
+  }
+  // Contact impulses on the feet (ground on foot), about the world origin.
+  const int nm = I.dispatcher.getNumManifolds();
+  for (int i = 0; i < nm; ++i) {
+    const btPersistentManifold* man = I.dispatcher.getManifoldByIndexInternal(i);
+    for (int k = 0; k < 2; ++k) {
+      const btCollisionObject* foot = I.body_collider[static_cast<size_t>(I.foot_body[static_cast<size_t>(k)])];
+      const bool foot_is_a = man->getBody0() == foot, foot_is_b = man->getBody1() == foot;
+      if (!foot_is_a && !foot_is_b) continue;
+      for (int c = 0; c < man->getNumContacts(); ++c) {
+        const btManifoldPoint& pt = man->getContactPoint(c);
+        // Impulse on body A: normal (from B to A) and the two friction directions.
+        const btVector3 imp = pt.m_normalWorldOnB * pt.m_appliedImpulse + pt.m_lateralFrictionDir1 * pt.m_appliedImpulseLateral1 +
+                              pt.m_lateralFrictionDir2 * pt.m_appliedImpulseLateral2;
+        const Vector3d J = (foot_is_a ? 1.0 : -1.0) * from_bt(imp);
+        const Vector3d p = 0.5 * (from_bt(pt.getPositionWorldOnA()) + from_bt(pt.getPositionWorldOnB()));
+        I.contact_impulse_O[static_cast<size_t>(k)].head<3>() += J;
+        I.contact_impulse_O[static_cast<size_t>(k)].tail<3>() += p.cross(J);
+      }
+    }
+  }
+}
+
+void Simulator::step() {
+  const double h = config_.dt / config_.substeps;
+  truth_.push_force_W.setZero();
+  for (auto& w : impl_->contact_impulse_O) w.setZero();
+  // Push bookkeeping: the active or most recent push.
+  for (const Push& p : pushes_) {
+    if (time_ >= p.start && time_ < p.start + p.duration) {
+      if (truth_.push_id != p.id) truth_.push_impulse_W.setZero();
+      truth_.push_id = p.id;
+      truth_.push_force_W = p.force_at(time_);
+    }
+  }
+  truth_.push_active = !truth_.push_force_W.isZero();
+  for (int s = 0; s < config_.substeps; ++s) {
+    apply_actuation();
+    physics_substep(h);
+    time_ += h;
+  }
+  ++tick_;
+  compute_truth();
+  compute_sensors();
+}
+
+void Simulator::compute_truth() {
+  Impl& I = *impl_;
+  const model::Model& m = robot_->model;
+  btMultiBody* mb = I.bullet->multibody();
+  TruthData& t = truth_;
+  t.tick = tick_;
+  t.time = time_;
+  I.bullet->get_state(t.q, t.v);
+  const SE3 X_WB = I.bullet->body_placement(0);
+  t.p_WB = X_WB.p;
+  t.quat_WB = quat_wxyz(X_WB.R);
+  t.v_WB = X_WB.R * t.v.head<3>();
+  t.omega_WB = X_WB.R * t.v.segment<3>(3);
+  // Centre of mass, momentum and CAM from Bullet's link states (CoM frames, local velocities).
+  mb->compTreeLinkVelocities(I.omega.data(), I.vel.data());
+  double mass = 0;
+  Vector3d mc = Vector3d::Zero(), p = Vector3d::Zero();
+  std::vector<Vector3d> c(static_cast<size_t>(m.nb)), v(static_cast<size_t>(m.nb)), w(static_cast<size_t>(m.nb));
+  std::vector<Matrix3d> R(static_cast<size_t>(m.nb));
+  for (int b = 0; b < m.nb; ++b) {
+    const SE3 X = I.link_frame(b);
+    const auto bu = static_cast<size_t>(b);
+    const double mi = b == 0 ? mb->getBaseMass() : mb->getLink(b - 1).m_mass;
+    R[bu] = X.R;
+    c[bu] = X.p;
+    v[bu] = X.R * from_bt(I.vel[bu]);
+    w[bu] = X.R * from_bt(I.omega[bu]);
+    mass += mi;
+    mc += mi * c[bu];
+    p += mi * v[bu];
+  }
+  t.p_WCom = mc / mass;
+  t.v_WCom = p / mass;
+  t.h_lin_W = p;
+  Vector3d l = Vector3d::Zero();
+  for (int b = 0; b < m.nb; ++b) {
+    const auto bu = static_cast<size_t>(b);
+    const double mi = b == 0 ? mb->getBaseMass() : mb->getLink(b - 1).m_mass;
+    const Vector3d Id = b == 0 ? from_bt(mb->getBaseInertia()) : from_bt(mb->getLink(b - 1).m_inertiaLocal);
+    l += mi * (c[bu] - t.p_WCom).cross(v[bu]) + R[bu] * Id.asDiagonal() * R[bu].transpose() * w[bu];
+  }
+  t.l_WCom = l;
+  for (int k = 0; k < 2; ++k) {
+    const auto ku = static_cast<size_t>(k);
+    const int frame = robot_->feet[ku].sole_frame;
+    const int body = m.frames[static_cast<size_t>(frame)].body;
+    const SE3 X_WS = I.bullet->body_placement(body) * m.frames[static_cast<size_t>(frame)].X_BF;
+    t.p_WF[ku] = X_WS.p;
+    t.quat_WF[ku] = quat_wxyz(X_WS.R);
+    t.foot_tilt[ku] = std::acos(std::clamp(X_WS.R(2, 2), -1.0, 1.0));
+    Vector6d wrench = I.contact_impulse_O[ku] / config_.dt;
+    wrench.tail<3>() -= X_WS.p.cross(wrench.head<3>());
+    t.contact_wrench_W[ku] = wrench;
+    t.foot_contact[ku] = wrench(2) > 1.0;
+  }
+  const double tilt = std::acos(std::clamp(X_WB.R(2, 2), -1.0, 1.0)) * 180.0 / M_PI;
+  t.fallen = t.fallen || X_WB.p.z() < config_.fallen_base_height || tilt > config_.fallen_tilt_deg;
+}
+
+void Simulator::compute_sensors() {
+  Impl& I = *impl_;
+  const model::Model& m = robot_->model;
+  const btMultiBody* mb = I.bullet->multibody();
+  const NoiseConfig& nc = config_.noise;
+  const bool noisy = nc.enabled;
+  std::normal_distribution<double> nd(0.0, 1.0);
+  SensorData& s = sensors_;
+  s.tick = tick_;
+  s.time = time_;
+  // Joints: quantised encoders and a velocity differentiated from them when noise is on.
+  const double res = noisy && nc.encoder_bits > 0 ? 2.0 * M_PI / std::ldexp(1.0, nc.encoder_bits) : 0.0;
+  VectorXd qm(m.nj);
+  for (int j = 0; j < m.nj; ++j) {
+    const double q = mb->getJointPos(j);
+    qm(j) = res > 0 ? res * std::round(q / res) : q;
+  }
+  for (int j = 0; j < m.nj; ++j) {
+    if (res > 0 && q_meas_prev_.size() == m.nj) {
+      s.qd(j) = (qm(j) - q_meas_prev_(j)) / config_.dt;
+    } else {
+      s.qd(j) = mb->getJointVel(j);
+    }
+    s.tau(j) = applied_(j) + (noisy ? nc.joint_torque_noise * nd(rng_) : 0.0);
+    std::int32_t st = 0;
+    if (command_.mode == JointCommand::Mode::kRun && !stale_) st |= 1;
+    if (command_.mode == JointCommand::Mode::kDamp || stale_) st |= 2;
+    if (stale_) st |= 8;
+    if (std::abs(applied_(j)) >= m.tau_max[static_cast<size_t>(j)] - 1e-9) st |= 16;
+    s.drive_status[static_cast<size_t>(j)] = st;
+  }
+  s.q = qm;
+  q_meas_prev_ = qm;
+  // IMU: orientation, angular rate and specific force of the IMU frame.
+  const int frame = robot_->imu_frame;
+  const int body = m.frames[static_cast<size_t>(frame)].body;
+  const SE3 X_WL = I.link_frame(body);
+  const SE3 X_WI = I.bullet->body_placement(body) * m.frames[static_cast<size_t>(frame)].X_BF;
+  mb->compTreeLinkVelocities(I.omega.data(), I.vel.data());
+  const Vector3d w = X_WL.R * from_bt(I.omega[static_cast<size_t>(body)]);
+  const Vector3d v_com = X_WL.R * from_bt(I.vel[static_cast<size_t>(body)]);
+  const Vector3d v_imu = v_com + w.cross(X_WI.p - X_WL.p);
+  const Vector3d a_imu = have_v_imu_prev_ ? Vector3d((v_imu - v_imu_prev_) / config_.dt) : Vector3d::Zero();
+  v_imu_prev_ = v_imu;
+  have_v_imu_prev_ = true;
+  s.imu_quat_WB = quat_wxyz(X_WI.R);
+  s.imu_gyro_B = X_WI.R.transpose() * w;
+  s.imu_accel_B = X_WI.R.transpose() * (a_imu - config_.gravity);
+  if (noisy) {
+    const double sg = nc.gyro_noise_density / std::sqrt(config_.dt), sa = nc.accel_noise_density / std::sqrt(config_.dt);
+    for (int k = 0; k < 3; ++k) {
+      gyro_bias_(k) += nc.gyro_bias_random_walk * std::sqrt(config_.dt) * nd(rng_);
+      s.imu_gyro_B(k) += gyro_bias_(k) + sg * nd(rng_);
+      s.imu_accel_B(k) += sa * nd(rng_);
+    }
+  }
+  // Ankle force/torque: the wrench the part below the sensor applies to the leg, in the sensor frame
+  // S: contact wrench + its weight − the rate of its momentum (all about the sensor origin).
+  for (int k = 0; k < 2; ++k) {
+    const auto ku = static_cast<size_t>(k);
+    const int ft = robot_->feet[ku].ft_frame;
+    const int fb = m.frames[static_cast<size_t>(ft)].body;
+    const SE3 X_WS = I.bullet->body_placement(fb) * m.frames[static_cast<size_t>(ft)].X_BF;
+    const SE3 X_WF = I.link_frame(fb);
+    const double mf = fb == 0 ? mb->getBaseMass() : mb->getLink(fb - 1).m_mass;
+    const Vector3d If = fb == 0 ? from_bt(mb->getBaseInertia()) : from_bt(mb->getLink(fb - 1).m_inertiaLocal);
+    const Vector3d wf = X_WF.R * from_bt(I.omega[static_cast<size_t>(fb)]);
+    const Vector3d vf = X_WF.R * from_bt(I.vel[static_cast<size_t>(fb)]);
+    // Momentum of the foot about the world origin.
+    Vector6d h;
+    h.head<3>() = mf * vf;
+    h.tail<3>() = X_WF.p.cross(h.head<3>()) + X_WF.R * If.asDiagonal() * X_WF.R.transpose() * wf;
+    const Vector6d hdot = have_foot_momentum_prev_ ? Vector6d((h - foot_momentum_prev_[ku]) / config_.dt) : Vector6d::Zero();
+    foot_momentum_prev_[ku] = h;
+    Vector6d w_O = I.contact_impulse_O[ku] / config_.dt;  // ground on foot, about O
+    w_O.head<3>() += mf * config_.gravity;
+    w_O.tail<3>() += X_WF.p.cross(mf * config_.gravity);
+    w_O -= hdot;
+    // About the sensor origin, in the sensor frame.
+    Vector6d w_S;
+    w_S.head<3>() = X_WS.R.transpose() * w_O.head<3>();
+    w_S.tail<3>() = X_WS.R.transpose() * (w_O.tail<3>() - X_WS.p.cross(w_O.head<3>()));
+    if (noisy) {
+      for (int a = 0; a < 3; ++a) {
+        w_S(a) += nc.ft_force_noise * nd(rng_);
+        w_S(3 + a) += nc.ft_torque_noise * nd(rng_);
+      }
+    }
+    s.ft_wrench_S[ku] = w_S;
+  }
+  have_foot_momentum_prev_ = true;
+}
+
+}  // namespace hpr::sim

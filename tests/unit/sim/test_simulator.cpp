@@ -1,0 +1,207 @@
+// The Bullet simulator: conservation of momentum under a push, ground truth against the model
+// library, standing with stiff joint impedance, determinism, and refusal of bad commands.
+#include <gtest/gtest.h>
+
+#include "hpr/model/algorithms.hpp"
+#include "hpr/model/urdf.hpp"
+#include "hpr/sim/simulator.hpp"
+#include "model_fixture.hpp"
+
+namespace {
+
+using namespace hpr;
+using Eigen::Vector3d;
+using Eigen::VectorXd;
+
+struct Robot {
+  explicit Robot(const std::string& name) {
+    cfg = std::make_unique<Config>(Config::load(test::source_dir() + "/config/" + name + ".yaml"));
+    spec = std::make_unique<model::RobotSpec>(model::RobotSpec::load(cfg->section("robot")));
+    desc = std::make_unique<model::RobotDescription>(model::load_urdf(cfg->section("robot").file_path("urdf")));
+    sim_config = sim::SimConfig::load(cfg->section("sim"));
+  }
+  std::unique_ptr<Config> cfg;
+  std::unique_ptr<model::RobotSpec> spec;
+  std::unique_ptr<model::RobotDescription> desc;
+  sim::SimConfig sim_config;
+};
+
+sim::JointCommand hold_command(const Robot& r, double kp = 1500, double kd = 30) {
+  sim::JointCommand c;
+  c.resize(r.spec->model.nj);
+  c.mode = sim::JointCommand::Mode::kRun;
+  c.q_des = r.spec->q_joints_stand;
+  sim::hold_gains(*r.spec, r.spec->standing_configuration(), kp, kd, r.sim_config.dt / r.sim_config.substeps, c.kp,
+                  c.kd);
+  return c;
+}
+
+TEST(Simulator, PushedFreeFloatingBodyGainsTheImpulse) {
+  Robot r("toro");
+  r.sim_config.gravity.setZero();
+  sim::Simulator s(*r.spec, *r.desc, r.sim_config);
+  VectorXd q = r.spec->standing_configuration();
+  q(2) = 5.0;
+  s.set_state(q, VectorXd::Zero(r.spec->model.nv));
+  for (auto profile : {sim::Push::Profile::kRectangle, sim::Push::Profile::kHalfSine}) {
+    const Vector3d h0 = s.truth().h_lin_W;
+    sim::Push p;
+    p.id = profile == sim::Push::Profile::kRectangle ? 1 : 2;
+    p.link = "torso";
+    p.point_L = Vector3d(-0.1, 0.05, 0.2);
+    p.force_W = Vector3d(120.0, -40.0, 30.0);
+    p.duration = 0.15;
+    p.start = -1.0;  // now
+    p.profile = profile;
+    s.add_push(p);
+    for (int k = 0; k < 300; ++k) s.step();
+    const Vector3d dh = s.truth().h_lin_W - h0;
+    EXPECT_LT((dh - p.impulse()).norm(), 0.01 * p.impulse().norm()) << "momentum change " << dh.transpose();
+    EXPECT_LT((s.truth().push_impulse_W - p.impulse()).norm(), 0.01 * p.impulse().norm());
+  }
+}
+
+// SIM_TRUTH's momentum comes from Bullet's link states; the model library computes A_G v.
+TEST(Simulator, TruthMomentumMatchesTheModelLibrary) {
+  for (const char* name : {"toro", "h1_2"}) {
+    Robot r(name);
+    sim::Simulator s(*r.spec, *r.desc, r.sim_config);
+    test::RandomState rs(21);
+    model::Data data(r.spec->model);
+    for (int k = 0; k < 20; ++k) {
+      VectorXd q = rs.q(r.spec->model), v = rs.v(r.spec->model);
+      q(2) += 3.0;
+      s.set_state(q, v);
+      model::ccrba(r.spec->model, data, q, v);
+      const auto& t = s.truth();
+      EXPECT_LT((t.l_WCom - data.hg.tail<3>()).norm(), 1e-6 * data.hg.tail<3>().norm()) << name;
+      EXPECT_LT((t.h_lin_W - data.hg.head<3>()).norm(), 1e-6 * data.hg.head<3>().norm()) << name;
+      EXPECT_LT((t.p_WCom - data.com).norm(), 1e-9) << name;
+      EXPECT_LT((t.v_WCom - data.vcom).norm(), 1e-9 * std::max(1.0, data.vcom.norm())) << name;
+    }
+  }
+}
+
+// Stiff joint impedance around the standing posture, no balance controller: upright for 10 s, the
+// soles neither slide nor sink.
+TEST(Simulator, StandsWithStiffJointImpedance) {
+  for (const char* name : {"toro", "h1_2"}) {
+    Robot r(name);
+    sim::Simulator s(*r.spec, *r.desc, r.sim_config);
+    const auto c = hold_command(r);
+    const auto p0 = s.truth().p_WF;
+    double slip = 0, sink = 0, tilt = 0;
+    for (int k = 0; k < 10000; ++k) {
+      ASSERT_TRUE(s.set_command(c));
+      s.step();
+      const auto& t = s.truth();
+      for (int f = 0; f < 2; ++f) {
+        slip = std::max(slip, (t.p_WF[static_cast<size_t>(f)].head<2>() - p0[static_cast<size_t>(f)].head<2>()).norm());
+        sink = std::max(sink, -t.p_WF[static_cast<size_t>(f)].z());
+        tilt = std::max(tilt, t.foot_tilt[static_cast<size_t>(f)]);
+      }
+      ASSERT_FALSE(t.fallen) << name << " fell at " << t.time;
+    }
+    std::printf("%s: slip %.4f mm, sink %.4f mm, tilt %.5f rad\n", name, slip * 1e3, sink * 1e3, tilt);
+    EXPECT_LT(slip, 1e-3) << name;
+    EXPECT_LT(sink, 2e-3) << name;
+    EXPECT_LT(tilt, 0.01) << name;
+    // Both soles carry the weight.
+    const auto& t = s.truth();
+    EXPECT_NEAR(t.contact_wrench_W[0](2) + t.contact_wrench_W[1](2), r.spec->model.mass * 9.81, 0.05 * r.spec->model.mass * 9.81);
+  }
+}
+
+TEST(Simulator, SensorsAtRestAreConsistent) {
+  Robot r("toro");
+  sim::Simulator s(*r.spec, *r.desc, r.sim_config);
+  const auto c = hold_command(r);
+  for (int k = 0; k < 3000; ++k) {  // let the hand-over from the settling gains die out
+    s.set_command(c);
+    s.step();
+  }
+  Vector3d acc = Vector3d::Zero();
+  double fz = 0;
+  for (int k = 0; k < 1000; ++k) {
+    s.set_command(c);
+    s.step();
+    acc += s.sensors().imu_accel_B;
+    fz += s.sensors().ft_wrench_S[0](2) + s.sensors().ft_wrench_S[1](2);
+  }
+  acc /= 1000;
+  fz /= 1000;
+  // The accelerometer measures minus gravity, in the IMU frame.
+  const Eigen::Quaterniond q(s.sensors().imu_quat_WB(0), s.sensors().imu_quat_WB(1), s.sensors().imu_quat_WB(2),
+                             s.sensors().imu_quat_WB(3));
+  EXPECT_LT((q.toRotationMatrix() * acc - Vector3d(0, 0, 9.81)).norm(), 0.05);
+  EXPECT_LT(s.sensors().imu_gyro_B.norm(), 0.01);
+  // The ankle sensors carry the weight above the sensors: the whole robot minus the two feet.
+  const double feet = 2 * 1.6;
+  EXPECT_NEAR(fz, (r.spec->model.mass - feet) * 9.81, 5.0);
+}
+
+TEST(Simulator, IsDeterministic) {
+  Robot r("toro");
+  sim::Simulator a(*r.spec, *r.desc, r.sim_config), b(*r.spec, *r.desc, r.sim_config);
+  auto c = hold_command(r, 800, 20);
+  sim::Push p;
+  p.link = "torso";
+  p.force_W = Vector3d(60, 0, 0);
+  p.start = 0.2;
+  p.duration = 0.2;
+  a.add_push(p);
+  b.add_push(p);
+  for (int k = 0; k < 1500; ++k) {
+    c.tau_ff(0) = 5.0 * std::sin(k * 0.01);
+    a.set_command(c);
+    b.set_command(c);
+    a.step();
+    b.step();
+    ASSERT_EQ(a.sensors().q, b.sensors().q) << "tick " << k;
+    ASSERT_EQ(a.sensors().qd, b.sensors().qd) << "tick " << k;
+    ASSERT_EQ(a.sensors().imu_accel_B, b.sensors().imu_accel_B) << "tick " << k;
+    ASSERT_EQ(a.sensors().ft_wrench_S[0], b.sensors().ft_wrench_S[0]) << "tick " << k;
+    ASSERT_EQ(a.truth().l_WCom, b.truth().l_WCom) << "tick " << k;
+    ASSERT_EQ(a.truth().contact_wrench_W[1], b.truth().contact_wrench_W[1]) << "tick " << k;
+  }
+}
+
+TEST(Simulator, BadCommandsAreRefusedThenStaleCommandsDamp) {
+  Robot r("toro");
+  sim::Simulator s(*r.spec, *r.desc, r.sim_config);
+  const auto good = hold_command(r);
+  for (int k = 0; k < 500; ++k) {
+    ASSERT_TRUE(s.set_command(good));
+    s.step();
+  }
+  const VectorXd tau_good = s.applied_torque();
+  auto nan = good;
+  nan.tau_ff(3) = std::nan("");
+  auto small = good;
+  small.resize(5);
+  auto negative = good;
+  negative.kd(0) = -1;
+  std::string why;
+  EXPECT_FALSE(s.set_command(nan, &why));
+  EXPECT_EQ(why, "non-finite value");
+  EXPECT_FALSE(s.set_command(small, &why));
+  EXPECT_NE(why.find("expected 27 joints"), std::string::npos) << why;
+  EXPECT_FALSE(s.set_command(negative, &why));
+  EXPECT_EQ(s.rejected_commands(), 3);
+  // The last valid command is still applied.
+  s.step();
+  EXPECT_FALSE(s.command_stale());
+  EXPECT_LT((s.applied_torque() - tau_good).norm(), 0.05 * tau_good.norm());
+  // After the configured age without a valid command: damping only.
+  const int ticks = static_cast<int>(r.sim_config.command_timeout / r.sim_config.dt) + 2;
+  for (int k = 0; k < ticks; ++k) s.step();
+  EXPECT_TRUE(s.command_stale());
+  const VectorXd qd = s.truth().v.tail(r.spec->model.nj);
+  for (int j = 0; j < r.spec->model.nj; ++j) {
+    // τ = −kd q̇ with q̇ of the last physics step (before the step whose velocity is reported).
+    EXPECT_LE(std::abs(s.applied_torque()(j)), r.sim_config.damping_kd * (std::abs(qd(j)) + 0.01));
+    EXPECT_NE(s.sensors().drive_status[static_cast<size_t>(j)] & 2, 0);
+  }
+}
+
+}  // namespace
