@@ -148,6 +148,11 @@ bool Config::has(std::string_view key) const {
   return n.IsDefined() && !n.IsNull();
 }
 
+bool Config::is_scalar(std::string_view key) const {
+  const YAML::Node n = child(key);
+  return n.IsDefined() && n.IsScalar();
+}
+
 Config Config::section(std::string_view key) const {
   YAML::Node n = required(key);
   if (!n.IsMap()) fail(key, "expected a mapping");

@@ -47,6 +47,8 @@ class Config {
   /// A required sub-mapping.
   [[nodiscard]] Config section(std::string_view key) const;
   [[nodiscard]] bool has(std::string_view key) const;
+  /// True when the key holds a single value (not a list or mapping).
+  [[nodiscard]] bool is_scalar(std::string_view key) const;
 
   [[nodiscard]] double real(std::string_view key, double lo = -kInf, double hi = kInf) const;
   [[nodiscard]] double real_or(std::string_view key, double fallback, double lo = -kInf,

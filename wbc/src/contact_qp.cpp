@@ -1,0 +1,109 @@
+#include "hpr/wbc/contact_qp.hpp"
+
+#include <cmath>
+#include <limits>
+
+#include "hpr/common/time.hpp"
+
+namespace hpr::wbc {
+
+namespace {
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// G_i: CoM wrench of the foot wrench w_i = (f, τ) at the sole centre p: (f, τ + (p − c) × f).
+Eigen::Matrix<double, 6, 6> contact_map(const Eigen::Vector3d& p, const Eigen::Vector3d& com) {
+  Eigen::Matrix<double, 6, 6> G = Eigen::Matrix<double, 6, 6>::Identity();
+  G.block<3, 3>(3, 0) = model::skew(p - com);
+  return G;
+}
+}  // namespace
+
+ContactQp::ContactQp(ContactParams params)
+    : params_(params),
+      double_(12, 2 * kRowsPerFoot, qp::Options{params.max_working_set_changes, 1e-10, 1e-12, 1e-12}),
+      single_(6, kRowsPerFoot, qp::Options{params.max_working_set_changes, 1e-10, 1e-12, 1e-12}) {}
+
+void ContactQp::foot_constraints(const Contact& c, const ContactParams& p, Eigen::Ref<Eigen::MatrixXd> C,
+                                 Eigen::Ref<Eigen::VectorXd> lb, Eigen::Ref<Eigen::VectorXd> ub) {
+  // Rows on the local wrench (f_x, f_y, f_z, τ_x, τ_y, τ_z), then rotated to world axes.
+  Eigen::Matrix<double, kRowsPerFoot, 6> L = Eigen::Matrix<double, kRowsPerFoot, 6>::Zero();
+  lb.setConstant(-kInf);
+  ub.setZero();
+  const double mu = p.friction * std::cos(M_PI / 8);  // octagon inscribed in the cone
+  for (int k = 0; k < 8; ++k) {
+    const double th = k * M_PI / 4;
+    L(k, 0) = std::cos(th);
+    L(k, 1) = std::sin(th);
+    L(k, 2) = -mu;
+  }
+  const double hx = std::max(0.0, 0.5 * c.length - p.cop_margin), hy = std::max(0.0, 0.5 * c.width - p.cop_margin);
+  // CoP (p_x, p_y) = (−τ_y, τ_x) / f_z inside [−hx, hx] x [−hy, hy].
+  L(8, 3) = 1;   L(8, 2) = -hy;   // τ_x ≤ hy f_z
+  L(9, 3) = -1;  L(9, 2) = -hy;   // −τ_x ≤ hy f_z
+  L(10, 4) = 1;  L(10, 2) = -hx;  // τ_y ≤ hx f_z
+  L(11, 4) = -1; L(11, 2) = -hx;
+  L(12, 5) = 1;  L(12, 2) = -p.torsion;
+  L(13, 5) = -1; L(13, 2) = -p.torsion;
+  L(14, 2) = 1;  // f_z ≥ f_min
+  lb(14) = p.min_normal_force;
+  ub(14) = kInf;
+  L(15, 2) = 1;  // f_z ≤ load f_max
+  lb(15) = -kInf;
+  ub(15) = std::max(p.min_normal_force, c.load_limit * p.max_normal_force);
+  // Local wrench = blockdiag(Rᵀ, Rᵀ) w  →  rows L blockdiag(Rᵀ, Rᵀ).
+  const model::Matrix3d Rt = c.X_WS.R.transpose();
+  C.leftCols(3) = L.leftCols<3>() * Rt;
+  C.rightCols(3) = L.rightCols<3>() * Rt;
+}
+
+qp::Status ContactQp::solve(const std::array<Contact, 2>& contacts, const Eigen::Vector3d& com,
+                            const model::Vector6d& w_des) {
+  int active[2], na = 0;
+  for (int k = 0; k < 2; ++k) {
+    if (contacts[static_cast<size_t>(k)].active) active[na++] = k;
+  }
+  w_[0].setZero();
+  w_[1].setZero();
+  achieved_.setZero();
+  iterations_ = 0;
+  if (na == 0) return qp::Status::kInfeasible;
+  qp::Solver& solver = na == 2 ? double_ : single_;
+  if (na == 1 && last_single_foot_ != active[0]) {
+    solver.reset();  // the other foot: its working set means nothing here
+    last_single_foot_ = active[0];
+  }
+  const int n = 6 * na, m = kRowsPerFoot * na;
+  H_.resize(n, n);
+  g_.resize(n);
+  A_.resize(m, n);
+  A_.setZero();
+  lbA_.resize(m);
+  ubA_.resize(m);
+  lb_ = Eigen::VectorXd::Constant(n, -kInf);
+  ub_ = Eigen::VectorXd::Constant(n, kInf);
+  Eigen::Matrix<double, 6, 12> G = Eigen::Matrix<double, 6, 12>::Zero();
+  for (int a = 0; a < na; ++a) {
+    const Contact& c = contacts[static_cast<size_t>(active[a])];
+    G.block<6, 6>(0, 6 * a) = contact_map(c.X_WS.p, com);
+    foot_constraints(c, params_, A_.block(kRowsPerFoot * a, 6 * a, kRowsPerFoot, 6),
+                     lbA_.segment(kRowsPerFoot * a, kRowsPerFoot), ubA_.segment(kRowsPerFoot * a, kRowsPerFoot));
+  }
+  model::Vector6d W;
+  W << params_.force_weight, params_.force_weight, params_.force_weight, params_.torque_weight, params_.torque_weight,
+      params_.torque_weight;
+  const auto Gn = G.leftCols(n);
+  H_.noalias() = Gn.transpose() * W.asDiagonal() * Gn;
+  H_.diagonal().array() += params_.regularization;
+  g_.noalias() = -(Gn.transpose() * W.asDiagonal() * w_des);
+  const double t0 = monotonic_s();
+  const qp::Status s = solver.solve_hot(H_, g_, A_, lb_, ub_, lbA_, ubA_);
+  solve_time_us_ = (monotonic_s() - t0) * 1e6;
+  iterations_ = solver.working_set_changes();
+  if (qp::usable(s) && solver.primal_feasible()) {
+    for (int a = 0; a < na; ++a) w_[static_cast<size_t>(active[a])] = solver.x().segment<6>(6 * a);
+    achieved_ = Gn * solver.x();
+  }
+  return s;
+}
+
+}  // namespace hpr::wbc
