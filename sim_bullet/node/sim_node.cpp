@@ -12,6 +12,7 @@ SimNodeOptions SimNodeOptions::load(const Config& c) {
   SimNodeOptions o;
   o.lockstep = c.choice_or("mode", "lockstep", {"lockstep", "realtime"}) == "lockstep";
   o.lockstep_timeout = c.real_or("lockstep_timeout", o.lockstep_timeout, 1e-3, 600.0);
+  o.startup_timeout = c.real_or("startup_timeout", o.startup_timeout, 0.0, 600.0);
   o.duration = c.real_or("duration", o.duration, 0.0, 1e7);
   o.publish_truth = c.boolean_or("publish_truth", o.publish_truth);
   if (c.has("scenario") && !c.string("scenario").empty()) o.scenario = c.file_path("scenario");
@@ -25,7 +26,7 @@ SimNode::SimNode(node::Runtime& rt, Simulator& sim, SimNodeOptions options)
   command_in_ = &rt.subscribe<humanoid::joint_command_t>(
       "JOINT_COMMAND", [this](const humanoid::joint_command_t& msg) {
         JointCommand c;
-        const std::string why = node::from_message(msg, names_, c);
+        const std::string why = msg::from_message(msg, names_, c);
         if (!why.empty()) return why;
         std::string refused;
         if (!sim_.set_command(c, &refused)) return refused;
@@ -60,7 +61,7 @@ SimNode::SimNode(node::Runtime& rt, Simulator& sim, SimNodeOptions options)
 }
 
 void SimNode::publish() {
-  node::to_message(sim_.sensors(), names_, sensors_msg_);
+  msg::to_message(sim_.sensors(), names_, sensors_msg_);
   sensors_out_.publish(sensors_msg_);
   if (!options_.publish_truth) return;
   const TruthData& t = sim_.truth();
@@ -115,7 +116,8 @@ int SimNode::run_lockstep() {
     if (options_.duration > 0 && sim_.time() >= options_.duration - 1e-9) break;
     publish();
     const std::int64_t k = sim_.tick();
-    const bool got = rt_.spin_until([&] { return command_in_->tick() >= k; }, options_.lockstep_timeout);
+    const double timeout = command_in_->count() == 0 ? options_.startup_timeout : options_.lockstep_timeout;
+    const bool got = rt_.spin_until([&] { return command_in_->tick() >= k; }, timeout);
     if (rt_.stop_requested()) break;
     if (!got) {
       ++missed_;

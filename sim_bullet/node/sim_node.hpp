@@ -11,7 +11,7 @@
 #include <humanoid/robot_sensors_t.hpp>
 #include <humanoid/sim_truth_t.hpp>
 
-#include "hpr/node/messages.hpp"
+#include "hpr/msg/robot_io.hpp"
 #include "hpr/node/runtime.hpp"
 #include "hpr/sim/simulator.hpp"
 
@@ -20,6 +20,7 @@ namespace hpr::sim {
 struct SimNodeOptions {
   bool lockstep = true;
   double lockstep_timeout = 1.0;  ///< [s] wall time to wait for the command of a tick
+  double startup_timeout = 10.0;  ///< [s] wall time to wait for the first command (processes starting)
   double duration = 0.0;          ///< [s] simulated time to run, 0 = until stopped
   bool publish_truth = true;
   std::string scenario;           ///< push scenario file
@@ -40,7 +41,7 @@ class SimNode {
   node::Runtime& rt_;
   Simulator& sim_;
   SimNodeOptions options_;
-  node::RobotNames names_;
+  msg::RobotNames names_;
   node::Input<humanoid::joint_command_t>* command_in_ = nullptr;
   node::Output<humanoid::robot_sensors_t> sensors_out_;
   node::Output<humanoid::sim_truth_t> truth_out_;

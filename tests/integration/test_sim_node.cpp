@@ -6,7 +6,7 @@
 
 #include "all_types.hpp"
 #include "hpr/model/robot.hpp"
-#include "hpr/node/messages.hpp"
+#include "hpr/msg/robot_io.hpp"
 #include "hpr/sim/simulator.hpp"
 #include "lcm_listener.hpp"
 #include "process_group.hpp"
@@ -34,11 +34,11 @@ struct HoldController {
     sensors.emplace_back(static_cast<const uint8_t*>(rb->data), static_cast<const uint8_t*>(rb->data) + rb->data_size);
     command_.tick = s.tick;
     humanoid::joint_command_t m;
-    hpr::node::to_message(command_, names_, m);
+    hpr::msg::to_message(command_, names_, m);
     lcm_.publish("JOINT_COMMAND", m);
   }
   LcmListener& lcm_;
-  hpr::node::RobotNames names_;
+  hpr::msg::RobotNames names_;
   hpr::JointCommand command_;
   std::vector<std::vector<uint8_t>> sensors;
 };

@@ -104,6 +104,7 @@ class Filler {
     m.tick = i64(); m.utime = i64(); m.support = i8();
     arr(m.p_WCom); arr(m.v_WCom); arr(m.a_WCom); arr(m.quat_WB); arr(m.omega_WB); arr(m.omegadot_WB);
     m.num_feet = 2; m.foot_name = names(2); m.p_WF = mat(2, 3); m.quat_WF = mat(2, 4); m.v_WF = mat(2, 6); m.a_WF = mat(2, 6);
+    m.foot_contact = gen<int8_t>(2, [&] { return static_cast<int8_t>(b()); }); m.foot_load_limit = vec(2);
     const int nf = joints_ - 12;
     m.num_free = nf; m.free_joint = names(nf); m.q_free = vec(nf); m.qd_free = vec(nf); m.qdd_free = vec(nf);
     arr(m.l_cmd_W); arr(m.ldot_cmd_W); arr(m.l_ref_W);

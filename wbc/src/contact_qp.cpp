@@ -18,10 +18,15 @@ Eigen::Matrix<double, 6, 6> contact_map(const Eigen::Vector3d& p, const Eigen::V
 }
 }  // namespace
 
-ContactQp::ContactQp(ContactParams params)
-    : params_(params),
-      double_(12, 2 * kRowsPerFoot, qp::Options{params.max_working_set_changes, 1e-10, 1e-12, 1e-12}),
-      single_(6, kRowsPerFoot, qp::Options{params.max_working_set_changes, 1e-10, 1e-12, 1e-12}) {}
+ContactQp::ContactQp(ContactParams params) : params_(params) {
+  for (int exact = 0; exact < 2; ++exact) {
+    const qp::Options opt{params.max_working_set_changes * (exact != 0 ? 1 : 3), 1e-10, 1e-12, 1e-12};
+    for (int na = 1; na <= 2; ++na) {
+      solvers_[static_cast<size_t>(exact)][static_cast<size_t>(na - 1)] =
+          std::make_unique<qp::Solver>(6 * na, kRowsPerFoot * na + (exact != 0 ? 6 : 0), opt);
+    }
+  }
+}
 
 void ContactQp::foot_constraints(const Contact& c, const ContactParams& p, Eigen::Ref<Eigen::MatrixXd> C,
                                  Eigen::Ref<Eigen::VectorXd> lb, Eigen::Ref<Eigen::VectorXd> ub) {
@@ -66,13 +71,31 @@ qp::Status ContactQp::solve(const std::array<Contact, 2>& contacts, const Eigen:
   w_[1].setZero();
   achieved_.setZero();
   iterations_ = 0;
+  solve_time_us_ = 0;
+  exact_ = valid_ = false;
   if (na == 0) return qp::Status::kInfeasible;
-  qp::Solver& solver = na == 2 ? double_ : single_;
-  if (na == 1 && last_single_foot_ != active[0]) {
-    solver.reset();  // the other foot: its working set means nothing here
-    last_single_foot_ = active[0];
+  const double t0 = monotonic_s();
+  qp::Status s = solve_mode(true, na, active, contacts, com, w_des);
+  int iterations = iterations_;
+  if (s == qp::Status::kOptimal) {
+    exact_ = true;
+  } else {
+    s = solve_mode(false, na, active, contacts, com, w_des);
+    iterations += iterations_;
   }
-  const int n = 6 * na, m = kRowsPerFoot * na;
+  iterations_ = iterations;
+  solve_time_us_ = (monotonic_s() - t0) * 1e6;
+  return s;
+}
+
+qp::Status ContactQp::solve_mode(bool exact, int na, const int* active, const std::array<Contact, 2>& contacts,
+                                 const Eigen::Vector3d& com, const model::Vector6d& w_des) {
+  qp::Solver& solver = *solvers_[exact ? 1 : 0][static_cast<size_t>(na - 1)];
+  if (na == 1 && last_single_foot_[exact ? 1 : 0] != active[0]) {
+    solver.reset();  // the other foot: its working set means nothing here
+    last_single_foot_[exact ? 1 : 0] = active[0];
+  }
+  const int n = 6 * na, mc = kRowsPerFoot * na, m = mc + (exact ? 6 : 0);
   H_.resize(n, n);
   g_.resize(n);
   A_.resize(m, n);
@@ -88,22 +111,36 @@ qp::Status ContactQp::solve(const std::array<Contact, 2>& contacts, const Eigen:
     foot_constraints(c, params_, A_.block(kRowsPerFoot * a, 6 * a, kRowsPerFoot, 6),
                      lbA_.segment(kRowsPerFoot * a, kRowsPerFoot), ubA_.segment(kRowsPerFoot * a, kRowsPerFoot));
   }
-  model::Vector6d W;
-  W << params_.force_weight, params_.force_weight, params_.force_weight, params_.torque_weight, params_.torque_weight,
-      params_.torque_weight;
   const auto Gn = G.leftCols(n);
-  H_.noalias() = Gn.transpose() * W.asDiagonal() * Gn;
-  H_.diagonal().array() += params_.regularization;
-  g_.noalias() = -(Gn.transpose() * W.asDiagonal() * w_des);
-  const double t0 = monotonic_s();
+  Eigen::Matrix<double, 12, 1> R;
+  for (int a = 0; a < 2; ++a) {
+    R.segment<3>(6 * a).setConstant(params_.distribution_force);
+    R.segment<3>(6 * a + 3).setConstant(params_.distribution_torque);
+  }
+  if (exact) {
+    // min ½ wᵀ R w  s.t.  G w = w_des and the contact constraints.
+    H_ = R.head(n).asDiagonal();
+    g_.setZero();
+    A_.bottomRows(6) = Gn;
+    lbA_.tail<6>() = w_des;
+    ubA_.tail<6>() = w_des;
+  } else {
+    model::Vector6d W;
+    W << params_.force_weight, params_.force_weight, params_.force_weight, params_.torque_weight,
+        params_.torque_weight, params_.torque_weight;
+    H_.noalias() = Gn.transpose() * W.asDiagonal() * Gn;
+    H_.diagonal() += params_.regularization * R.head(n);
+    g_.noalias() = -(Gn.transpose() * W.asDiagonal() * w_des);
+  }
   const qp::Status s = solver.solve_hot(H_, g_, A_, lb_, ub_, lbA_, ubA_);
-  solve_time_us_ = (monotonic_s() - t0) * 1e6;
   iterations_ = solver.working_set_changes();
   if (qp::usable(s) && solver.primal_feasible()) {
     for (int a = 0; a < na; ++a) w_[static_cast<size_t>(active[a])] = solver.x().segment<6>(6 * a);
     achieved_ = Gn * solver.x();
+    valid_ = true;
+    return s;
   }
-  return s;
+  return s == qp::Status::kOptimal ? qp::Status::kNumericalFailure : s;
 }
 
 }  // namespace hpr::wbc

@@ -122,6 +122,8 @@ WbcConfig WbcConfig::load(const Config& c, const model::RobotSpec& robot) {
     p.force_weight = s.real_or("force_weight", p.force_weight, 1e-6, 1e6);
     p.torque_weight = s.real_or("torque_weight", p.torque_weight, 1e-6, 1e6);
     p.regularization = s.real_or("regularization", p.regularization, 1e-12, 1e3);
+    p.distribution_force = s.real_or("distribution_force", p.distribution_force, 1e-9, 1e3);
+    p.distribution_torque = s.real_or("distribution_torque", p.distribution_torque, 1e-9, 1e3);
     p.max_working_set_changes = static_cast<int>(s.integer_or("max_working_set_changes", p.max_working_set_changes, 1, 10000));
   }
   w.impedance_at_drive = c.boolean_or("impedance_at_drive", w.impedance_at_drive);
@@ -224,8 +226,9 @@ const JointCommand& WholeBodyController::step(const RobotState& state, const bal
   status_.qp_status = static_cast<int>(qs);
   status_.qp_iterations = qp_.iterations();
   status_.qp_solve_time_us = qp_.solve_time_us();
-  const bool qp_ok = qp::usable(qs) && qp_.solver(contacts[0].active && contacts[1].active ? 2 : 1).primal_feasible();
+  const bool qp_ok = qp_.valid();
   status_.qp_fallback = !qp_ok;
+  status_.qp_exact = qp_ok && qp_.exact();
   std::array<Vector6d, 2> w_grf = qp_ok ? qp_.wrenches() : last_valid_grf_;
   if (qp_ok) {
     last_valid_grf_ = w_grf;

@@ -315,14 +315,17 @@ void mark(const Entries& active, int n, std::vector<Active>& bounds, std::vector
 }  // namespace
 
 Status Solver::run_dual() {
+  int refinements = 0;
   while (true) {
     mark(active_, n_, bound_state_, constraint_state_);
     double s = 0, sign = 1;
     const int p = most_violated(&s, &sign);
     if (p < 0) {
-      // Remove the drift of the updates: re-solve the working set exactly, then re-check.
+      // Remove the drift of the updates: re-solve the working set exactly, then re-check. A point
+      // that violates its own working set after that is a numerical failure, not a loop.
       solve_working_set();
       if (is_feasible()) return Status::kOptimal;
+      if (++refinements > 2) return Status::kNumericalFailure;
       continue;
     }
     const Entry e{p, sign, lower(p) == upper(p)};

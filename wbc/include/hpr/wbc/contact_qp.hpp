@@ -1,16 +1,18 @@
 #pragma once
 /// \file
 /// Contact wrench distribution (section II-B): find the contact wrenches w_grf of the feet in
-/// contact whose CoM-mapped sum Adᵀ w_grf best matches the desired CoM wrench,
+/// contact whose CoM-mapped sum Adᵀ w_grf is the desired CoM wrench, subject to, per foot in its
+/// sole frame: f_z ≥ f_min (unilaterality), f_z ≤ load · f_max, an 8-facet friction pyramid
+/// |f_t| ≤ μ f_z, the CoP inside the sole (less a margin), |τ_z| ≤ γ f_z (bounded torsion).
 ///
-///     min ½ ‖Adᵀ w − w_des‖²_W + ½ ε ‖w‖²
-///     s.t. per foot, in its sole frame: f_z ≥ f_min (unilaterality), f_z ≤ load · f_max,
-///          an 8-facet friction pyramid |f_t| ≤ μ f_z, the CoP inside the sole (less a margin),
-///          |τ_z| ≤ γ f_z (bounded torsion).
+/// When the desired wrench is feasible it is met exactly (equality constraints), and among the
+/// distributions that meet it the one of least ½ wᵀ R w is chosen. When it is not, the error is
+/// minimised instead:  min ½ ‖Adᵀ w − w_des‖²_W + ½ ε wᵀ R w  under the same contact constraints.
 ///
-/// Wrenches are (f, τ) at the sole centre in world axes. The QP is hot-started from tick to tick.
+/// Wrenches are (f, τ) at the sole centre in world axes. Both QPs are hot-started from tick to tick.
 
 #include <array>
+#include <memory>
 
 #include "hpr/model/spatial.hpp"
 #include "hpr/qp/qp_solver.hpp"
@@ -25,8 +27,10 @@ struct ContactParams {
   double cop_margin = 0.005;      ///< the CoP stays this far inside the sole edges [m]
   double force_weight = 1.0;      ///< W for the force part of the CoM wrench error
   double torque_weight = 10.0;    ///< W for the torque part
-  double regularization = 1e-4;   ///< ε
-  int max_working_set_changes = 10;
+  double regularization = 1e-4;   ///< ε of the least-squares fallback
+  double distribution_force = 1e-3;  ///< R for the forces (distribution among the feet)
+  double distribution_torque = 1.0;  ///< R for the torques (keeps the CoPs central)
+  int max_working_set_changes = 10;  ///< per tick for the exact QP; the fallback gets three times as many
 };
 
 struct Contact {
@@ -48,7 +52,10 @@ class ContactQp {
   [[nodiscard]] const model::Vector6d& achieved() const { return achieved_; }
   [[nodiscard]] int iterations() const { return iterations_; }
   [[nodiscard]] double solve_time_us() const { return solve_time_us_; }
-  [[nodiscard]] const qp::Solver& solver(int contacts) const { return contacts == 2 ? double_ : single_; }
+  /// True when the desired wrench was met exactly (the equality QP was feasible).
+  [[nodiscard]] bool exact() const { return exact_; }
+  /// True when wrenches() holds a feasible distribution from this solve.
+  [[nodiscard]] bool valid() const { return valid_; }
   [[nodiscard]] const ContactParams& params() const { return params_; }
 
   /// The 16 constraint rows of one foot in the form lb ≤ C w_i ≤ ub (world-axes wrench at the sole).
@@ -57,9 +64,14 @@ class ContactQp {
   static constexpr int kRowsPerFoot = 16;
 
  private:
+  qp::Status solve_mode(bool exact, int na, const int* active, const std::array<Contact, 2>& contacts,
+                        const Eigen::Vector3d& com, const model::Vector6d& w_des);
+
   ContactParams params_;
-  qp::Solver double_, single_;
-  int last_single_foot_ = -1;
+  // [exact][contacts - 1]
+  std::array<std::array<std::unique_ptr<qp::Solver>, 2>, 2> solvers_;
+  std::array<int, 2> last_single_foot_{-1, -1};
+  bool exact_ = false, valid_ = false;
   Eigen::MatrixXd H_, A_;
   Eigen::VectorXd g_, lb_, ub_, lbA_, ubA_;
   std::array<model::Vector6d, 2> w_{};

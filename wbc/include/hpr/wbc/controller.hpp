@@ -66,6 +66,7 @@ struct BalanceStatus {
   int qp_status = 0, qp_iterations = 0;
   double qp_solve_time_us = 0.0;
   bool qp_fallback = false;
+  bool qp_exact = false;  ///< the desired CoM wrench was met exactly (else: least error)
   bool singular = false;
   bool saturated = false;
 };

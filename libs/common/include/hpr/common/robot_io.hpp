@@ -40,4 +40,19 @@ struct JointCommand {
   [[nodiscard]] std::string check(int joints) const;
 };
 
+/// The floating-base state the estimator publishes (ROBOT_STATE), in the model's coordinates:
+/// q = (p_WB, quat (x, y, z, w), joints), v = (base twist in the base frame, joint velocities).
+struct EstimatedState {
+  std::int64_t tick = 0;
+  double time = 0.0;
+  Eigen::VectorXd q, v;
+  Eigen::Vector3d p_com = Eigen::Vector3d::Zero(), v_com = Eigen::Vector3d::Zero();
+  Eigen::VectorXd tau;                          ///< measured joint torques
+  std::array<bool, 2> contact{};                ///< right, left
+  std::array<double, 2> foot_force_z{};
+  std::array<Eigen::Matrix<double, 6, 1>, 2> foot_wrench_W{};
+  Eigen::Vector3d l_com = Eigen::Vector3d::Zero(), ldot_com = Eigen::Vector3d::Zero();  ///< measured CAM and rate
+  std::int32_t status = 0;                      ///< robot_state_t::STATUS_* bits
+};
+
 }  // namespace hpr

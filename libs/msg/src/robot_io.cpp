@@ -1,10 +1,10 @@
-#include "hpr/node/messages.hpp"
+#include "hpr/msg/robot_io.hpp"
 
 #include <fmt/format.h>
 
 #include <cmath>
 
-namespace hpr::node {
+namespace hpr::msg {
 
 namespace {
 template <class V>
@@ -118,4 +118,4 @@ std::string from_message(const humanoid::joint_command_t& m, const RobotNames& n
   return "";
 }
 
-}  // namespace hpr::node
+}  // namespace hpr::msg

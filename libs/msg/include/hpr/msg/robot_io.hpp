@@ -10,7 +10,7 @@
 
 #include "hpr/common/robot_io.hpp"
 
-namespace hpr::node {
+namespace hpr::msg {
 
 /// Names that messages must carry, in the model's joint order.
 struct RobotNames {
@@ -27,4 +27,4 @@ void to_message(const JointCommand& c, const RobotNames& names, humanoid::joint_
 /// negative gains, unknown modes and wrong joint counts or names are refused.
 std::string from_message(const humanoid::joint_command_t& m, const RobotNames& names, JointCommand& c);
 
-}  // namespace hpr::node
+}  // namespace hpr::msg

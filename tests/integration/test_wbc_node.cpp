@@ -1,0 +1,52 @@
+// sim_bullet and wbc as processes in lockstep (state from SIM_TRUTH, the estimator's tests cover
+// the estimated state): standing, a push recovered, BALANCE_STATUS every tick, SIGTERM.
+#include <gtest/gtest.h>
+
+#include <csignal>
+#include <fstream>
+
+#include "all_types.hpp"
+#include "lcm_listener.hpp"
+#include "process_group.hpp"
+
+namespace {
+
+using namespace std::chrono_literals;
+using hpr::test::LcmListener;
+using hpr::test::ProcessGroup;
+
+TEST(WbcNode, StandsAndRecoversAPushInLockstep) {
+  ProcessGroup group;
+  LcmListener lcm(group.lcm_url());
+  auto truth = lcm.collect<humanoid::sim_truth_t>("SIM_TRUTH");
+  auto status = lcm.collect<humanoid::balance_status_t>("BALANCE_STATUS");
+  const std::string cfg = hpr::test::source_dir() + "/config/toro.yaml";
+  const std::string scenario = hpr::test::temp_dir("wbc_push") + "/push.yaml";
+  {
+    std::ofstream f(scenario);
+    f << "pushes:\n  - {link: pelvis, force: [65, 0, 0], start: 2.0, duration: 0.121, profile: half_sine}\n";
+  }
+  const pid_t wbc = group.start("wbc", {"--config", cfg, "--set", "wbc.state_source=sim_truth", "--set",
+                                        "wbc.wait_for_wholebody=false"});
+  const pid_t sim = group.start("sim_bullet", {"--config", cfg, "--set", "sim.duration=6.0", "--set",
+                                               "sim.scenario=" + scenario});
+  ASSERT_TRUE(lcm.wait_for([&] { return !group.running(sim); }, 120s));
+  lcm.spin_for(200ms);
+  const auto r = group.wait(sim, 5s);
+  EXPECT_EQ(r.exit_code, 0);
+  ASSERT_EQ(truth->size(), 6000U);
+  EXPECT_GE(status->size(), 5990U);
+  const auto& last = truth->back();
+  EXPECT_FALSE(last.fallen);
+  EXPECT_NEAR(last.push_impulse_W[0], 5.0, 0.1);
+  double peak = 0;
+  for (const auto& t : *truth) peak = std::max(peak, std::abs(t.v_WCom[0]));
+  EXPECT_GT(peak, 0.03) << "the push must move the robot";
+  EXPECT_LT(std::abs(last.v_WCom[0]), 0.01) << "and it must come to rest";
+  group.signal(wbc, SIGTERM);
+  const auto w = group.wait(wbc, 1000ms);
+  EXPECT_TRUE(w.exited);
+  EXPECT_EQ(w.exit_code, 0);
+}
+
+}  // namespace

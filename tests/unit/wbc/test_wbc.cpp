@@ -1,0 +1,205 @@
+// The whole-body controller on its own: the contact wrench QP, and the torques (9) against the
+// model's constrained dynamics, which must reproduce the desired closed loop (4).
+#include <gtest/gtest.h>
+
+#include <Eigen/Dense>
+#include <random>
+
+#include "hpr/model/centroidal.hpp"
+#include "hpr/wbc/controller.hpp"
+#include "model_fixture.hpp"
+
+namespace {
+
+using namespace hpr;
+using Eigen::MatrixXd;
+using Eigen::Vector3d;
+using Eigen::VectorXd;
+using wbc::Vector6d;
+
+model::SE3 random_sole(std::mt19937& gen, double y) {
+  std::uniform_real_distribution<double> u(-1, 1);
+  model::SE3 X;
+  X.p = Vector3d(0.05 * u(gen), y + 0.03 * u(gen), 0.01 * u(gen));
+  X.R = (Eigen::AngleAxisd(0.3 * u(gen), Vector3d::UnitZ()) * Eigen::AngleAxisd(0.05 * u(gen), Vector3d::UnitY()) *
+         Eigen::AngleAxisd(0.05 * u(gen), Vector3d::UnitX()))
+            .toRotationMatrix();
+  return X;
+}
+
+// A wrench strictly inside the contact constraints of a sole (local frame), expressed in world axes.
+Vector6d feasible_wrench(std::mt19937& gen, const wbc::Contact& c, const wbc::ContactParams& p) {
+  std::uniform_real_distribution<double> u(-1, 1), fz(100, 600);
+  const double f = fz(gen);
+  const double mu = 0.7 * p.friction * std::cos(M_PI / 8) / std::sqrt(2.0);
+  const double hx = 0.7 * (0.5 * c.length - p.cop_margin), hy = 0.7 * (0.5 * c.width - p.cop_margin);
+  Vector6d local;
+  local << mu * f * u(gen), mu * f * u(gen), f, hy * f * u(gen), hx * f * u(gen), 0.7 * p.torsion * f * u(gen);
+  Vector6d w;
+  w.head<3>() = c.X_WS.R * local.head<3>();
+  w.tail<3>() = c.X_WS.R * local.tail<3>();
+  return w;
+}
+
+Vector6d com_wrench(const std::array<wbc::Contact, 2>& c, const std::array<Vector6d, 2>& w, const Vector3d& com) {
+  Vector6d out = Vector6d::Zero();
+  for (int k = 0; k < 2; ++k) {
+    if (!c[static_cast<size_t>(k)].active) continue;
+    const Vector6d& wk = w[static_cast<size_t>(k)];
+    out.head<3>() += wk.head<3>();
+    out.tail<3>() += wk.tail<3>() + (c[static_cast<size_t>(k)].X_WS.p - com).cross(wk.head<3>());
+  }
+  return out;
+}
+
+void expect_constraints_hold(const std::array<wbc::Contact, 2>& c, const std::array<Vector6d, 2>& w,
+                             const wbc::ContactParams& p) {
+  for (int k = 0; k < 2; ++k) {
+    if (!c[static_cast<size_t>(k)].active) continue;
+    MatrixXd C(wbc::ContactQp::kRowsPerFoot, 6);
+    VectorXd lb(wbc::ContactQp::kRowsPerFoot), ub(wbc::ContactQp::kRowsPerFoot);
+    wbc::ContactQp::foot_constraints(c[static_cast<size_t>(k)], p, C, lb, ub);
+    const VectorXd r = C * w[static_cast<size_t>(k)];
+    for (int i = 0; i < r.size(); ++i) {
+      EXPECT_GE(r(i), lb(i) - 1e-7) << "foot " << k << " row " << i;
+      EXPECT_LE(r(i), ub(i) + 1e-7) << "foot " << k << " row " << i;
+    }
+  }
+}
+
+TEST(ContactQp, FeasibleWrenchIsMetExactly) {
+  std::mt19937 gen(31);
+  wbc::ContactParams p;
+  wbc::ContactQp qp(p);
+  for (int s = 0; s < 200; ++s) {
+    std::array<wbc::Contact, 2> c;
+    c[0] = {true, random_sole(gen, -0.1), 0.2, 0.1, 1.0};
+    c[1] = {s % 5 != 0, random_sole(gen, 0.1), 0.2, 0.1, 1.0};  // some single support
+    const Vector3d com(0.02, 0.0, 0.9);
+    const std::array<Vector6d, 2> w_true{feasible_wrench(gen, c[0], p), feasible_wrench(gen, c[1], p)};
+    const Vector6d w_des = com_wrench(c, w_true, com);
+    ASSERT_EQ(qp.solve(c, com, w_des), qp::Status::kOptimal) << "sample " << s;
+    EXPECT_TRUE(qp.exact());
+    EXPECT_LT((qp.achieved() - w_des).norm(), 1e-8 * w_des.norm()) << "sample " << s;
+    EXPECT_LT((com_wrench(c, qp.wrenches(), com) - w_des).norm(), 1e-8 * w_des.norm());
+    expect_constraints_hold(c, qp.wrenches(), p);
+  }
+}
+
+TEST(ContactQp, InfeasibleWrenchKeepsTheConstraintsAndMinimisesTheError) {
+  std::mt19937 gen(32);
+  wbc::ContactParams p;
+  p.max_working_set_changes = 100;  // every sample is a new problem: no hot start to rely on
+  wbc::ContactQp qp(p);
+  // Reference: the same least-squares problem with a far smaller regularisation, solved cold.
+  wbc::ContactParams pr = p;
+  pr.regularization = 1e-7;
+  for (int s = 0; s < 100; ++s) {
+    std::array<wbc::Contact, 2> c;
+    c[0] = {true, random_sole(gen, -0.1), 0.2, 0.1, 1.0};
+    c[1] = {true, random_sole(gen, 0.1), 0.2, 0.1, 1.0};
+    const Vector3d com(0.0, 0.0, 0.9);
+    Vector6d w_des;
+    std::uniform_real_distribution<double> u(-1, 1);
+    w_des << 150 * u(gen), 150 * u(gen), 780, 400 * u(gen), 400 * u(gen), 60 * u(gen);  // CoP far outside
+    const qp::Status st = qp.solve(c, com, w_des);
+    ASSERT_TRUE(qp.valid()) << "sample " << s << " status " << qp::to_string(st) << " changes " << qp.iterations();
+    if (qp.exact()) continue;
+    expect_constraints_hold(c, qp.wrenches(), p);
+    wbc::ContactQp ref(pr);
+    ref.solve(c, com, w_des);
+    ASSERT_TRUE(ref.valid());
+    auto err = [&](const Vector6d& achieved) {
+      const Vector6d e = achieved - w_des;
+      return std::sqrt(p.force_weight * e.head<3>().squaredNorm() + p.torque_weight * e.tail<3>().squaredNorm());
+    };
+    EXPECT_LE(err(qp.achieved()), err(ref.achieved()) + 1e-3 * w_des.norm()) << "sample " << s;
+  }
+}
+
+// Torques (9) in the model's constrained dynamics (both feet fixed) reproduce the closed loop (4):
+//   M̄ Δν̇ + C̄ Δν = Jᵀ(0; λ; 0) − Jᵀ(w_imp; w_feet; τ_f^imp)
+// with λ the contact wrenches of the constrained dynamics. Checked in model coordinates through
+// M̄ ν̇ + C̄ ν = Ĵᵀ (M a + C v) and M̄ ν̇^cmd + C̄ ν^cmd = the controller's feedforward.
+TEST(Wbc, TorquesReproduceTheDesiredClosedLoop) {
+  for (const char* name : {"toro", "h1_2"}) {
+    const auto robot = test::load_robot(name);
+    const model::Model& m = robot.model;
+    const Config cfg = Config::load(test::source_dir() + "/config/" + name + ".yaml");
+    wbc::WholeBodyController ctl(robot, wbc::WbcConfig::load(cfg.section("wbc"), robot));
+    test::RandomState rs(41);
+    int checked = 0;
+    for (int s = 0; s < 20; ++s) {
+      const VectorXd q = model::integrate(m, robot.standing_configuration(), rs.v(m, 0.03));
+      VectorXd v = rs.v(m, 0.3);
+      balance::PostureReference pref(robot, {});
+      pref.start(q, 0.0);
+      balance::TaskReference cmd = pref.update(0.3);
+      // A commanded motion of the base and free joints on top of the reference.
+      cmd.omega_base = 0.2 * Vector3d(rs.uniform(-1, 1), rs.uniform(-1, 1), rs.uniform(-1, 1));
+      cmd.omegadot_base = Vector3d(rs.uniform(-1, 1), rs.uniform(-1, 1), rs.uniform(-1, 1));
+      for (int i = 0; i < cmd.qd_free.size(); ++i) {
+        cmd.qd_free(i) = rs.uniform(-0.5, 0.5);
+        cmd.qdd_free(i) = rs.uniform(-2, 2);
+      }
+      // Feet in contact do not move: zero the feet velocities of the state (a constrained motion).
+      model::Data d(m);
+      model::forward_kinematics(m, d, q, v);
+      MatrixXd Jc(12, m.nv);
+      model::Matrix6Xd Jf(6, m.nv);
+      for (int k = 0; k < 2; ++k) {
+        model::frame_jacobian(m, d, robot.feet[static_cast<size_t>(k)].sole_frame, model::ReferenceFrame::kLocalWorldAligned, Jf);
+        Jc.middleRows<6>(6 * k) = Jf;
+      }
+      const MatrixXd N = MatrixXd::Identity(m.nv, m.nv) - Jc.transpose() * (Jc * Jc.transpose()).ldlt().solve(Jc);
+      v = N * v;  // project onto J_c v = 0
+      wbc::RobotState st;
+      st.q = q;
+      st.v = v;
+      ctl.step(st, cmd);
+      // (4) holds when the desired CoM wrench (8) is met: skip the samples where it is not feasible.
+      if (!ctl.status().qp_exact || ctl.status().singular || ctl.status().saturated) continue;
+      ++checked;
+      // Torque the drives apply: τ_ff plus their impedance.
+      const JointCommand& c = ctl.command();
+      const VectorXd tau = c.tau_ff + c.kp.cwiseProduct(c.q_des - q.tail(m.nj)) + c.kd.cwiseProduct(c.qd_des - v.tail(m.nj));
+      EXPECT_LT((tau - ctl.tau_total()).norm(), 1e-9 * (1 + tau.norm())) << name;
+      // Constrained forward dynamics: [M −J_cᵀ; J_c 0] [a; λ] = [Sᵀτ − h; −J̇_c v].
+      model::compute_all_terms(m, d, q, v);
+      const MatrixXd M = d.M;
+      const VectorXd h = d.nle, g = d.g;
+      MatrixXd K = MatrixXd::Zero(m.nv + 12, m.nv + 12);
+      K.topLeftCorner(m.nv, m.nv) = M;
+      K.topRightCorner(m.nv, 12) = -Jc.transpose();
+      K.bottomLeftCorner(12, m.nv) = Jc;
+      VectorXd rhs(m.nv + 12);
+      rhs.head(m.nv) = -h;
+      rhs.segment(6, m.nj) += tau;
+      for (int k = 0; k < 2; ++k) {
+        rhs.segment<6>(m.nv + 6 * k) = -model::frame_jacobian_time_variation_times_v(m, d, robot.feet[static_cast<size_t>(k)].sole_frame);
+      }
+      const VectorXd sol = K.fullPivLu().solve(rhs);
+      const VectorXd a = sol.head(m.nv), lambda = sol.tail(12);
+      // Left side of (4).
+      MatrixXd Jhat;
+      model::centroidal_velocity_map(m, d, Jhat);
+      const VectorXd lhs = Jhat.transpose() * (M * a + h - g) - ctl.feedforward();
+      // Right side of (4).
+      model::TaskSpace ts(robot);
+      ts.update(m, d);
+      VectorXd w_contact = VectorXd::Zero(m.nv), w_ctl(m.nv), out_contact(m.nv), out_ctl(m.nv);
+      w_contact.segment(6, 12) = lambda;
+      ts.apply_transpose(w_contact, out_contact);
+      w_ctl.head<6>() = ctl.w_imp();
+      w_ctl.segment<6>(6) = ctl.foot_wrenches()[0];
+      w_ctl.segment<6>(12) = ctl.foot_wrenches()[1];
+      w_ctl.tail(m.nj - 12) = ctl.tau_free_imp();
+      ts.apply_transpose(w_ctl, out_ctl);
+      const VectorXd rhs4 = out_contact - out_ctl;
+      EXPECT_LT((lhs - rhs4).norm(), 1e-6 * (1 + rhs4.norm())) << name << " sample " << s;
+    }
+    EXPECT_GT(checked, 10) << name;
+  }
+}
+
+}  // namespace

@@ -1,0 +1,62 @@
+#pragma once
+/// \file The wbc process: WholeBodyController behind LCM.
+///
+/// Steps on every ROBOT_STATE (or, in tests only, on SIM_TRUTH + ROBOT_SENSORS), towards the
+/// WHOLEBODY_COMMAND of the same tick when motion_opt runs (waiting for it up to a timeout), else
+/// towards its own reference posture. Publishes JOINT_COMMAND and BALANCE_STATUS every tick.
+
+#include <humanoid/balance_status_t.hpp>
+#include <humanoid/joint_command_t.hpp>
+#include <humanoid/operator_t.hpp>
+#include <humanoid/robot_sensors_t.hpp>
+#include <humanoid/robot_state_t.hpp>
+#include <humanoid/sim_truth_t.hpp>
+#include <humanoid/wholebody_command_t.hpp>
+
+#include "hpr/msg/state.hpp"
+#include "hpr/node/runtime.hpp"
+#include "hpr/wbc/controller.hpp"
+
+namespace hpr::wbc {
+
+struct WbcNodeOptions {
+  bool use_sim_truth = false;        ///< TESTS ONLY: state from SIM_TRUTH + ROBOT_SENSORS
+  bool wait_for_wholebody = true;    ///< step only with the WHOLEBODY_COMMAND of the same tick
+  double wholebody_timeout = 0.5;    ///< [s] wall time to wait for it
+  int wholebody_stale_ticks = 50;    ///< older commands are ignored (own reference posture)
+  double state_timeout = 0.05;       ///< [s] wait for the second state input (truth mode)
+  static WbcNodeOptions load(const Config& wbc_section);
+};
+
+class WbcNode {
+ public:
+  WbcNode(node::Runtime& rt, const model::RobotSpec& robot, WholeBodyController& wbc,
+          balance::PostureReference& reference, WbcNodeOptions options);
+
+ private:
+  void step(std::int64_t tick, const EstimatedState& state, bool wholebody_fresh);
+  void publish_damp(std::int64_t tick, const std::string& why);
+
+  node::Runtime& rt_;
+  const model::RobotSpec& robot_;
+  WholeBodyController& wbc_;
+  balance::PostureReference& reference_;
+  WbcNodeOptions options_;
+  msg::RobotNames names_;
+  std::vector<std::string> free_names_;
+  node::Input<humanoid::robot_state_t>* state_in_ = nullptr;
+  node::Input<humanoid::sim_truth_t>* truth_in_ = nullptr;
+  node::Input<humanoid::robot_sensors_t>* sensors_in_ = nullptr;
+  node::Input<humanoid::wholebody_command_t>* wholebody_in_ = nullptr;
+  node::Output<humanoid::joint_command_t> command_out_;
+  node::Output<humanoid::balance_status_t> status_out_;
+  EstimatedState state_;
+  SensorSample sensors_;
+  balance::TaskReference wholebody_;
+  humanoid::joint_command_t command_msg_;
+  humanoid::balance_status_t status_msg_;
+  bool damping_ = false;  ///< OPERATOR damp/stop received: damp until enable
+  bool have_wholebody_ = false;
+};
+
+}  // namespace hpr::wbc
