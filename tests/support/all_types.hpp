@@ -111,7 +111,7 @@ class Filler {
     m.num_adjusted = 12; m.adjusted_name = names(12); m.xa_opt = vec(12); m.xad_opt = vec(12);
     m.xa_min = vec(12); m.xa_max = vec(12); m.xad_min = vec(12); m.xad_max = vec(12);
     m.num_segments = 5; m.segment_name = names(5); m.segment_l_W = mat(5, 3);
-    m.qp_status = i32(); m.qp_iterations = i32(); m.qp_solve_time_us = r(); m.status = i32();
+    m.posture_error = r(); m.qp_status = i32(); m.qp_iterations = i32(); m.qp_solve_time_us = r(); m.status = i32();
   }
   void fill(humanoid::joint_command_t& m) {
     m.tick = i64(); m.utime = i64(); m.mode = i8(); m.num_joints = joints_; m.joint_name = names(joints_);

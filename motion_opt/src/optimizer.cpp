@@ -1,0 +1,310 @@
+#include "hpr/motion_opt/optimizer.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "hpr/common/log.hpp"
+#include "hpr/common/time.hpp"
+
+namespace hpr::motion_opt {
+
+using Eigen::Vector3d;
+using Eigen::VectorXd;
+
+MotionOptConfig MotionOptConfig::load(const Config& c, const model::RobotSpec& robot) {
+  MotionOptConfig m;
+  const Config adj = c.section("adjusted");
+  m.adjusted_double = adj.strings("double");
+  m.adjusted_single = adj.strings("single");
+  for (const char* key : {"double", "single"}) {
+    for (const auto& name : adj.strings(key)) {
+      if (name == "base_rotation" || name == "swing_foot") continue;
+      const int j = robot.joints({name}, adj, key).front();
+      if (std::find(robot.free_joints.begin(), robot.free_joints.end(), j) == robot.free_joints.end()) {
+        adj.fail(key, "'" + name + "' is a leg joint; legs follow the feet and the CoM, adjust 'swing_foot' instead");
+      }
+    }
+  }
+  if (c.has("weights")) {
+    const Config w = c.section("weights");
+    if (w.has("cam")) {
+      m.Q_l = w.is_scalar("cam") ? Vector3d::Constant(w.real("cam", 0, 1e6)) : w.vec3("cam", 0, 1e6);
+    }
+    m.Q_p = w.real_or("posture", m.Q_p, 1e-9, 1e6);
+    if (w.has("posture_overrides")) {
+      const Config o = w.section("posture_overrides");
+      for (const auto& k : o.keys()) m.Q_p_overrides[k] = o.real(k, 1e-9, 1e6);
+    }
+  }
+  if (c.has("gains")) {
+    const Config g = c.section("gains");
+    m.K_p = g.real_or("posture", m.K_p, 0.0, 1e3);
+    m.K_a = g.real_or("limits", m.K_a, 0.0, 1e4);
+  }
+  if (c.has("limits")) {
+    const Config l = c.section("limits");
+    if (l.has("base_rotation")) {
+      const Config b = l.section("base_rotation");
+      m.base_min = b.vec3_or("min", m.base_min, -1.5, 0.0);
+      m.base_max = b.vec3_or("max", m.base_max, 0.0, 1.5);
+      m.base_velocity = b.real_or("velocity", m.base_velocity, 0.0, 50.0);
+    }
+    m.joint_limit_margin = l.real_or("joint_margin", m.joint_limit_margin, 0.0, 1.0);
+    m.joint_velocity_fraction = l.real_or("joint_velocity_fraction", m.joint_velocity_fraction, 0.01, 1.0);
+    if (l.has("swing_foot")) {
+      const Config s = l.section("swing_foot");
+      m.swing_range = s.real_or("range", m.swing_range, 0.0, 1.0);
+      m.swing_velocity = s.real_or("velocity", m.swing_velocity, 0.0, 10.0);
+      m.swing_return_rate = s.real_or("return_rate", m.swing_return_rate, 0.0, 1e3);
+    }
+  }
+  m.acceleration_filter = c.real_or("acceleration_filter", m.acceleration_filter, 0.0, 1.0);
+  m.max_working_set_changes = static_cast<int>(c.integer_or("max_working_set_changes", m.max_working_set_changes, 1, 10000));
+  return m;
+}
+
+MotionOptimizer::MotionOptimizer(const model::RobotSpec& robot, MotionOptConfig config)
+    : robot_(&robot), config_(std::move(config)), data_(robot.model), task_(robot) {
+  const char* ax = "xyz";
+  for (int i = 0; i < 3; ++i) {
+    coords_.push_back({Coordinate::Kind::kBaseRotation, i, 0, model::TaskSpace::kBaseRot + i, std::string("base_rotation_") + ax[i]});
+  }
+  for (size_t f = 0; f < robot.free_joints.size(); ++f) {
+    coords_.push_back({Coordinate::Kind::kFreeJoint, 0, static_cast<int>(f), model::TaskSpace::kFree + static_cast<int>(f),
+                       robot.model.joint_name[static_cast<size_t>(robot.free_joints[f])]});
+  }
+  for (int k = 0; k < 2; ++k) {
+    for (int i = 0; i < 3; ++i) {
+      coords_.push_back({Coordinate::Kind::kFoot, i, k, 6 + 6 * k + i,
+                         std::string(model::kFootNames[static_cast<size_t>(k)]) + "_foot_" + ax[i]});
+    }
+  }
+  const int nc = static_cast<int>(coords_.size());
+  delta_ = delta_dot_ = delta_dot_prev_ = delta_acc_ = VectorXd::Zero(nc);
+  xdot_ref_ = xdot_cmd_ = VectorXd::Zero(robot.model.nv);
+  // Segments for the CAM contributions (Fig. 7d): the trunk (CoM and base rotation), the
+  // configured joint groups among the free joints, and each foot.
+  out_.segment_names.push_back("trunk");
+  segment_coords_.push_back({0, 1, 2, 3, 4, 5});
+  for (const auto& [name, joints] : robot.segments) {
+    std::vector<int> tasks;
+    for (int j : joints) {
+      for (size_t f = 0; f < robot.free_joints.size(); ++f) {
+        if (robot.free_joints[f] == j) tasks.push_back(model::TaskSpace::kFree + static_cast<int>(f));
+      }
+    }
+    if (tasks.empty()) continue;
+    out_.segment_names.push_back(name);
+    segment_coords_.push_back(tasks);
+  }
+  for (int k = 0; k < 2; ++k) {
+    out_.segment_names.push_back(std::string(model::kFootNames[static_cast<size_t>(k)]) + "_foot");
+    std::vector<int> tasks;
+    for (int i = 0; i < 6; ++i) tasks.push_back(6 + 6 * k + i);
+    segment_coords_.push_back(tasks);
+  }
+  out_.segment_l.assign(out_.segment_names.size(), Vector3d::Zero());
+}
+
+std::vector<int> MotionOptimizer::adjusted_set(const balance::TaskReference& ref) const {
+  const bool single = ref.support != balance::Support::kDouble;
+  const int swing = ref.support == balance::Support::kRight ? model::kLeft : model::kRight;
+  std::vector<int> set;
+  for (const auto& name : single ? config_.adjusted_single : config_.adjusted_double) {
+    for (int c = 0; c < static_cast<int>(coords_.size()); ++c) {
+      const Coordinate& co = coords_[static_cast<size_t>(c)];
+      if ((name == "base_rotation" && co.kind == Coordinate::Kind::kBaseRotation) ||
+          (name == "swing_foot" && single && co.kind == Coordinate::Kind::kFoot && co.index == swing &&
+           !ref.feet[static_cast<size_t>(swing)].contact) ||
+          (co.kind == Coordinate::Kind::kFreeJoint && co.name == name)) {
+        set.push_back(c);
+      }
+    }
+  }
+  return set;
+}
+
+void MotionOptimizer::limits(int c, const balance::TaskReference& ref, double& dmin, double& dmax, double& vmax) const {
+  const Coordinate& co = coords_[static_cast<size_t>(c)];
+  switch (co.kind) {
+    case Coordinate::Kind::kBaseRotation:
+      dmin = config_.base_min(co.axis);
+      dmax = config_.base_max(co.axis);
+      vmax = config_.base_velocity;
+      break;
+    case Coordinate::Kind::kFreeJoint: {
+      const auto j = static_cast<size_t>(robot_->free_joints[static_cast<size_t>(co.index)]);
+      const double q_ref = ref.q_free(co.index);
+      dmin = robot_->model.q_lower[j] + config_.joint_limit_margin - q_ref;
+      dmax = robot_->model.q_upper[j] - config_.joint_limit_margin - q_ref;
+      vmax = config_.joint_velocity_fraction * robot_->model.v_max[j];
+      break;
+    }
+    case Coordinate::Kind::kFoot:
+      dmin = -config_.swing_range;
+      dmax = config_.swing_range;
+      vmax = config_.swing_velocity;
+      break;
+  }
+}
+
+const MotionOptOutput& MotionOptimizer::step(const VectorXd& q, const VectorXd& v, const balance::TaskReference& ref,
+                                             const Vector3d& l_ref, bool l_ref_fresh, double dt) {
+  const model::Model& m = robot_->model;
+  const int nc = static_cast<int>(coords_.size());
+  model::ccrba(m, data_, q, v);  // A_G, I_c, the CoM and its Jacobian: all Ā needs
+  out_.singular = !task_.update(m, data_);
+  const auto& Abar = task_.Abar();
+
+  const std::vector<int> set = adjusted_set(ref);
+  const int k = static_cast<int>(set.size());
+  if (set != last_set_) {
+    if (k != solver_size_) {
+      solver_ = std::make_unique<qp::Solver>(k, 0, qp::Options{config_.max_working_set_changes, 1e-10, 1e-12, 1e-12});
+      solver_size_ = k;
+      H_.resize(k, k);
+      g_.resize(k);
+      lb_.resize(k);
+      ub_.resize(k);
+      A_.resize(0, k);
+      lbA_.resize(0);
+      ubA_.resize(0);
+    } else {
+      solver_->reset();
+    }
+    last_set_ = set;
+  }
+  std::vector<char> adjusted(static_cast<size_t>(nc), 0);
+  for (int c : set) adjusted[static_cast<size_t>(c)] = 1;
+
+  // Reference task velocity ẋ^ref = (ẋ_c, ω_b, ν_r, ν_l, q̇_f).
+  xdot_ref_.segment<3>(0) = ref.v_com;
+  xdot_ref_.segment<3>(3) = ref.omega_base;
+  xdot_ref_.segment<6>(6) = ref.feet[0].twist;
+  xdot_ref_.segment<6>(12) = ref.feet[1].twist;
+  xdot_ref_.tail(ref.qd_free.size()) = ref.qd_free;
+
+  // Coordinates outside x_a: their offsets decay (feet faster, and not at all once in contact).
+  for (int c = 0; c < nc; ++c) {
+    if (adjusted[static_cast<size_t>(c)] != 0) continue;
+    const Coordinate& co = coords_[static_cast<size_t>(c)];
+    const double rate = co.kind == Coordinate::Kind::kFoot ? config_.swing_return_rate : config_.K_p;
+    delta_dot_(c) = -rate * delta_(c);
+  }
+  xdot_cmd_ = xdot_ref_;
+  for (int c = 0; c < nc; ++c) {
+    if (adjusted[static_cast<size_t>(c)] == 0) xdot_cmd_(coords_[static_cast<size_t>(c)].task) += delta_dot_(c);
+  }
+  // Ā_u ẋ_u: the CAM of everything but the adjusted coordinates.
+  VectorXd xu = xdot_cmd_;
+  for (int c : set) xu(coords_[static_cast<size_t>(c)].task) = 0.0;
+  const Vector3d l_u = Abar * xu;
+  const Vector3d lref = l_ref_fresh ? l_ref : Vector3d::Zero();
+  out_.reference_stale = !l_ref_fresh;
+
+  // QP (13) over ẋ_a.
+  out_.adjusted = set;
+  out_.xa_opt.resize(k);
+  out_.xad_opt.resize(k);
+  out_.xa_min.resize(k);
+  out_.xa_max.resize(k);
+  out_.xad_min.resize(k);
+  out_.xad_max.resize(k);
+  VectorXd xd(k);
+  Eigen::Matrix<double, 3, Eigen::Dynamic> Aa(3, k);
+  for (int a = 0; a < k; ++a) {
+    const int c = set[static_cast<size_t>(a)];
+    const Coordinate& co = coords_[static_cast<size_t>(c)];
+    Aa.col(a) = Abar.col(co.task);
+    const double xref_dot = xdot_ref_(co.task);
+    xd(a) = xref_dot - config_.K_p * delta_(c);  // (16)
+    double dmin = 0, dmax = 0, vmax = 0;
+    limits(c, ref, dmin, dmax, vmax);
+    // (17) in offset form: x_min − x^opt = δ_min − δ.
+    double lo = std::max(xref_dot + config_.K_a * (dmin - delta_(c)), -vmax);
+    double hi = std::min(xref_dot + config_.K_a * (dmax - delta_(c)), vmax);
+    if (lo > hi) lo = hi = 0.5 * (lo + hi);
+    lb_(a) = lo;
+    ub_(a) = hi;
+    out_.xa_min(a) = dmin;
+    out_.xa_max(a) = dmax;
+    out_.xad_min(a) = lo;
+    out_.xad_max(a) = hi;
+    const auto it = config_.Q_p_overrides.find(co.name);
+    const double qp_w = it != config_.Q_p_overrides.end() ? it->second : config_.Q_p;
+    H_.row(a).setZero();
+    H_(a, a) = qp_w;
+    g_(a) = -qp_w * xd(a);
+  }
+  const Eigen::Matrix3d Ql = config_.Q_l.asDiagonal();
+  H_.noalias() += Aa.transpose() * Ql * Aa;
+  g_.noalias() += Aa.transpose() * Ql * (l_u - lref);
+  VectorXd xa(k);
+  const double t0 = monotonic_s();
+  const qp::Status st = k > 0 ? solver_->solve_hot(H_, g_, A_, lb_, ub_, lbA_, ubA_) : qp::Status::kOptimal;
+  out_.qp_solve_time_us = (monotonic_s() - t0) * 1e6;
+  out_.qp_status = static_cast<int>(st);
+  out_.qp_iterations = k > 0 ? solver_->working_set_changes() : 0;
+  out_.qp_failed = !(qp::usable(st) && (k == 0 || solver_->primal_feasible()));
+  if (!out_.qp_failed && k > 0) {
+    xa = solver_->x();
+  } else {
+    xa = xd.cwiseMax(lb_).cwiseMin(ub_);  // the posture task alone, within the limits
+  }
+  for (int a = 0; a < k; ++a) {
+    const int c = set[static_cast<size_t>(a)];
+    delta_dot_(c) = xa(a) - xdot_ref_(coords_[static_cast<size_t>(c)].task);
+  }
+  // Feet that carry load have no offset.
+  for (int c = 0; c < nc; ++c) {
+    const Coordinate& co = coords_[static_cast<size_t>(c)];
+    if (co.kind == Coordinate::Kind::kFoot && ref.feet[static_cast<size_t>(co.index)].contact) delta_dot_(c) = -delta_(c) / dt;
+  }
+  // Integrate the offsets, differentiate for the accelerations (low-passed).
+  delta_ += delta_dot_ * dt;
+  if (first_) delta_dot_prev_ = delta_dot_;
+  const double alpha = config_.acceleration_filter > 0 ? dt / (config_.acceleration_filter + dt) : 1.0;
+  delta_acc_ += alpha * ((delta_dot_ - delta_dot_prev_) / dt - delta_acc_);
+  delta_dot_prev_ = delta_dot_;
+  xdot_cmd_ = xdot_ref_;
+  for (int c = 0; c < nc; ++c) xdot_cmd_(coords_[static_cast<size_t>(c)].task) += delta_dot_(c);
+  for (int a = 0; a < k; ++a) {
+    const int c = set[static_cast<size_t>(a)];
+    out_.xa_opt(a) = delta_(c);
+    out_.xad_opt(a) = xa(a);
+  }
+
+  // The commanded trajectory: the reference with the offsets applied.
+  balance::TaskReference& cmd = out_.command;
+  cmd = ref;
+  const Vector3d drot = delta_.segment<3>(0), drot_dot = delta_dot_.segment<3>(0), drot_acc = delta_acc_.segment<3>(0);
+  cmd.R_base = model::exp3(drot) * ref.R_base;
+  cmd.omega_base = ref.omega_base + drot_dot;
+  cmd.omegadot_base = ref.omegadot_base + drot_acc;
+  const int nf = static_cast<int>(robot_->free_joints.size());
+  cmd.q_free = ref.q_free + delta_.segment(3, nf);
+  cmd.qd_free = ref.qd_free + delta_dot_.segment(3, nf);
+  cmd.qdd_free = ref.qdd_free + delta_acc_.segment(3, nf);
+  for (int f = 0; f < 2; ++f) {
+    const int c0 = 3 + nf + 3 * f;
+    cmd.feet[static_cast<size_t>(f)].X_WS.p += delta_.segment<3>(c0);
+    cmd.feet[static_cast<size_t>(f)].twist.head<3>() += delta_dot_.segment<3>(c0);
+    cmd.feet[static_cast<size_t>(f)].accel.head<3>() += delta_acc_.segment<3>(c0);
+  }
+
+  // Commanded CAM Ā ẋ^cmd, its rate, and the share of each segment.
+  out_.l_ref = lref;
+  out_.l_cmd = Abar * xdot_cmd_;
+  out_.ldot_cmd = first_ ? Vector3d::Zero() : Vector3d((out_.l_cmd - l_cmd_prev_) / dt);
+  l_cmd_prev_ = out_.l_cmd;
+  for (size_t s = 0; s < segment_coords_.size(); ++s) {
+    Vector3d l = Vector3d::Zero();
+    for (int t : segment_coords_[s]) l += Abar.col(t) * xdot_cmd_(t);
+    out_.segment_l[s] = l;
+  }
+  out_.posture_error = delta_.cwiseAbs().maxCoeff();
+  first_ = false;
+  return out_;
+}
+
+}  // namespace hpr::motion_opt

@@ -1,0 +1,120 @@
+#pragma once
+/// \file
+/// CAM reference generation in three phases (paper section III-C), independently per axis of the
+/// virtual stance foot frame V:
+///
+///  idle      until |τ_v^ankle| exceeds τ^thres = α τ^min/max                          (23)
+///  phase 1   l̇_c^ref = τ^thres − τ^ankle, integrated                                  (24)
+///            until |τ^ankle| < |τ^thres| again (t₂)
+///  phase 2   the cubic l(τ) = Σ a_j τʲ, τ = (t − t₂)/T, from (l(t₂), l̇(t₂)) to (0, 0),  (25)
+///            T = 3 |l(t₂)| / (2 l̇^max),  l̇^max = β max|l̇^ref| over phase 1           (26), (27)
+///  phase 3   l^ref = 0 while the posture task converges; idle again when the posture
+///            error is small
+///
+/// A new push re-enters phase 1 from any phase, continuing from the current l^ref (no jump).
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <array>
+#include <cstdint>
+
+#include "hpr/common/config.hpp"
+
+namespace hpr::reference_gen {
+
+enum class Phase : std::int8_t { kIdle = 0, kGenerate = 1, kReduce = 2, kRecover = 3 };
+
+struct AxisParams {
+  double alpha = 0.9;  ///< α ∈ (0, 1]: activation at this fraction of the contact torque limit (23)
+  double beta = 0.4;   ///< β ∈ (0, 1]: reduction rate as a fraction of the peak phase-1 rate (27)
+};
+
+struct GeneratorConfig {
+  std::array<AxisParams, 3> axes;     ///< x, y, z of the virtual stance foot
+  std::array<bool, 3> enabled{true, true, true};
+  double posture_tolerance = 0.03;    ///< posture error below which phase 3 ends [rad]
+  double min_recover_time = 0.2;      ///< phase 3 lasts at least this long [s]
+  double max_recover_time = 5.0;      ///< and at most this long [s]
+  double min_rate = 1e-3;             ///< floor of l̇^max [N m]
+  double stale_hold_time = 0.02;      ///< BALANCE_STATUS older than this: hold l^ref [s]
+  double stale_ramp_time = 0.1;       ///< then, after this much more: ramp to zero [s]
+  double stale_ramp_rate = 5.0;       ///< l̇^max for that ramp when phase 1 gave none [N m]
+  /// Reads and validates the `reference_gen` section (α, β per axis or for all; warns outside the
+  /// paper's good ranges α ∈ [0.7, 0.9], β ∈ [0.3, 0.5]).
+  static GeneratorConfig load(const Config& section);
+};
+
+/// One axis of the generator (scalar), stepping at a fixed period.
+class AxisGenerator {
+ public:
+  explicit AxisGenerator(AxisParams p = {}) : params_(p) {}
+
+  /// Advances to time t with the ankle torque and its limits (τ_min < 0 < τ_max) of that time.
+  void step(double t, double dt, double tau_ankle, double tau_min, double tau_max, bool posture_converged,
+            const GeneratorConfig& cfg);
+  /// Starts the phase-2 reduction from the current value at time t (stale input); l̇^max = rate if
+  /// phase 1 left none.
+  void reduce_now(double t, double rate, const GeneratorConfig& cfg);
+
+  [[nodiscard]] double l() const { return l_; }
+  [[nodiscard]] double ldot() const { return ldot_; }
+  [[nodiscard]] Phase phase() const { return phase_; }
+  [[nodiscard]] double threshold() const { return thres_; }
+  [[nodiscard]] double ldot_max() const { return ldot_max_; }
+  [[nodiscard]] double peak_rate() const { return peak_rate_; }
+  [[nodiscard]] double duration() const { return T_; }
+  /// The phase-2 cubic (25) and its rate at time t (for analysis; valid once phase 2 began).
+  [[nodiscard]] Eigen::Vector2d cubic(double t) const;
+  [[nodiscard]] double t2() const { return t2_; }
+  /// Start time of phases 1..3 (index 0..2), -1 when not reached since the last idle.
+  [[nodiscard]] const std::array<double, 3>& phase_start() const { return t_start_; }
+  AxisParams& params() { return params_; }
+
+ private:
+  void begin_reduction(double t, const GeneratorConfig& cfg);
+
+  AxisParams params_;
+  Phase phase_ = Phase::kIdle;
+  double l_ = 0, ldot_ = 0, thres_ = 0, peak_rate_ = 0, ldot_max_ = 0, T_ = 0;
+  std::array<double, 4> a_{};  // cubic coefficients (25)
+  double t2_ = 0;
+  std::array<double, 3> t_start_{-1, -1, -1};
+};
+
+struct BalanceInput {
+  double time = 0;
+  Eigen::Vector3d tau_ankle_V = Eigen::Vector3d::Zero();
+  Eigen::Vector3d tau_min_V = Eigen::Vector3d::Zero(), tau_max_V = Eigen::Vector3d::Zero();
+  double yaw_WV = 0;
+};
+
+struct CamReference {
+  Eigen::Vector3d l_ref_V = Eigen::Vector3d::Zero(), ldot_ref_V = Eigen::Vector3d::Zero();
+  Eigen::Vector3d l_ref_W = Eigen::Vector3d::Zero(), ldot_ref_W = Eigen::Vector3d::Zero();
+  double yaw_WV = 0;
+  std::array<Phase, 3> phase{};
+  std::array<std::array<double, 3>, 3> t_phase_start{};
+  Eigen::Vector3d tau_thres_V = Eigen::Vector3d::Zero(), ldot_max_V = Eigen::Vector3d::Zero();
+  bool stale = false, ramping = false;
+};
+
+class ReferenceGenerator {
+ public:
+  explicit ReferenceGenerator(GeneratorConfig config);
+
+  /// One tick at time t. `balance` is the latest BALANCE_STATUS (its time says how old it is);
+  /// `posture_error` the motion optimisation's distance to the reference posture.
+  const CamReference& step(double t, double dt, const BalanceInput& balance, bool balance_valid, double posture_error);
+
+  [[nodiscard]] const CamReference& output() const { return out_; }
+  [[nodiscard]] const AxisGenerator& axis(int i) const { return axes_[static_cast<size_t>(i)]; }
+  [[nodiscard]] const GeneratorConfig& config() const { return config_; }
+
+ private:
+  GeneratorConfig config_;
+  std::array<AxisGenerator, 3> axes_;
+  CamReference out_;
+  bool ramping_ = false;
+};
+
+}  // namespace hpr::reference_gen
