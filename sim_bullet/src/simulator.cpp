@@ -400,6 +400,10 @@ void Simulator::reset() {
   const int settle_steps = static_cast<int>(std::round(config_.settle_time / config_.dt));
   const double h = config_.dt / config_.substeps;
   for (int k = 0; k < settle_steps * config_.substeps; ++k) {
+    // The contact impulses of the last control period of the settling are tick 0's contact forces.
+    if (k % config_.substeps == 0) {
+      for (auto& w : impl_->contact_impulse_O) w.setZero();
+    }
     const VectorXd tau = settle_torque();
     btMultiBody* mb = impl_->bullet->multibody();
     for (int j = 0; j < m.nj; ++j) {
@@ -408,7 +412,6 @@ void Simulator::reset() {
     }
     physics_substep(h);
   }
-  for (auto& w : impl_->contact_impulse_O) w.setZero();
   have_v_imu_prev_ = false;
   have_foot_momentum_prev_ = false;
   q_meas_prev_.resize(0);

@@ -1,20 +1,30 @@
 #pragma once
 /// \file
-/// Floating-base state estimation from a real robot's sensors (joint encoders and torques, a pelvis
-/// IMU, ankle force/torque sensors):
-///  - joints: positions from the encoders; velocities by an α-β (steady-state Kalman) filter per
-///    joint, which removes quantisation noise with little lag;
-///  - attitude: an error-state Kalman filter on (R_WB, gyro bias), predicted with the gyro and
-///    corrected by the orientation the legs in contact give (feet flat on level ground, yaw held
-///    from the touchdown) and by the accelerometer's gravity direction;
-///  - position and velocity: a linear Kalman filter on (p_WB, v_WB, p_right, p_left) driven by the
-///    IMU's acceleration, corrected by the leg kinematics of the feet in contact (the feet stay put
-///    while in contact and are free otherwise);
-///  - contact: each foot's normal force from its ankle sensor (less the foot's weight), with
-///    hysteresis;
-///  - CAM: a momentum observer l̂̇ = Σ_contacts (torque about the CoM) + K (A_G q̇ − l̂): the measured
-///    contact wrenches give the fast part, the kinematic momentum the slow part, and the residual is
-///    the disturbance torque (a push).
+/// Floating-base state estimation from what a real robot measures: joint encoders and torques, a
+/// pelvis IMU (gyro, accelerometer) and the ankle force/torque sensors. No simulator truth.
+///
+///  - Joints: positions and velocities from an α-β filter per joint (the steady-state Kalman filter
+///    of a constant-velocity model), which removes encoder quantisation noise with little lag.
+///  - Contact: each foot's normal ground force, from its ankle sensor plus the weight of the foot
+///    below the sensor, with hysteresis (on above `contact_on`, off below `contact_off`).
+///  - Attitude: an error-state Kalman filter on (R_WB, gyro bias b), predicted with the gyro and
+///    corrected by the orientation the legs in contact give (sole flat on level ground, its yaw held
+///    since touchdown), and without contact by the accelerometer's gravity direction.
+///  - Angular velocity: ω_B fused from the gyro (less b̂) and, in contact, the leg kinematics
+///    (a sole at rest gives ω_B = −J_ω,sole q̇ in the base frame), which is far less noisy than a
+///    MEMS gyro at 1 kHz.
+///  - Position and velocity: a linear Kalman filter on x = (p_WI, v_WI, p_W,right, p_W,left) of the
+///    IMU point I, predicted with the IMU's acceleration R_WI f_I + g, corrected by the position and
+///    the velocity of each sole in contact relative to I from the leg kinematics (a sole in contact
+///    stays put; a sole in the air follows the leg).
+///  - CAM: a momentum observer on the centroidal angular momentum l_c,
+///        l̂̇ = Σ_contacts τ_c,k + K_l (A_G,ang ν − l̂),
+///    whose fast part comes from the measured contact wrenches (moments about the CoM) and slow part
+///    from the kinematic momentum A_G ν; K_l (A_G,ang ν − l̂) is the torque of the unmeasured forces
+///    (a push). The output rate is l̂̇.
+///
+/// World frame: z up, origin on the ground midway between the soles at initialisation, heading
+/// from the IMU's own orientation output at initialisation (or zero when it is not valid).
 
 #include <Eigen/Core>
 #include <array>
@@ -28,86 +38,136 @@
 namespace hpr::estimator {
 
 struct EstimatorConfig {
-  // Joint velocity filter (α-β): white acceleration noise of the joints and encoder noise.
-  double joint_accel_noise = 200.0;       ///< [rad/s²/√Hz]
-  double encoder_noise = 3e-5;            ///< [rad]
-  bool filter_joint_velocity = true;
-  // Attitude.
+  // Joints.
+  double joint_accel_noise = 50.0;        ///< [rad/s²/√Hz] white acceleration of a joint (α-β model)
+  double encoder_noise = 3e-5;            ///< [rad] (a 16-bit encoder's quantisation: 2π/2¹⁶/√12)
+  bool filter_joints = true;              ///< false: q and q̇ as the drives report them
+  // Attitude and angular velocity.
   double gyro_noise = 0.005;              ///< [rad/s/√Hz]
   double gyro_bias_walk = 1e-4;           ///< [rad/s²/√Hz]
-  double gyro_bias_initial = 0.01;        ///< [rad/s] prior standard deviation
-  double kinematic_orientation_noise = 2e-3;  ///< [rad] of the leg-kinematics orientation
-  double accel_orientation_noise = 0.05;  ///< [rad] of the gravity direction when not accelerating
-  bool level_ground = true;               ///< feet in contact are flat
+  double gyro_bias_initial = 0.01;        ///< [rad/s] prior standard deviation of each bias
+  double angular_accel_noise = 30.0;      ///< [rad/s²/√Hz] of the base, for the ω_B fusion
+  double kinematic_orientation_noise = 2e-3;  ///< [rad] orientation of the base from a leg in contact
+  double kinematic_rate_noise = 0.02;     ///< [rad/s] angular velocity of the base from a leg in contact
+  double accel_orientation_noise = 0.05;  ///< [rad] gravity direction from the accelerometer
+  bool level_ground = true;               ///< soles in contact are flat (roll and pitch zero)
   // Position.
   double accel_noise = 0.05;              ///< [m/s²/√Hz]
-  double foot_contact_noise = 1e-4;       ///< [m/√s] random walk of a foot in contact
-  double foot_swing_noise = 1.0;          ///< [m/√s] of a foot in the air
+  double foot_contact_noise = 2e-4;       ///< [m/√s] random walk of a sole in contact
+  double foot_swing_noise = 1.0;          ///< [m/√s] of a sole in the air
   double kinematic_position_noise = 1e-3; ///< [m]
+  double kinematic_velocity_noise = 0.01; ///< [m/s]
   // Contact.
-  double contact_on = 50.0;               ///< [N] normal force to declare contact
-  double contact_off = 20.0;              ///< [N] to release it
+  double contact_on = 30.0;               ///< [N] normal ground force to declare contact
+  double contact_off = 5.0;              ///< [N] to release it
   // Momentum observer.
-  double cam_observer_gain = 20.0;        ///< [1/s]
+  double cam_observer_gain = 20.0;        ///< K_l [1/s]
   // Health.
-  double max_covariance = 1.0;            ///< trace of the position covariance beyond which it diverged
-  double max_accel_norm = 60.0;           ///< [m/s²] beyond this a reading is implausible
+  double initialisation_time = 0.2;       ///< [s] flagged as initialising while the filters converge
+  double max_position_std = 0.05;         ///< [m] beyond this the position filter has diverged
+  double max_accel = 100.0;               ///< [m/s²] specific force beyond this is implausible
+  double max_gyro = 30.0;                 ///< [rad/s]
   double max_ft_force = 5000.0;           ///< [N]
+  double joint_limit_margin = 0.2;        ///< [rad] a joint this far outside its URDF range is implausible
+
+  /// Reads and validates the `estimator` section (every key optional).
   static EstimatorConfig load(const Config& section);
 };
 
-/// One step's flags (robot_state_t::STATUS_* bits).
-enum StatusBits : int { kOk = 0, kSensorStale = 1, kNoContact = 2, kCovariance = 4, kImplausible = 8, kInitialising = 16 };
+/// The estimator's status bits, as robot_state_t::STATUS_*.
+enum StatusBits : std::int32_t {
+  kStatusOk = 0,
+  kStatusSensorStale = 1,
+  kStatusNoContact = 2,
+  kStatusCovariance = 4,
+  kStatusImplausible = 8,
+  kStatusInitialising = 16,
+};
+
+/// Steady-state gains of the α-β filter for period dt (from the discrete Riccati equation of the
+/// constant-velocity model with white acceleration noise `accel_noise` and position noise `pos_noise`).
+Eigen::Vector2d alpha_beta_gains(double dt, double accel_noise, double pos_noise);
 
 class Estimator {
  public:
   Estimator(const model::RobotSpec& robot, EstimatorConfig config);
 
-  /// Processes one sensor sample (dt from the previous one). Returns the estimated state.
-  const EstimatedState& update(const SensorSample& s);
-  /// Resets to uninitialised (the next sample initialises).
+  /// Processes one sensor sample. The first sample initialises; without a foot in contact the
+  /// orientation comes from the accelerometer and the world frame is placed again at the first
+  /// contact. A sample that fails the plausibility checks leaves the estimate untouched and is flagged.
+  const EstimatedState& update(const SensorSample& sample);
+  /// Forgets everything; the next sample initialises.
   void reset();
 
   [[nodiscard]] const EstimatedState& state() const { return state_; }
   [[nodiscard]] bool initialised() const { return initialised_; }
-  [[nodiscard]] const Eigen::Vector3d& gyro_bias() const { return bias_; }
+  [[nodiscard]] const EstimatorConfig& config() const { return config_; }
+  /// Estimated gyro bias [rad/s], IMU frame.
+  [[nodiscard]] const Eigen::Vector3d& gyro_bias() const { return b_; }
+  /// Why the last sample was refused ("" when it was not).
   [[nodiscard]] const std::string& implausible_reason() const { return implausible_; }
-  [[nodiscard]] double position_covariance_trace() const;
+  /// Standard deviation of the IMU position estimate [m] (largest axis).
+  [[nodiscard]] double position_std() const;
+  /// The α-β gains in use (α, β).
+  [[nodiscard]] const Eigen::Vector2d& joint_filter_gains() const { return ab_; }
 
  private:
+  bool plausible(const SensorSample& s);
   void initialise(const SensorSample& s);
   void update_joints(const SensorSample& s, double dt);
+  void leg_kinematics();
   void update_contacts(const SensorSample& s);
-  void attitude_predict(const Eigen::Vector3d& gyro, double dt);
-  void attitude_correct(const Eigen::Matrix3d& R_meas, double sigma, bool full);
-  void position_predict(const Eigen::Vector3d& a_W, double dt);
-  void position_correct();
-  void momentum_observer(double dt);
-  bool plausible(const SensorSample& s);
+  void attitude(const SensorSample& s, double dt);
+  void attitude_correct(const Eigen::Vector3d& r, double sigma, const Eigen::Matrix3d& H);
+  void position(const SensorSample& s, double dt);
+  void position_correct(int rows_at, const Eigen::Vector3d& residual, double sigma, bool velocity);
+  void output(const SensorSample& s, double dt);
 
   const model::RobotSpec* robot_;
   EstimatorConfig config_;
   model::Data data_;
   EstimatedState state_;
   bool initialised_ = false;
-  double last_time_ = 0.0;
-  // Joints.
-  Eigen::VectorXd q_, qd_;
-  // Attitude: R_WB, gyro bias, covariance of (δθ, δb).
-  Eigen::Matrix3d R_ = Eigen::Matrix3d::Identity();
-  Eigen::Vector3d bias_ = Eigen::Vector3d::Zero(), omega_W_ = Eigen::Vector3d::Zero();
-  Eigen::Matrix<double, 6, 6> P_att_;
-  std::array<Eigen::Matrix3d, 2> R_foot_hold_;  // sole orientation held since touchdown
-  // Position: x = (p, v, p_r, p_l), covariance.
-  Eigen::Matrix<double, 12, 1> x_;
-  Eigen::Matrix<double, 12, 12> P_;
-  // Contact and wrenches.
+  bool anchored_ = false;  // the world frame was placed with a foot in contact
+  double t0_ = 0.0, last_time_ = 0.0;
+  std::string implausible_;
+
+  // Joints: α-β filter.
+  Eigen::VectorXd qj_, qdj_;
+  Eigen::Vector2d ab_ = Eigen::Vector2d::Zero();
+  double ab_dt_ = 0.0;
+
+  // Leg kinematics with the base at the identity (base frame B), from the filtered joints.
+  Eigen::VectorXd q_local_, v_local_;
+  Eigen::Vector3d p_BI_ = Eigen::Vector3d::Zero(), v_BI_ = Eigen::Vector3d::Zero();  // IMU point
+  Eigen::Matrix3d R_BI_ = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d w_BI_ = Eigen::Vector3d::Zero();  // IMU body's angular velocity relative to B, in B
+  std::array<model::SE3, 2> X_BS_{};                 // soles
+  std::array<Eigen::Vector3d, 2> v_BS_{}, w_BS_{};   // their velocity and angular velocity relative to B, in B
+  std::array<model::SE3, 2> X_BF_{};                 // force/torque sensor frames
+  std::array<Eigen::Vector3d, 2> c_BF_{};            // centre of mass of the part below each sensor
+  std::array<double, 2> m_F_{};                      // its mass
+
+  // Contact.
   std::array<bool, 2> contact_{};
-  std::array<double, 2> foot_mass_{};
-  std::array<Eigen::Vector3d, 2> foot_com_B_{};  // CoM of the part below each sensor, in its body frame
+  std::array<Eigen::Matrix<double, 6, 1>, 2> wrench_W_{};  // ground on foot, world axes, at the sole centre
+  std::array<double, 2> fz_{};
+
+  // Attitude: R_WB, bias (IMU frame), covariance of (δθ (base frame), δb); yaw of each sole since touchdown.
+  Eigen::Matrix3d R_ = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d b_ = Eigen::Vector3d::Zero();
+  Eigen::Matrix<double, 6, 6> P_att_ = Eigen::Matrix<double, 6, 6>::Zero();
+  std::array<Eigen::Matrix3d, 2> R_WS_hold_{};
+  // Angular velocity of the base (base frame) and its variance per axis.
+  Eigen::Vector3d w_ = Eigen::Vector3d::Zero();
+  double P_w_ = 1.0;
+
+  // Position: x = (p_WI, v_WI, p_right, p_left), covariance.
+  Eigen::Matrix<double, 12, 1> x_ = Eigen::Matrix<double, 12, 1>::Zero();
+  Eigen::Matrix<double, 12, 12> P_ = Eigen::Matrix<double, 12, 12>::Zero();
+
   // Momentum observer.
   Eigen::Vector3d l_hat_ = Eigen::Vector3d::Zero();
-  std::string implausible_;
 };
 
 }  // namespace hpr::estimator

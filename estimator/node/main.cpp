@@ -1,0 +1,79 @@
+// estimator: floating-base state, CoM and measured CAM from the robot's sensors.
+//
+// Steps on every ROBOT_SENSORS sample and publishes ROBOT_STATE for the same tick. When the samples
+// stop for longer than `estimator.sensor_timeout` (wall clock), it republishes the last state
+// flagged STATUS_SENSOR_STALE at that period and reports the dropout in HEALTH: a dropout is never
+// silently held.
+#include <humanoid/robot_sensors_t.hpp>
+#include <humanoid/robot_state_t.hpp>
+
+#include "hpr/common/log.hpp"
+#include "hpr/common/time.hpp"
+#include "hpr/estimator/estimator.hpp"
+#include "hpr/msg/robot_io.hpp"
+#include "hpr/msg/state.hpp"
+#include "hpr/node/command_line.hpp"
+#include "hpr/node/runtime.hpp"
+
+int main(int argc, char** argv) {
+  using namespace hpr;
+  return node::run_main(
+      argc, argv, "estimator", "floating-base state estimator",
+      [](const node::CommandLine& cl, const Config& cfg) {
+        const auto robot = model::RobotSpec::load(cfg.section("robot"));
+        const Config section = cfg.section("estimator");
+        estimator::Estimator est(robot, estimator::EstimatorConfig::load(section));
+        const double sensor_timeout = section.real_or("sensor_timeout", 0.02, 1e-3, 60.0);
+        node::Runtime rt(cl.name, node::lcm_url(cl, cfg), node::runtime_options(cfg, 1e-3));
+        msg::RobotNames names;
+        names.joints = robot.model.joint_name;
+        SensorSample sample;
+        sample.resize(robot.model.nj);
+        auto& sensors = rt.subscribe<humanoid::robot_sensors_t>(
+            "ROBOT_SENSORS", [&](const humanoid::robot_sensors_t& m) { return msg::from_message(m, names, sample); });
+        auto out = rt.advertise<humanoid::robot_state_t>("ROBOT_STATE");
+        humanoid::robot_state_t state_msg{};
+        bool stale = false;
+        std::string last_reason;
+        rt.on_tick(sensors, {}, 0.0, [&](const node::TickInfo&) {
+          const EstimatedState& s = est.update(sample);
+          if (stale) {
+            log::info("ROBOT_SENSORS back at tick {}", sample.tick);
+            stale = false;
+            rt.clear_fault("sensors");
+          }
+          if (!est.implausible_reason().empty()) {
+            if (est.implausible_reason() != last_reason) log::warn("sample {} refused: {}", sample.tick, est.implausible_reason());
+            rt.set_fault("implausible", est.implausible_reason());
+          } else {
+            rt.clear_fault("implausible");
+          }
+          last_reason = est.implausible_reason();
+          if ((s.status & estimator::kStatusCovariance) != 0) {
+            rt.set_fault("covariance", fmt::format("position standard deviation {:.3f} m", est.position_std()));
+          } else {
+            rt.clear_fault("covariance");
+          }
+          if ((s.status & estimator::kStatusNoContact) != 0 && (s.status & estimator::kStatusInitialising) == 0) {
+            rt.set_fault("contact", "no foot in contact");
+          } else {
+            rt.clear_fault("contact");
+          }
+          msg::to_message(s, names, state_msg);
+          out.publish(state_msg);
+        });
+        rt.every(sensor_timeout, [&] {
+          if (!sensors.has_value()) return;
+          const double age = monotonic_s() - sensors.receive_time();
+          if (age <= sensor_timeout) return;
+          if (!stale) log::warn("ROBOT_SENSORS stale since tick {}", sensors.tick());
+          stale = true;
+          rt.set_fault("sensors", fmt::format("no ROBOT_SENSORS for {:.0f} ms", age * 1e3));
+          EstimatedState s = est.state();
+          s.status |= estimator::kStatusSensorStale;
+          msg::to_message(s, names, state_msg);
+          out.publish(state_msg);
+        });
+        return rt.run();
+      });
+}

@@ -1,0 +1,495 @@
+#include "hpr/estimator/estimator.hpp"
+
+#include <fmt/format.h>
+
+#include <cmath>
+
+namespace hpr::estimator {
+
+using Eigen::Matrix3d;
+using Eigen::Vector3d;
+using model::SE3;
+using Vector6d = Eigen::Matrix<double, 6, 1>;
+
+namespace {
+
+constexpr int kRight = 0, kLeft = 1;
+const Vector3d kZ = Vector3d::UnitZ();
+
+/// The rotation with the yaw of R and no roll or pitch (heading of the x axis projected on the ground).
+Matrix3d level(const Matrix3d& R) {
+  const double yaw = std::atan2(R(1, 0), R(0, 0));
+  return Eigen::AngleAxisd(yaw, kZ).toRotationMatrix();
+}
+
+double yaw_of(const Matrix3d& R) { return std::atan2(R(1, 0), R(0, 0)); }
+
+}  // namespace
+
+EstimatorConfig EstimatorConfig::load(const Config& c) {
+  c.reject_unknown({"sensor_timeout", "joint_accel_noise", "encoder_noise", "filter_joints", "gyro_noise", "gyro_bias_walk",
+                    "gyro_bias_initial", "angular_accel_noise", "kinematic_orientation_noise", "kinematic_rate_noise",
+                    "accel_orientation_noise", "level_ground", "accel_noise", "foot_contact_noise", "foot_swing_noise",
+                    "kinematic_position_noise", "kinematic_velocity_noise", "contact_on", "contact_off",
+                    "cam_observer_gain", "initialisation_time", "max_position_std", "max_accel", "max_gyro",
+                    "max_ft_force", "joint_limit_margin"});
+  EstimatorConfig e;
+  e.joint_accel_noise = c.real_or("joint_accel_noise", e.joint_accel_noise, 1e-3, 1e6);
+  e.encoder_noise = c.real_or("encoder_noise", e.encoder_noise, 1e-9, 0.1);
+  e.filter_joints = c.boolean_or("filter_joints", e.filter_joints);
+  e.gyro_noise = c.real_or("gyro_noise", e.gyro_noise, 1e-6, 1.0);
+  e.gyro_bias_walk = c.real_or("gyro_bias_walk", e.gyro_bias_walk, 0.0, 1.0);
+  e.gyro_bias_initial = c.real_or("gyro_bias_initial", e.gyro_bias_initial, 1e-6, 1.0);
+  e.angular_accel_noise = c.real_or("angular_accel_noise", e.angular_accel_noise, 1e-3, 1e5);
+  e.kinematic_orientation_noise = c.real_or("kinematic_orientation_noise", e.kinematic_orientation_noise, 1e-6, 1.0);
+  e.kinematic_rate_noise = c.real_or("kinematic_rate_noise", e.kinematic_rate_noise, 1e-6, 10.0);
+  e.accel_orientation_noise = c.real_or("accel_orientation_noise", e.accel_orientation_noise, 1e-4, 10.0);
+  e.level_ground = c.boolean_or("level_ground", e.level_ground);
+  e.accel_noise = c.real_or("accel_noise", e.accel_noise, 1e-6, 100.0);
+  e.foot_contact_noise = c.real_or("foot_contact_noise", e.foot_contact_noise, 1e-8, 1.0);
+  e.foot_swing_noise = c.real_or("foot_swing_noise", e.foot_swing_noise, 1e-4, 100.0);
+  e.kinematic_position_noise = c.real_or("kinematic_position_noise", e.kinematic_position_noise, 1e-6, 1.0);
+  e.kinematic_velocity_noise = c.real_or("kinematic_velocity_noise", e.kinematic_velocity_noise, 1e-6, 10.0);
+  e.contact_on = c.real_or("contact_on", e.contact_on, 0.0, 1e4);
+  e.contact_off = c.real_or("contact_off", e.contact_off, 0.0, 1e4);
+  if (e.contact_off > e.contact_on) {
+    c.fail("contact_off", fmt::format("must not exceed contact_on ({} N)", e.contact_on));
+  }
+  e.cam_observer_gain = c.real_or("cam_observer_gain", e.cam_observer_gain, 0.1, 1e4);
+  e.initialisation_time = c.real_or("initialisation_time", e.initialisation_time, 0.0, 60.0);
+  e.max_position_std = c.real_or("max_position_std", e.max_position_std, 1e-4, 100.0);
+  e.max_accel = c.real_or("max_accel", e.max_accel, 1.0, 1e4);
+  e.max_gyro = c.real_or("max_gyro", e.max_gyro, 0.1, 1e4);
+  e.max_ft_force = c.real_or("max_ft_force", e.max_ft_force, 1.0, 1e6);
+  e.joint_limit_margin = c.real_or("joint_limit_margin", e.joint_limit_margin, 0.0, 10.0);
+  return e;
+}
+
+Eigen::Vector2d alpha_beta_gains(double dt, double accel_noise, double pos_noise) {
+  // Constant-velocity model, white acceleration of density σ_a: Q = σ_a² [dt³/3 dt²/2; dt²/2 dt].
+  Eigen::Matrix2d F;
+  F << 1.0, dt, 0.0, 1.0;
+  const double qa = accel_noise * accel_noise;
+  Eigen::Matrix2d Q;
+  Q << qa * dt * dt * dt / 3.0, qa * dt * dt / 2.0, qa * dt * dt / 2.0, qa * dt;
+  const double R = pos_noise * pos_noise;
+  Eigen::Matrix2d P = Q * 10.0 + Eigen::Matrix2d::Identity() * R;
+  Eigen::Vector2d K = Eigen::Vector2d::Zero();
+  for (int it = 0; it < 100000; ++it) {
+    const Eigen::Matrix2d Pp = F * P * F.transpose() + Q;
+    const Eigen::Vector2d Kn = Pp.col(0) / (Pp(0, 0) + R);
+    P = Pp - Kn * Pp.row(0);
+    const bool done = (Kn - K).cwiseAbs().maxCoeff() < 1e-14;
+    K = Kn;
+    if (done) break;
+  }
+  return {K(0), K(1) * dt};  // α, β (β scaled so that q̇ += β r / dt)
+}
+
+Estimator::Estimator(const model::RobotSpec& robot, EstimatorConfig config)
+    : robot_(&robot), config_(config), data_(robot.model) {
+  const model::Model& m = robot.model;
+  q_local_ = m.neutral();
+  v_local_ = Eigen::VectorXd::Zero(m.nv);
+  qj_ = qdj_ = Eigen::VectorXd::Zero(m.nj);
+  state_.q = m.neutral();
+  state_.v = Eigen::VectorXd::Zero(m.nv);
+  state_.tau = Eigen::VectorXd::Zero(m.nj);
+  state_.status = kStatusInitialising;
+  for (auto& w : wrench_W_) w.setZero();
+  for (auto& R : R_WS_hold_) R.setIdentity();
+}
+
+void Estimator::reset() {
+  initialised_ = false;
+  anchored_ = false;
+  state_.status = kStatusInitialising;
+  contact_ = {};
+  implausible_.clear();
+}
+
+double Estimator::position_std() const { return std::sqrt(P_.diagonal().head<3>().maxCoeff()); }
+
+bool Estimator::plausible(const SensorSample& s) {
+  const model::Model& m = robot_->model;
+  implausible_.clear();
+  if (s.q.size() != m.nj || s.qd.size() != m.nj || s.tau.size() != m.nj) {
+    implausible_ = fmt::format("joint arrays of size {}/{}/{}, the model has {} joints", s.q.size(), s.qd.size(),
+                               s.tau.size(), m.nj);
+    return false;
+  }
+  if (!std::isfinite(s.time)) implausible_ = "non-finite time";
+  for (int j = 0; j < m.nj && implausible_.empty(); ++j) {
+    const auto ju = static_cast<size_t>(j);
+    if (!std::isfinite(s.q(j)) || !std::isfinite(s.qd(j)) || !std::isfinite(s.tau(j))) {
+      implausible_ = fmt::format("joint '{}': non-finite reading", m.joint_name[ju]);
+    } else if (s.q(j) < m.q_lower[ju] - config_.joint_limit_margin || s.q(j) > m.q_upper[ju] + config_.joint_limit_margin) {
+      implausible_ = fmt::format("joint '{}': position {:.3f} rad outside [{:.3f}, {:.3f}]", m.joint_name[ju], s.q(j),
+                                 m.q_lower[ju], m.q_upper[ju]);
+    }
+  }
+  if (implausible_.empty()) {
+    if (!s.imu_gyro_B.allFinite() || !s.imu_accel_B.allFinite()) {
+      implausible_ = "IMU: non-finite reading";
+    } else if (s.imu_accel_B.norm() > config_.max_accel) {
+      implausible_ = fmt::format("IMU: specific force {:.1f} m/s² above {:.1f}", s.imu_accel_B.norm(), config_.max_accel);
+    } else if (s.imu_gyro_B.norm() > config_.max_gyro) {
+      implausible_ = fmt::format("IMU: angular rate {:.1f} rad/s above {:.1f}", s.imu_gyro_B.norm(), config_.max_gyro);
+    }
+  }
+  for (int k = 0; k < 2 && implausible_.empty(); ++k) {
+    const auto& w = s.ft_wrench_S[static_cast<size_t>(k)];
+    if (!w.allFinite()) {
+      implausible_ = fmt::format("{} force/torque sensor: non-finite reading", k == kRight ? "right" : "left");
+    } else if (w.head<3>().norm() > config_.max_ft_force) {
+      implausible_ = fmt::format("{} force/torque sensor: force {:.0f} N above {:.0f}", k == kRight ? "right" : "left",
+                                 w.head<3>().norm(), config_.max_ft_force);
+    }
+  }
+  if (implausible_.empty() && initialised_ && !(s.time > last_time_)) {
+    implausible_ = fmt::format("time {:.6f} s does not advance (last {:.6f} s)", s.time, last_time_);
+  }
+  return implausible_.empty();
+}
+
+const EstimatedState& Estimator::update(const SensorSample& s) {
+  if (!plausible(s)) {
+    state_.status |= kStatusImplausible;
+    return state_;
+  }
+  if (!initialised_) {
+    initialise(s);
+    output(s, 0.0);
+    return state_;
+  }
+  const double dt = s.time - last_time_;
+  last_time_ = s.time;
+  update_joints(s, dt);
+  leg_kinematics();
+  update_contacts(s);
+  if (!anchored_ && (contact_[kRight] || contact_[kLeft])) {
+    // First contact after an initialisation in the air: place the world frame now.
+    const double t0 = t0_;
+    initialise(s);
+    t0_ = t0;
+    output(s, 0.0);
+    return state_;
+  }
+  attitude(s, dt);
+  position(s, dt);
+  output(s, dt);
+  return state_;
+}
+
+void Estimator::update_joints(const SensorSample& s, double dt) {
+  if (!config_.filter_joints) {
+    qj_ = s.q;
+    qdj_ = s.qd;
+    return;
+  }
+  if (std::abs(dt - ab_dt_) > 0.01 * ab_dt_) {
+    ab_ = alpha_beta_gains(dt, config_.joint_accel_noise, config_.encoder_noise);
+    ab_dt_ = dt;
+  }
+  for (int j = 0; j < qj_.size(); ++j) {
+    const double pred = qj_(j) + qdj_(j) * dt;
+    const double r = s.q(j) - pred;
+    qj_(j) = pred + ab_(0) * r;
+    qdj_(j) += ab_(1) * r / dt;
+  }
+}
+
+void Estimator::leg_kinematics() {
+  const model::Model& m = robot_->model;
+  q_local_.tail(m.nj) = qj_;
+  v_local_.tail(m.nj) = qdj_;
+  model::forward_kinematics(m, data_, q_local_, v_local_);
+  const int imu = robot_->imu_frame;
+  const SE3& X_BI = model::update_frame_placement(m, data_, imu);
+  p_BI_ = X_BI.p;
+  R_BI_ = X_BI.R;
+  const Vector6d vi = model::frame_velocity(m, data_, imu, model::ReferenceFrame::kLocalWorldAligned);
+  v_BI_ = vi.head<3>();
+  w_BI_ = vi.tail<3>();
+  for (int k = 0; k < 2; ++k) {
+    const auto ku = static_cast<size_t>(k);
+    const model::FootSpec& foot = robot_->feet[ku];
+    X_BS_[ku] = model::update_frame_placement(m, data_, foot.sole_frame);
+    const Vector6d vs = model::frame_velocity(m, data_, foot.sole_frame, model::ReferenceFrame::kLocalWorldAligned);
+    v_BS_[ku] = vs.head<3>();
+    w_BS_[ku] = vs.tail<3>();
+    X_BF_[ku] = model::update_frame_placement(m, data_, foot.ft_frame);
+    // The part below the sensor: the sensor's body and its subtree.
+    const int fb = m.frames[static_cast<size_t>(foot.ft_frame)].body;
+    double mass = 0.0;
+    Vector3d moment = Vector3d::Zero();
+    for (int b = fb; b < fb + m.subtree_size[static_cast<size_t>(fb)]; ++b) {
+      mass += data_.Iw[static_cast<size_t>(b)].m;
+      moment += data_.Iw[static_cast<size_t>(b)].h;
+    }
+    m_F_[ku] = mass;
+    c_BF_[ku] = mass > 0 ? Vector3d(moment / mass) : X_BF_[ku].p;
+  }
+}
+
+void Estimator::update_contacts(const SensorSample& s) {
+  const Vector3d g = robot_->model.gravity;
+  for (int k = 0; k < 2; ++k) {
+    const auto ku = static_cast<size_t>(k);
+    const Matrix3d R_WF = R_ * X_BF_[ku].R;
+    const Vector6d& w_S = s.ft_wrench_S[ku];
+    // The sensor reads (foot on leg) = ground wrench + the foot's weight − its momentum rate; the
+    // last term is neglected (a foot in contact is at rest).
+    const Vector3d f_W = R_WF * w_S.head<3>();
+    const Vector3d tau_F = R_WF * w_S.tail<3>();
+    const Vector3d weight = m_F_[ku] * g;
+    const Vector3d f_ground = f_W - weight;
+    const Vector3d tau_ground_F = tau_F - (R_ * (c_BF_[ku] - X_BF_[ku].p)).cross(weight);
+    // Moved to the sole centre.
+    const Vector3d r_SF = R_ * (X_BF_[ku].p - X_BS_[ku].p);
+    wrench_W_[ku].head<3>() = f_ground;
+    wrench_W_[ku].tail<3>() = tau_ground_F + r_SF.cross(f_ground);
+    fz_[ku] = f_ground.z();
+    const bool was = contact_[ku];
+    contact_[ku] = was ? fz_[ku] > config_.contact_off : fz_[ku] > config_.contact_on;
+    if (contact_[ku] && !was) {
+      // Touchdown: hold the sole's heading (and, on uneven ground, its tilt) from now on, and start
+      // its position in the filter from the leg kinematics.
+      const Matrix3d R_WS = R_ * X_BS_[ku].R;
+      R_WS_hold_[ku] = config_.level_ground ? level(R_WS) : R_WS;
+      const int i = 6 + 3 * k;
+      const Vector3d d = R_ * (X_BS_[ku].p - p_BI_);
+      x_.segment<3>(i) = x_.head<3>() + d;
+      P_.middleRows<3>(i) = P_.topRows<3>();
+      P_.middleCols<3>(i) = P_.leftCols<3>();
+      P_.block<3, 3>(i, i) = P_.topLeftCorner<3, 3>() + Matrix3d::Identity() * std::pow(config_.kinematic_position_noise, 2);
+    }
+  }
+}
+
+void Estimator::initialise(const SensorSample& s) {
+  const model::Model& m = robot_->model;
+  qj_ = s.q;
+  qdj_ = config_.filter_joints ? Eigen::VectorXd::Zero(m.nj) : s.qd;
+  leg_kinematics();
+  // Heading from the IMU's own orientation output when it is a unit quaternion, else zero.
+  const Eigen::Vector4d& qi = s.imu_quat_WB;
+  double yaw = 0.0;
+  if (qi.allFinite() && std::abs(qi.norm() - 1.0) < 0.05) {
+    const Eigen::Quaterniond quat(qi(0), qi(1), qi(2), qi(3));
+    yaw = yaw_of(quat.normalized().toRotationMatrix() * R_BI_.transpose());
+  }
+  // Roll and pitch: the soles flat (feet loaded), else the accelerometer's gravity direction.
+  R_.setIdentity();
+  contact_[kRight] = s.ft_wrench_S[kRight].head<3>().norm() > config_.contact_on;
+  contact_[kLeft] = s.ft_wrench_S[kLeft].head<3>().norm() > config_.contact_on;
+  Matrix3d R0;
+  if (contact_[kRight] || contact_[kLeft]) {
+    const Matrix3d Rr = X_BS_[kRight].R.transpose(), Rl = X_BS_[kLeft].R.transpose();
+    if (contact_[kRight] && contact_[kLeft]) {
+      R0 = Rr * model::exp3(0.5 * model::log3(Rr.transpose() * Rl));
+    } else {
+      R0 = contact_[kRight] ? Rr : Rl;
+    }
+  } else {
+    const Vector3d u = (R_BI_ * s.imu_accel_B).normalized();  // gravity's "up" in B
+    const Eigen::Quaterniond tilt = Eigen::Quaterniond::FromTwoVectors(u, kZ);
+    R0 = tilt.toRotationMatrix();
+  }
+  R_ = Eigen::AngleAxisd(yaw - yaw_of(R0), kZ).toRotationMatrix() * R0;
+  b_.setZero();
+  P_att_.setZero();
+  P_att_.topLeftCorner<3, 3>() = Matrix3d::Identity() * std::pow(0.01, 2);
+  P_att_.bottomRightCorner<3, 3>() = Matrix3d::Identity() * std::pow(config_.gyro_bias_initial, 2);
+  // Contacts with the orientation known; then position: the soles in contact (both when none) on the
+  // ground, centred on the origin.
+  contact_ = {};
+  update_contacts(s);
+  const bool any = contact_[kRight] || contact_[kLeft];
+  anchored_ = any;
+  Vector3d mid = Vector3d::Zero();
+  int n = 0;
+  for (int k = 0; k < 2; ++k) {
+    if (!any || contact_[static_cast<size_t>(k)]) {
+      mid += R_ * X_BS_[static_cast<size_t>(k)].p;
+      ++n;
+    }
+  }
+  const Vector3d p_WB = -mid / n;
+  x_.setZero();
+  x_.head<3>() = p_WB + R_ * p_BI_;
+  for (int k = 0; k < 2; ++k) {
+    const auto ku = static_cast<size_t>(k);
+    x_.segment<3>(6 + 3 * k) = p_WB + R_ * X_BS_[ku].p;
+    R_WS_hold_[ku] = config_.level_ground ? level(R_ * X_BS_[ku].R) : Matrix3d(R_ * X_BS_[ku].R);
+  }
+  P_.setZero();
+  P_.diagonal().segment<3>(0).setConstant(1e-6);
+  P_.diagonal().segment<3>(3).setConstant(0.01);
+  P_.diagonal().segment<6>(6).setConstant(1e-6);
+  for (int k = 0; k < 2; ++k) P_.block<3, 3>(0, 6 + 3 * k) = P_.block<3, 3>(6 + 3 * k, 0) = Matrix3d::Identity() * 1e-6;
+  P_.block<3, 3>(6, 9) = P_.block<3, 3>(9, 6) = Matrix3d::Identity() * 1e-6;
+  P_.diagonal().segment<6>(6).array() += std::pow(config_.kinematic_position_noise, 2);
+  w_ = R_BI_ * s.imu_gyro_B;
+  P_w_ = std::pow(config_.gyro_bias_initial, 2);
+  initialised_ = true;
+  t0_ = last_time_ = s.time;
+  l_hat_.setZero();  // set from the kinematic momentum in output()
+}
+
+void Estimator::attitude_correct(const Vector3d& r, double sigma, const Matrix3d& H) {
+  // δ = K r on the error state (δθ, δb) with measurement Jacobian [H 0].
+  Eigen::Matrix<double, 6, 3> PHt = P_att_.leftCols<3>() * H.transpose();
+  const Matrix3d S = H * PHt.topRows<3>() + Matrix3d::Identity() * sigma * sigma;
+  const Eigen::Matrix<double, 6, 3> K = PHt * S.inverse();
+  const Vector6d delta = K * r;
+  R_ = R_ * model::exp3(delta.head<3>());
+  b_ += delta.tail<3>();
+  Eigen::Matrix<double, 6, 6> IKH = Eigen::Matrix<double, 6, 6>::Identity();
+  IKH.leftCols<3>() -= K * H;
+  P_att_ = IKH * P_att_ * IKH.transpose() + K * (sigma * sigma) * K.transpose();
+}
+
+void Estimator::attitude(const SensorSample& s, double dt) {
+  // Prediction with the gyro: R ← R exp((R_BI (ω_m − b̂) − ω_rel) dt); the right-invariant error δθ
+  // (base frame) follows δθ̇ = −[ω]× δθ − R_BI δb − R_BI n_g.
+  const Vector3d w_gyro = R_BI_ * (s.imu_gyro_B - b_) - w_BI_;
+  R_ = R_ * model::exp3(w_gyro * dt);
+  Eigen::Matrix<double, 6, 6> F = Eigen::Matrix<double, 6, 6>::Identity();
+  F.topLeftCorner<3, 3>() = model::exp3(-w_gyro * dt);
+  F.topRightCorner<3, 3>() = -R_BI_ * dt;
+  P_att_ = F * P_att_ * F.transpose();
+  P_att_.topLeftCorner<3, 3>().diagonal().array() += config_.gyro_noise * config_.gyro_noise * dt;
+  P_att_.bottomRightCorner<3, 3>().diagonal().array() += config_.gyro_bias_walk * config_.gyro_bias_walk * dt;
+  // Corrections: each sole in contact gives R_WB = R_WS,hold R_BSᵀ(q).
+  bool any = false;
+  for (int k = 0; k < 2; ++k) {
+    const auto ku = static_cast<size_t>(k);
+    if (!contact_[ku]) continue;
+    any = true;
+    const Matrix3d R_meas = R_WS_hold_[ku] * X_BS_[ku].R.transpose();
+    attitude_correct(model::log3(R_.transpose() * R_meas), config_.kinematic_orientation_noise, Matrix3d::Identity());
+  }
+  // Without contact, the accelerometer's gravity direction when it reads about 1 g.
+  const Vector3d f_B = R_BI_ * s.imu_accel_B;
+  const double gn = robot_->model.gravity.norm();
+  if (!any && std::abs(f_B.norm() - gn) < 0.1 * gn) {
+    const Vector3d u = R_.transpose() * kZ;
+    attitude_correct(f_B.normalized() - u, config_.accel_orientation_noise, model::skew(u));
+  }
+  // Angular velocity of the base: gyro and, for each sole in contact, ω_B = −ω_S,rel.
+  P_w_ += config_.angular_accel_noise * config_.angular_accel_noise * dt;
+  const double r_gyro = config_.gyro_noise * config_.gyro_noise / dt + P_att_.bottomRightCorner<3, 3>().trace() / 3.0;
+  double K = P_w_ / (P_w_ + r_gyro);
+  w_ += K * (R_BI_ * (s.imu_gyro_B - b_) - w_BI_ - w_);
+  P_w_ *= 1.0 - K;
+  for (int k = 0; k < 2; ++k) {
+    const auto ku = static_cast<size_t>(k);
+    if (!contact_[ku]) continue;
+    K = P_w_ / (P_w_ + config_.kinematic_rate_noise * config_.kinematic_rate_noise);
+    w_ += K * (-w_BS_[ku] - w_);
+    P_w_ *= 1.0 - K;
+  }
+}
+
+void Estimator::position_correct(int at, const Vector3d& residual, double sigma, bool velocity) {
+  // Measurement H x with H = [−I at p, +I at the foot] (position) or [I at v] (velocity).
+  Eigen::Matrix<double, 12, 3> PHt;
+  Matrix3d HPHt;
+  if (velocity) {
+    PHt = P_.middleCols<3>(3);
+    HPHt = P_.block<3, 3>(3, 3);
+  } else {
+    PHt = P_.middleCols<3>(at) - P_.leftCols<3>();
+    HPHt = PHt.middleRows<3>(at) - PHt.topRows<3>();
+  }
+  const Matrix3d S = HPHt + Matrix3d::Identity() * sigma * sigma;
+  const Eigen::Matrix<double, 12, 3> K = PHt * S.inverse();
+  x_ += K * residual;
+  P_ -= K * PHt.transpose();
+  P_ = 0.5 * (P_ + P_.transpose()).eval();
+}
+
+void Estimator::position(const SensorSample& s, double dt) {
+  const Vector3d g = robot_->model.gravity;
+  // Prediction with the IMU's acceleration a_I = R_WI f_I + g.
+  const Vector3d a = R_ * R_BI_ * s.imu_accel_B + g;
+  x_.head<3>() += x_.segment<3>(3) * dt + 0.5 * a * dt * dt;
+  x_.segment<3>(3) += a * dt;
+  Eigen::Matrix<double, 12, 12> F = Eigen::Matrix<double, 12, 12>::Identity();
+  F.block<3, 3>(0, 3) = Matrix3d::Identity() * dt;
+  P_ = F * P_ * F.transpose();
+  const double qa = config_.accel_noise * config_.accel_noise;
+  for (int i = 0; i < 3; ++i) {
+    P_(i, i) += qa * dt * dt * dt / 3.0;
+    P_(i, 3 + i) += qa * dt * dt / 2.0;
+    P_(3 + i, i) += qa * dt * dt / 2.0;
+    P_(3 + i, 3 + i) += qa * dt;
+  }
+  for (int k = 0; k < 2; ++k) {
+    const double sf = contact_[static_cast<size_t>(k)] ? config_.foot_contact_noise : config_.foot_swing_noise;
+    P_.block<3, 3>(6 + 3 * k, 6 + 3 * k).diagonal().array() += sf * sf * dt;
+  }
+  // Corrections from each sole in contact: its position relative to the IMU point, and the IMU
+  // point's velocity with the sole at rest: v_I = −R (ω × d + ḋ), d = p_BS − p_BI.
+  for (int k = 0; k < 2; ++k) {
+    const auto ku = static_cast<size_t>(k);
+    const int i = 6 + 3 * k;
+    const Vector3d d = X_BS_[ku].p - p_BI_;
+    if (!contact_[ku]) {
+      x_.segment<3>(i) = x_.head<3>() + R_ * d;  // a swinging sole follows the leg
+      continue;
+    }
+    const Vector3d r_pos = R_ * d - (x_.segment<3>(i) - x_.head<3>());
+    position_correct(i, r_pos, config_.kinematic_position_noise, false);
+    const Vector3d v_meas = -R_ * (w_.cross(d) + v_BS_[ku] - v_BI_);
+    position_correct(3, v_meas - x_.segment<3>(3), config_.kinematic_velocity_noise, true);
+  }
+}
+
+void Estimator::output(const SensorSample& s, double dt) {
+  const model::Model& m = robot_->model;
+  EstimatedState& st = state_;
+  st.tick = s.tick;
+  st.time = s.time;
+  const Vector3d p_WB = x_.head<3>() - R_ * p_BI_;
+  const Vector3d v_WB = x_.segment<3>(3) - R_ * (w_.cross(p_BI_) + v_BI_);
+  st.q.head<3>() = p_WB;
+  const Eigen::Quaterniond quat(R_);
+  st.q.segment<4>(3) = quat.normalized().coeffs();
+  st.q.tail(m.nj) = qj_;
+  st.v.head<3>() = R_.transpose() * v_WB;
+  st.v.segment<3>(3) = w_;
+  st.v.tail(m.nj) = qdj_;
+  st.tau = s.tau;
+  model::ccrba(m, data_, st.q, st.v);
+  st.p_com = data_.com;
+  st.v_com = data_.vcom;
+  const Vector3d l_kin = data_.hg.tail<3>();
+  // Momentum observer (see the file comment): contact moments about the CoM.
+  Vector3d tau_c = Vector3d::Zero();
+  for (int k = 0; k < 2; ++k) {
+    const auto ku = static_cast<size_t>(k);
+    st.contact[ku] = contact_[ku];
+    st.foot_force_z[ku] = fz_[ku];
+    st.foot_wrench_W[ku] = wrench_W_[ku];
+    if (!contact_[ku]) continue;
+    const Vector3d p_S = p_WB + R_ * X_BS_[ku].p;
+    tau_c += wrench_W_[ku].tail<3>() + (p_S - data_.com).cross(wrench_W_[ku].head<3>());
+  }
+  if (dt <= 0.0) {
+    l_hat_ = l_kin;
+    st.ldot_com.setZero();
+  } else {
+    st.ldot_com = tau_c + config_.cam_observer_gain * (l_kin - l_hat_);
+    l_hat_ += st.ldot_com * dt;
+  }
+  st.l_com = l_hat_;
+  std::int32_t status = kStatusOk;
+  if (!contact_[kRight] && !contact_[kLeft]) status |= kStatusNoContact;
+  if (position_std() > config_.max_position_std || !x_.allFinite() || !R_.allFinite()) status |= kStatusCovariance;
+  if (s.time - t0_ < config_.initialisation_time) status |= kStatusInitialising;
+  st.status = status;
+}
+
+}  // namespace hpr::estimator

@@ -1,0 +1,219 @@
+// The estimator against the simulator's truth, with the sensor noise of a real robot switched on
+// (gyro white noise 0.005 rad/s/√Hz with a random-walk bias, accelerometer noise 0.05 m/s²/√Hz,
+// 16-bit encoders, 1 N force/torque noise), and the closed loop estimator → wbc → simulator.
+#include <gtest/gtest.h>
+
+#include <fmt/format.h>
+
+#include <cstdio>
+
+#include "closed_loop.hpp"
+
+namespace {
+
+using Eigen::Vector3d;
+using hpr::test::ClosedLoop;
+using hpr::test::ClosedLoopOptions;
+
+const std::vector<std::string> kNoise = {
+    "sim.noise.enabled=true",         "sim.noise.gyro_noise_density=0.005", "sim.noise.gyro_bias_random_walk=0.0001",
+    "sim.noise.gyro_bias_initial=0.005", "sim.noise.accel_noise_density=0.05", "sim.noise.encoder_bits=16",
+    "sim.noise.ft_force_noise=1.0"};
+
+double angle_between(const Eigen::Vector4d& wxyz, const Eigen::VectorXd& q) {
+  const Eigen::Quaterniond a(wxyz(0), wxyz(1), wxyz(2), wxyz(3));
+  const Eigen::Quaterniond b(q(6), q(3), q(4), q(5));
+  return a.angularDistance(b);
+}
+
+/// Error statistics of one run.
+struct Errors {
+  double com_drift = 0, orientation = 0, com_vel_sq = 0, cam_sq = 0, cam_peak = 0;
+  long n = 0;
+};
+
+TEST(EstimatorAccuracy, Standing30sDriftAndOrientation) {
+  ClosedLoop loop("toro", kNoise, ClosedLoopOptions{.run_estimator = true});
+  const auto& est = *loop.estimator;
+  Vector3d e0 = Vector3d::Zero();
+  bool have_e0 = false;
+  Errors e;
+  loop.run(30.0, [&] {
+    const auto& t = loop.sim.truth();
+    const auto& s = est.state();
+    if (t.time < est.config().initialisation_time) return;
+    const Vector3d err = s.p_com - t.p_WCom;
+    if (!have_e0) {
+      e0 = err;
+      have_e0 = true;
+    }
+    e.com_drift = std::max(e.com_drift, (err - e0).norm());
+    e.orientation = std::max(e.orientation, angle_between(t.quat_WB, s.q));
+  });
+  std::printf("standing 30 s: CoM drift %.2f mm (initial offset %.2f mm), orientation error max %.3f deg, bias %s\n",
+              e.com_drift * 1e3, e0.norm() * 1e3, e.orientation * 180 / M_PI,
+              fmt::format("{:.4f} {:.4f} {:.4f}", est.gyro_bias().x(), est.gyro_bias().y(), est.gyro_bias().z()).c_str());
+  EXPECT_FALSE(loop.sim.truth().fallen);
+  EXPECT_LT(e.com_drift, 5e-3);
+  EXPECT_LT(e0.norm(), 5e-3) << "the world frame at initialisation matches the simulator's";
+  EXPECT_LT(e.orientation, 0.5 * M_PI / 180);
+}
+
+TEST(EstimatorAccuracy, During18NsPush) {
+  ClosedLoop loop("toro", kNoise, ClosedLoopOptions{.cam = true, .estimator_in_loop = true});
+  const double t_push = 2.0, impulse = 18.0, peak = 65.0;
+  loop.push_base(impulse, peak, Vector3d::UnitX(), t_push);
+  const double t_end = t_push + impulse / peak * M_PI / 2.0 + 1.0;
+  const auto& est = *loop.estimator;
+  Errors e;
+  double vcom_peak = 0, min_force = 1e9;
+  int switches = 0;
+  std::array<bool, 2> contact{true, true};
+  loop.run(t_end + 0.5, [&] {
+    const auto& t = loop.sim.truth();
+    const auto& s = est.state();
+    for (size_t k = 0; k < 2; ++k) {
+      switches += s.contact[k] != contact[k] ? 1 : 0;
+      contact[k] = s.contact[k];
+      min_force = std::min(min_force, t.contact_wrench_W[k](2));
+    }
+    if (t.time < t_push || t.time > t_end) return;
+    e.com_vel_sq += (s.v_com - t.v_WCom).squaredNorm();
+    e.cam_sq += (s.l_com - t.l_WCom).squaredNorm();
+    e.cam_peak = std::max(e.cam_peak, t.l_WCom.norm());
+    vcom_peak = std::max(vcom_peak, t.v_WCom.norm());
+    ++e.n;
+  });
+  const double vel_rms = std::sqrt(e.com_vel_sq / static_cast<double>(e.n));
+  const double cam_rms = std::sqrt(e.cam_sq / static_cast<double>(e.n));
+  std::printf("18 N s push: CoM velocity RMS error %.2f cm/s (peak %.2f m/s), CAM RMS error %.3f N m s = %.1f %% of peak %.2f\n",
+              vel_rms * 100, vcom_peak, cam_rms, 100 * cam_rms / e.cam_peak, e.cam_peak);
+  EXPECT_FALSE(loop.sim.truth().fallen);
+  EXPECT_LT(vel_rms, 0.02);
+  EXPECT_LT(cam_rms, 0.05 * e.cam_peak);
+  // Both feet stay loaded through the push (true force above the release threshold), and the
+  // estimator sees no contact switch.
+  EXPECT_GT(min_force, est.config().contact_off);
+  EXPECT_EQ(switches, 0);
+}
+
+
+/// Contact switches: the left foot is unloaded, lifted, lowered and loaded again (estimator in the
+/// loop), against the simulator's ground force on that foot. Touchdown is the first tick with ground
+/// force after the flight (at least 50 ms without force); lift-off is the last tick before the
+/// flight at which the true force, through the estimator's thresholds and hysteresis, releases the
+/// foot (while a foot is unloaded its force is small and intermittent, so "the last tick with any
+/// force" would measure the simulator's contact ringing rather than the estimator). The estimator must release the foot
+/// and take it again within 5 ms of these, never see contact during the flight, and keep the
+/// loaded stance foot throughout.
+TEST(EstimatorAccuracy, ContactSwitchesWithin5ms) {
+  ClosedLoop loop("toro", kNoise, ClosedLoopOptions{.estimator_in_loop = true});
+  const auto& est = *loop.estimator;
+  struct Sample {
+    double t, fz;
+    bool est_contact;
+  };
+  std::vector<Sample> left;
+  bool stance_lost = false;
+  bool requested_single = false, requested_double = false;
+  loop.run(9.0, [&] {
+    const auto& t = loop.sim.truth();
+    if (!requested_single && t.time >= 1.0) {
+      loop.reference.request_support(hpr::balance::Support::kRight, t.time);
+      requested_single = true;
+    }
+    if (!requested_double && t.time >= 5.0) {
+      loop.reference.request_support(hpr::balance::Support::kDouble, t.time);
+      requested_double = true;
+    }
+    left.push_back({t.time, t.contact_wrench_W[1](2), est.state().contact[1]});
+    stance_lost = stance_lost || !est.state().contact[0];
+  });
+  ASSERT_FALSE(loop.sim.truth().fallen);
+  EXPECT_FALSE(stance_lost) << "the right foot carries the robot throughout";
+  // The flight: the longest run of ticks without ground force.
+  size_t best_begin = 0, best_len = 0;
+  for (size_t i = 0; i < left.size();) {
+    size_t j = i;
+    while (j < left.size() && left[j].fz < 0.5) ++j;
+    if (j - i > best_len) {
+      best_len = j - i;
+      best_begin = i;
+    }
+    i = j + 1;
+  }
+  ASSERT_GT(best_len, 50U) << "the left foot must fly for at least 50 ms";
+  ASSERT_GT(best_begin, 0U);
+  const double t_touchdown = left[best_begin + best_len].t;
+  // The true force through the estimator's hysteresis.
+  double t_liftoff = -1;
+  bool truth_contact = true;
+  for (size_t i = 0; i < best_begin + 1; ++i) {
+    const bool c = truth_contact ? left[i].fz >= est.config().contact_off : left[i].fz > est.config().contact_on;
+    if (truth_contact && !c) t_liftoff = left[i].t;
+    truth_contact = c;
+  }
+  double est_release = -1, est_take = -1;
+  bool contact_in_flight = false;
+  for (size_t i = 1; i < left.size(); ++i) {
+    if (left[i - 1].est_contact && !left[i].est_contact && left[i].t <= t_touchdown) est_release = left[i].t;
+    if (!left[i - 1].est_contact && left[i].est_contact && left[i].t >= t_touchdown && est_take < 0) est_take = left[i].t;
+    if (left[i].t > t_liftoff + 5e-3 && left[i].t < t_touchdown) contact_in_flight = contact_in_flight || left[i].est_contact;
+  }
+  std::printf("lift-off at %.3f s, released by the estimator at %.3f s (%+.0f ms); touchdown at %.3f s, taken at %.3f s (%+.0f ms)\n",
+              t_liftoff, est_release, (est_release - t_liftoff) * 1e3, t_touchdown, est_take, (est_take - t_touchdown) * 1e3);
+  EXPECT_FALSE(contact_in_flight);
+  EXPECT_LE(est_release, t_liftoff + 5e-3);
+  EXPECT_GE(est_release, t_liftoff - 5e-3);
+  EXPECT_GE(est_take, t_touchdown);
+  EXPECT_LE(est_take, t_touchdown + 5e-3);
+}
+
+/// The closed loop estimator → wbc → simulator, sensor noise on: stands 30 s like the loop on the
+/// simulator's truth does, then recovers the 5 N s push from behind about as well.
+class EstimatorInTheLoop : public ::testing::TestWithParam<std::string> {};
+
+struct LoopResult {
+  bool fallen = false;
+  double com_err_standing = 0, slip = 0, tilt = 0, peak_dev = 0, final_dev = 0;
+};
+
+LoopResult stand_and_push(const std::string& robot, bool with_estimator) {
+  ClosedLoop loop(robot, kNoise, ClosedLoopOptions{.estimator_in_loop = with_estimator});
+  const double t_push = 30.0;
+  loop.push_base(5.0, 65.0, Vector3d::UnitX(), t_push);
+  const auto soles0 = loop.sim.truth().p_WF;
+  LoopResult r;
+  loop.run(t_push + 5.0, [&] {
+    const auto& t = loop.sim.truth();
+    const double dev = (t.p_WCom - loop.reference.reference().p_com).norm();
+    if (t.time > 1.5 && t.time < t_push) r.com_err_standing = std::max(r.com_err_standing, dev);
+    if (t.time >= t_push) r.peak_dev = std::max(r.peak_dev, dev);
+    r.final_dev = dev;
+    for (size_t f = 0; f < 2; ++f) {
+      r.slip = std::max(r.slip, (t.p_WF[f].head<2>() - soles0[f].head<2>()).norm());
+      r.tilt = std::max(r.tilt, t.foot_tilt[f]);
+    }
+  });
+  r.fallen = loop.sim.truth().fallen;
+  std::printf("%s, state from the %s: CoM error standing %.2f mm, slip %.2f mm, tilt %.2f deg; push: peak CoM deviation %.1f mm, final %.2f mm\n",
+              robot.c_str(), with_estimator ? "estimator" : "truth", r.com_err_standing * 1e3, r.slip * 1e3,
+              r.tilt * 180 / M_PI, r.peak_dev * 1e3, r.final_dev * 1e3);
+  return r;
+}
+
+TEST_P(EstimatorInTheLoop, Stands30sAndRecoversThe5NsPushAsWithTruth) {
+  const LoopResult truth = stand_and_push(GetParam(), false);
+  const LoopResult est = stand_and_push(GetParam(), true);
+  ASSERT_FALSE(truth.fallen);
+  EXPECT_FALSE(est.fallen);
+  EXPECT_LT(est.com_err_standing, 2e-3) << "CoM within 2 mm of the reference while standing";
+  EXPECT_LT(est.slip, 1e-3);
+  EXPECT_LT(est.tilt, 0.01);
+  EXPECT_NEAR(est.peak_dev, truth.peak_dev, 0.2 * truth.peak_dev + 1e-3) << "the push moves the CoM as much as with truth";
+  EXPECT_LT(est.final_dev, 0.01) << "back to the reference";
+}
+
+INSTANTIATE_TEST_SUITE_P(Robots, EstimatorInTheLoop, ::testing::Values("toro", "h1_2"));
+
+}  // namespace

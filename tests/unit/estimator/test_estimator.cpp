@@ -1,0 +1,276 @@
+// The estimator library on synthetic sensor samples built from the model (no simulator): the α-β
+// filter against its textbook noise gains, a static pose recovered exactly, gyro bias estimation,
+// the momentum observer against its closed-form response, refusal of implausible samples,
+// initialisation in the air, and configuration validation.
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "hpr/estimator/estimator.hpp"
+#include "model_fixture.hpp"
+
+namespace {
+
+using namespace hpr;
+using Eigen::Matrix3d;
+using Eigen::Vector3d;
+
+/// Sensor samples of a robot standing still in configuration q, each foot carrying `load` of its
+/// weight (ground force straight up at the sole centre), from the model's kinematics and statics.
+struct StaticSensors {
+  StaticSensors(const model::RobotSpec& robot_in, const Eigen::VectorXd& q_in, std::array<double, 2> load = {0.5, 0.5})
+      : robot(robot_in), q(q_in), data(robot_in.model) {
+    const model::Model& m = robot.model;
+    model::forward_kinematics(m, data, q);
+    model::update_frame_placements(m, data);
+    sample.resize(m.nj);
+    sample.q = q.tail(m.nj);
+    const model::SE3& X_WI = data.oMf[static_cast<size_t>(robot.imu_frame)];
+    const Eigen::Quaterniond quat(X_WI.R);
+    sample.imu_quat_WB = Eigen::Vector4d(quat.w(), quat.x(), quat.y(), quat.z());
+    sample.imu_accel_B = X_WI.R.transpose() * (-m.gravity);
+    // Each sole's centre of pressure is shifted by (CoM − mid-point of the soles) horizontally, so
+    // that the ground forces have no moment about the CoM (static equilibrium).
+    const Vector3d com = model::center_of_mass(m, data, q);
+    model::update_frame_placements(m, data);
+    const Vector3d mid = 0.5 * (data.oMf[static_cast<size_t>(robot.feet[0].sole_frame)].p +
+                                data.oMf[static_cast<size_t>(robot.feet[1].sole_frame)].p);
+    const Vector3d shift(com.x() - mid.x(), com.y() - mid.y(), 0.0);
+    for (size_t k = 0; k < 2; ++k) {
+      const auto& foot = robot.feet[k];
+      const model::SE3& X_WS = data.oMf[static_cast<size_t>(foot.sole_frame)];
+      const model::SE3& X_WF = data.oMf[static_cast<size_t>(foot.ft_frame)];
+      const int fb = m.frames[static_cast<size_t>(foot.ft_frame)].body;
+      const model::Inertia& I = data.Iw[static_cast<size_t>(fb)];
+      const Vector3d f_ground(0, 0, load[k] * m.mass * -m.gravity.z());
+      // Foot on leg = ground wrench + foot weight, about the sensor origin.
+      const Vector3d f = f_ground + I.m * m.gravity;
+      const Vector3d tau = (X_WS.p + shift - X_WF.p).cross(f_ground) + (I.com() - X_WF.p).cross(I.m * m.gravity);
+      tau_sole[k] = shift.cross(f_ground);
+      sample.ft_wrench_S[k].head<3>() = X_WF.R.transpose() * f;
+      sample.ft_wrench_S[k].tail<3>() = X_WF.R.transpose() * tau;
+    }
+  }
+  const model::RobotSpec& robot;
+  Eigen::VectorXd q;
+  model::Data data;
+  SensorSample sample;
+  std::array<Vector3d, 2> tau_sole{};  ///< moment of the ground force about each sole centre, world axes
+};
+
+Eigen::VectorXd standing_with_yaw(const model::RobotSpec& robot, double yaw) {
+  Eigen::VectorXd q = robot.standing_configuration();
+  const Matrix3d Rz = Eigen::AngleAxisd(yaw, Vector3d::UnitZ()).toRotationMatrix();
+  q.head<3>() = Rz * q.head<3>();
+  const Eigen::Quaterniond quat(Rz * model::base_quaternion(q).toRotationMatrix());
+  q.segment<4>(3) = quat.coeffs();
+  return q;
+}
+
+double angle(const Eigen::VectorXd& qa, const Eigen::VectorXd& qb) {
+  return model::base_quaternion(qa).angularDistance(model::base_quaternion(qb));
+}
+
+class EstimatorTest : public ::testing::Test {
+ protected:
+  model::RobotSpec robot = test::load_robot("toro");
+};
+
+TEST(AlphaBeta, NoiseGainsMatchTheTextbookFormulas) {
+  // Steady-state α-β filter on a ramp with white position noise σ: no bias, and the variances of
+  // the position and velocity errors (Kalata 1984):
+  //   σ_p² = σ² (2α² + β(2 − 3α)) / (α (4 − 2α − β)),  σ_v² = σ² 2β² / (T² α (4 − 2α − β)).
+  const double T = 1e-3, sigma = 1e-4;
+  const Eigen::Vector2d ab = estimator::alpha_beta_gains(T, 10.0, sigma);
+  const double a = ab(0), b = ab(1);
+  ASSERT_GT(a, 0.0);
+  ASSERT_LT(a, 1.0);
+  ASSERT_GT(b, 0.0);
+  std::mt19937 gen(3);
+  std::normal_distribution<double> noise(0.0, sigma);
+  const double v = 0.7;
+  double x = 0, xd = v, sum_ep = 0, sum_ev = 0, sum_ep2 = 0, sum_ev2 = 0;
+  long n = 0;
+  for (long k = 1; k <= 400000; ++k) {
+    const double truth = v * T * static_cast<double>(k);
+    const double pred = x + xd * T;
+    const double r = truth + noise(gen) - pred;
+    x = pred + a * r;
+    xd += b * r / T;
+    if (k < 2000) continue;
+    const double ep = x - truth, ev = xd - v;
+    sum_ep += ep;
+    sum_ev += ev;
+    sum_ep2 += ep * ep;
+    sum_ev2 += ev * ev;
+    ++n;
+  }
+  const double nn = static_cast<double>(n);
+  const double var_p = sigma * sigma * (2 * a * a + b * (2 - 3 * a)) / (a * (4 - 2 * a - b));
+  const double var_v = sigma * sigma * 2 * b * b / (T * T * a * (4 - 2 * a - b));
+  EXPECT_NEAR(sum_ep2 / nn, var_p, 0.05 * var_p);
+  EXPECT_NEAR(sum_ev2 / nn, var_v, 0.05 * var_v);
+  EXPECT_LT(std::abs(sum_ep / nn), 0.05 * std::sqrt(var_p)) << "a ramp is tracked without bias";
+  EXPECT_LT(std::abs(sum_ev / nn), 0.05 * std::sqrt(var_v));
+  // More trust in the measurements (less noise) gives larger gains.
+  const Eigen::Vector2d ab2 = estimator::alpha_beta_gains(T, 10.0, sigma / 10);
+  EXPECT_GT(ab2(0), a);
+  EXPECT_GT(ab2(1), b);
+}
+
+TEST_F(EstimatorTest, RecoversAStaticPoseExactly) {
+  const Eigen::VectorXd q = standing_with_yaw(robot, 0.4);
+  StaticSensors sensors(robot, q);
+  estimator::Estimator est(robot, estimator::EstimatorConfig{});
+  for (int k = 0; k <= 500; ++k) {
+    sensors.sample.tick = k;
+    sensors.sample.time = 1e-3 * k;
+    est.update(sensors.sample);
+  }
+  const EstimatedState& s = est.state();
+  EXPECT_EQ(s.status, estimator::kStatusOk);
+  EXPECT_LT((s.q.head<3>() - q.head<3>()).norm(), 1e-6) << "soles centred on the origin, as the configuration is";
+  EXPECT_LT(angle(s.q, q), 1e-6);
+  EXPECT_LT((s.q.tail(robot.model.nj) - q.tail(robot.model.nj)).norm(), 1e-9);
+  EXPECT_LT(s.v.norm(), 1e-6);
+  model::Data data(robot.model);
+  EXPECT_LT((s.p_com - model::center_of_mass(robot.model, data, q)).norm(), 1e-6);
+  EXPECT_LT(s.v_com.norm(), 1e-6);
+  EXPECT_LT(s.l_com.norm(), 1e-6);
+  EXPECT_TRUE(s.contact[0] && s.contact[1]);
+  const double half_weight = 0.5 * robot.model.mass * 9.81;
+  for (size_t k = 0; k < 2; ++k) {
+    EXPECT_NEAR(s.foot_force_z[k], half_weight, 1e-6);
+    EXPECT_LT((s.foot_wrench_W[k].tail<3>() - sensors.tau_sole[k]).norm(), 1e-6);
+  }
+}
+
+TEST_F(EstimatorTest, EstimatesTheGyroBias) {
+  const Eigen::VectorXd q = standing_with_yaw(robot, 0.0);
+  StaticSensors sensors(robot, q);
+  const Vector3d bias(0.01, -0.02, 0.005);
+  sensors.sample.imu_gyro_B = bias;
+  estimator::EstimatorConfig cfg;
+  cfg.gyro_bias_initial = 0.03;
+  estimator::Estimator est(robot, cfg);
+  double worst = 0;
+  for (int k = 0; k <= 10000; ++k) {
+    sensors.sample.tick = k;
+    sensors.sample.time = 1e-3 * k;
+    est.update(sensors.sample);
+    worst = std::max(worst, angle(est.state().q, q));
+  }
+  EXPECT_LT((est.gyro_bias() - bias).norm(), 1e-3);
+  EXPECT_LT(worst, 0.1 * M_PI / 180) << "the legs hold the orientation while the bias is learnt";
+  EXPECT_LT(est.state().v.segment<3>(3).norm(), 2e-3) << "angular velocity without the bias";
+}
+
+TEST_F(EstimatorTest, MomentumObserverFollowsItsClosedFormResponse) {
+  // A robot at rest whose soles report an unbalanced moment τ about the CoM (the reaction to an
+  // unmeasured external torque): with A_G ν = 0 the observer l̂̇ = τ + K (0 − l̂) gives
+  // l̂(t) = τ/K (1 − e^{−Kt}) and l̂̇(t) = τ e^{−Kt}.
+  const Eigen::VectorXd q = standing_with_yaw(robot, 0.0);
+  StaticSensors sensors(robot, q);
+  const Vector3d tau_extra(3.0, -5.0, 1.0);  // added to the right sole's moment, world axes
+  const model::SE3& X_WF = sensors.data.oMf[static_cast<size_t>(robot.feet[0].ft_frame)];
+  sensors.sample.ft_wrench_S[0].tail<3>() += X_WF.R.transpose() * tau_extra;
+  estimator::EstimatorConfig cfg;
+  estimator::Estimator est(robot, cfg);
+  const double K = cfg.cam_observer_gain, dt = 1e-3;
+  for (int k = 0; k <= 2000; ++k) {
+    sensors.sample.tick = k;
+    sensors.sample.time = dt * k;
+    est.update(sensors.sample);
+    if (k == 0) continue;
+    const double t = dt * k;
+    // Forward Euler of the observer: l_k = τ/K (1 − (1 − K dt)^k).
+    const double decay = std::pow(1.0 - K * dt, k);
+    const Vector3d l_expected = tau_extra / K * (1.0 - decay);
+    ASSERT_LT((est.state().l_com - l_expected).norm(), 1e-6 + 1e-3 * tau_extra.norm() / K) << "t = " << t;
+  }
+  EXPECT_LT((est.state().l_com - tau_extra / K).norm(), 1e-3);
+  EXPECT_LT(est.state().ldot_com.norm(), 1e-3);
+}
+
+TEST_F(EstimatorTest, RefusesImplausibleSamplesAndKeepsTheEstimate) {
+  const Eigen::VectorXd q = standing_with_yaw(robot, 0.0);
+  StaticSensors sensors(robot, q);
+  estimator::Estimator est(robot, estimator::EstimatorConfig{});
+  int k = 0;
+  auto feed = [&](SensorSample s) {
+    s.tick = k;
+    s.time = 1e-3 * k;
+    ++k;
+    return est.update(s);
+  };
+  for (int i = 0; i < 300; ++i) feed(sensors.sample);
+  const Eigen::VectorXd q_before = est.state().q;
+  struct Case {
+    const char* what;
+    std::function<void(SensorSample&)> spoil;
+    const char* reason;
+  };
+  const std::vector<Case> cases = {
+      {"NaN gyro", [](SensorSample& s) { s.imu_gyro_B.x() = std::nan(""); }, "IMU"},
+      {"huge acceleration", [](SensorSample& s) { s.imu_accel_B.z() = 1e3; }, "specific force"},
+      {"joint out of range", [](SensorSample& s) { s.q(3) = 10.0; }, robot.model.joint_name[3].c_str()},
+      {"infinite force", [](SensorSample& s) { s.ft_wrench_S[1](2) = INFINITY; }, "left force/torque"},
+      {"wrong size", [](SensorSample& s) { s.q.resize(3); }, "joint arrays"},
+  };
+  for (const auto& c : cases) {
+    SensorSample s = sensors.sample;
+    c.spoil(s);
+    const EstimatedState& out = feed(s);
+    EXPECT_NE(out.status & estimator::kStatusImplausible, 0) << c.what;
+    EXPECT_NE(est.implausible_reason().find(c.reason), std::string::npos) << c.what << ": " << est.implausible_reason();
+    EXPECT_TRUE(out.q.allFinite()) << c.what;
+    EXPECT_LT((out.q - q_before).norm(), 1e-9) << c.what << ": the estimate is kept";
+  }
+  // Time that does not advance.
+  SensorSample again = sensors.sample;
+  again.time = 0.0;
+  EXPECT_NE(est.update(again).status & estimator::kStatusImplausible, 0);
+  // A good sample afterwards is accepted.
+  EXPECT_EQ(feed(sensors.sample).status, estimator::kStatusOk);
+  EXPECT_TRUE(est.implausible_reason().empty());
+}
+
+TEST_F(EstimatorTest, InitialisedInTheAirPlacesTheWorldFrameAtTheFirstContact) {
+  const Eigen::VectorXd q = standing_with_yaw(robot, 0.0);
+  StaticSensors loaded(robot, q);
+  StaticSensors hanging(robot, q, {0.0, 0.0});  // only the feet's weight on the sensors
+  estimator::Estimator est(robot, estimator::EstimatorConfig{});
+  for (int k = 0; k < 100; ++k) {
+    hanging.sample.tick = k;
+    hanging.sample.time = 1e-3 * k;
+    est.update(hanging.sample);
+    EXPECT_NE(est.state().status & estimator::kStatusNoContact, 0);
+  }
+  EXPECT_LT(angle(est.state().q, q), 1e-3) << "tilt from the accelerometer";
+  for (int k = 100; k < 400; ++k) {
+    loaded.sample.tick = k;
+    loaded.sample.time = 1e-3 * k;
+    est.update(loaded.sample);
+  }
+  EXPECT_EQ(est.state().status, estimator::kStatusOk);
+  EXPECT_LT((est.state().q.head<3>() - q.head<3>()).norm(), 1e-5);
+}
+
+TEST(EstimatorConfig, ValidatesOnLoad) {
+  const Config ok = Config::parse("estimator: {contact_on: 40, contact_off: 10}", "test.yaml");
+  EXPECT_EQ(estimator::EstimatorConfig::load(ok.section("estimator")).contact_on, 40.0);
+  const Config inverted = Config::parse("estimator: {contact_on: 10, contact_off: 40}", "test.yaml");
+  try {
+    (void)estimator::EstimatorConfig::load(inverted.section("estimator"));
+    FAIL() << "inverted thresholds accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("estimator.contact_off"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("test.yaml"), std::string::npos) << e.what();
+  }
+  const Config misspelt = Config::parse("estimator: {contact_onn: 40}", "test.yaml");
+  EXPECT_THROW((void)estimator::EstimatorConfig::load(misspelt.section("estimator")), ConfigError);
+  const Config negative = Config::parse("estimator: {gyro_noise: -1}", "test.yaml");
+  EXPECT_THROW((void)estimator::EstimatorConfig::load(negative.section("estimator")), ConfigError);
+}
+
+}  // namespace
