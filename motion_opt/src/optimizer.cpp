@@ -114,7 +114,7 @@ std::vector<int> MotionOptimizer::adjusted_set(const balance::TaskReference& ref
     for (int c = 0; c < static_cast<int>(coords_.size()); ++c) {
       const Coordinate& co = coords_[static_cast<size_t>(c)];
       if ((name == "base_rotation" && co.kind == Coordinate::Kind::kBaseRotation) ||
-          (name == "swing_foot" && single && co.kind == Coordinate::Kind::kFoot && co.index == swing &&
+          (name == "swing_foot" && single && ref.settled && co.kind == Coordinate::Kind::kFoot && co.index == swing &&
            !ref.feet[static_cast<size_t>(swing)].contact) ||
           (co.kind == Coordinate::Kind::kFreeJoint && co.name == name)) {
         set.push_back(c);
@@ -189,7 +189,9 @@ const MotionOptOutput& MotionOptimizer::step(const VectorXd& q, const VectorXd& 
     if (adjusted[static_cast<size_t>(c)] != 0) continue;
     const Coordinate& co = coords_[static_cast<size_t>(c)];
     const double rate = co.kind == Coordinate::Kind::kFoot ? config_.swing_return_rate : config_.K_p;
-    delta_dot_(c) = -rate * delta_(c);
+    double dmin = 0, dmax = 0, vmax = 0;
+    limits(c, ref, dmin, dmax, vmax);
+    delta_dot_(c) = std::clamp(-rate * delta_(c), -vmax, vmax);
   }
   xdot_cmd_ = xdot_ref_;
   for (int c = 0; c < nc; ++c) {

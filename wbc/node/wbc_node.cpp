@@ -13,6 +13,7 @@ WbcNodeOptions WbcNodeOptions::load(const Config& c) {
   o.wholebody_timeout = c.real_or("wholebody_timeout", o.wholebody_timeout, 0.0, 60.0);
   o.wholebody_stale_ticks = static_cast<int>(c.integer_or("wholebody_stale_ticks", o.wholebody_stale_ticks, 1, 100000));
   o.state_timeout = c.real_or("state_timeout", o.state_timeout, 0.0, 60.0);
+  o.bad_state_ticks = static_cast<int>(c.integer_or("bad_state_ticks", o.bad_state_ticks, 1, 100000));
   return o;
 }
 
@@ -96,6 +97,17 @@ void WbcNode::step(std::int64_t tick, const EstimatedState& state, bool wholebod
   const balance::TaskReference& own = reference_.update(state.time);
   if (damping_) {
     publish_damp(tick, "operator damp");
+    return;
+  }
+  // A state the estimator flags as stale, implausible or diverged is tolerated for a few ticks (one
+  // refused sample keeps the previous estimate), then the robot goes limp.
+  constexpr auto kBad = static_cast<std::int32_t>(humanoid::robot_state_t::STATUS_SENSOR_STALE) |
+                        static_cast<std::int32_t>(humanoid::robot_state_t::STATUS_IMPLAUSIBLE) |
+                        static_cast<std::int32_t>(humanoid::robot_state_t::STATUS_COVARIANCE);
+  bad_state_count_ = (state.status & kBad) != 0 ? bad_state_count_ + 1 : 0;
+  if (bad_state_count_ >= options_.bad_state_ticks) {
+    publish_damp(tick, "ROBOT_STATE flagged (status " + std::to_string(state.status) + ") for " +
+                           std::to_string(bad_state_count_) + " ticks");
     return;
   }
   rt_.clear_fault("damping");

@@ -25,6 +25,7 @@ struct WbcNodeOptions {
   double wholebody_timeout = 0.5;    ///< [s] wall time to wait for it
   int wholebody_stale_ticks = 50;    ///< older commands are ignored (own reference posture)
   double state_timeout = 0.05;       ///< [s] wait for the second state input (truth mode)
+  int bad_state_ticks = 20;          ///< damp after this many ticks of a state flagged stale, implausible or diverged
   static WbcNodeOptions load(const Config& wbc_section);
 };
 
@@ -57,6 +58,7 @@ class WbcNode {
   humanoid::balance_status_t status_msg_;
   bool damping_ = false;  ///< OPERATOR damp/stop received: damp until enable
   bool have_wholebody_ = false;
+  int bad_state_count_ = 0;          ///< consecutive ticks with a flagged state
 };
 
 }  // namespace hpr::wbc

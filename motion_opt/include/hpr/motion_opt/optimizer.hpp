@@ -14,7 +14,9 @@
 /// Adjusted coordinates are kept as offsets δ = x^opt − x^ref: the base orientation (a rotation
 /// vector in world axes, R^opt = exp(δ) R^ref), free joints, and a swing foot's translation. A
 /// coordinate that leaves the adjusted set keeps its offset and lets it decay with K_p, so changing
-/// the set (double to single support and back) never makes the command jump.
+/// the set (double to single support and back) never makes the command jump. The swing foot is
+/// adjusted only while the single support is settled (not while it is lifted or set down), so that
+/// its offset has decayed when it touches the ground.
 
 #include <array>
 #include <map>
