@@ -30,7 +30,7 @@ EstimatorConfig EstimatorConfig::load(const Config& c) {
   c.reject_unknown({"sensor_timeout", "joint_accel_noise", "encoder_noise", "filter_joints", "gyro_noise", "gyro_bias_walk",
                     "gyro_bias_initial", "angular_accel_noise", "kinematic_orientation_noise", "kinematic_rate_noise",
                     "accel_orientation_noise", "level_ground", "accel_noise", "foot_contact_noise", "foot_swing_noise",
-                    "kinematic_position_noise", "kinematic_velocity_noise", "contact_on", "contact_off",
+                    "kinematic_position_noise", "kinematic_velocity_noise", "contact_on", "contact_off", "cop_edge_margin",
                     "cam_observer_gain", "initialisation_time", "max_position_std", "max_accel", "max_gyro",
                     "max_ft_force", "joint_limit_margin"});
   EstimatorConfig e;
@@ -55,6 +55,7 @@ EstimatorConfig EstimatorConfig::load(const Config& c) {
   if (e.contact_off > e.contact_on) {
     c.fail("contact_off", fmt::format("must not exceed contact_on ({} N)", e.contact_on));
   }
+  e.cop_edge_margin = c.real_or("cop_edge_margin", e.cop_edge_margin, 0.0, 0.5);
   e.cam_observer_gain = c.real_or("cam_observer_gain", e.cam_observer_gain, 0.1, 1e4);
   e.initialisation_time = c.real_or("initialisation_time", e.initialisation_time, 0.0, 60.0);
   e.max_position_std = c.real_or("max_position_std", e.max_position_std, 1e-4, 100.0);
@@ -154,6 +155,9 @@ bool Estimator::plausible(const SensorSample& s) {
 
 const EstimatedState& Estimator::update(const SensorSample& s) {
   if (!plausible(s)) {
+    // The previous estimate, for this tick, flagged: consumers step on every tick and decide.
+    state_.tick = s.tick;
+    if (std::isfinite(s.time) && s.time > state_.time) state_.time = s.time;
     state_.status |= kStatusImplausible;
     return state_;
   }
@@ -252,6 +256,16 @@ void Estimator::update_contacts(const SensorSample& s) {
     fz_[ku] = f_ground.z();
     const bool was = contact_[ku];
     contact_[ku] = was ? fz_[ku] > config_.contact_off : fz_[ku] > config_.contact_on;
+    // Centre of pressure in the sole frame: near an edge the sole may be rotating about it.
+    const Matrix3d R_WSole = R_ * X_BS_[ku].R;
+    const Vector3d f_S = R_WSole.transpose() * f_ground, tau_S = R_WSole.transpose() * wrench_W_[ku].tail<3>();
+    bool flat = contact_[ku] && f_S.z() > config_.contact_off;
+    if (flat) {
+      const model::FootSpec& foot = robot_->feet[ku];
+      const double cx = -tau_S.y() / f_S.z(), cy = tau_S.x() / f_S.z();
+      flat = 0.5 * foot.length - std::abs(cx) > config_.cop_edge_margin && 0.5 * foot.width - std::abs(cy) > config_.cop_edge_margin;
+    }
+    anchor_[ku] = flat;
     if (contact_[ku] && !was) {
       // Touchdown: hold the sole's heading (and, on uneven ground, its tilt) from now on, and start
       // its position in the filter from the leg kinematics.
@@ -279,38 +293,40 @@ void Estimator::initialise(const SensorSample& s) {
     const Eigen::Quaterniond quat(qi(0), qi(1), qi(2), qi(3));
     yaw = yaw_of(quat.normalized().toRotationMatrix() * R_BI_.transpose());
   }
-  // Roll and pitch: the soles flat (feet loaded), else the accelerometer's gravity direction.
-  R_.setIdentity();
-  contact_[kRight] = s.ft_wrench_S[kRight].head<3>().norm() > config_.contact_on;
-  contact_[kLeft] = s.ft_wrench_S[kLeft].head<3>().norm() > config_.contact_on;
-  Matrix3d R0;
-  if (contact_[kRight] || contact_[kLeft]) {
+  // Roll and pitch: the soles flat (feet loaded), else the accelerometer's gravity direction. A
+  // second pass keeps only the soles that are anchors (CoP inside the sole) when there are any.
+  auto orientation_from = [&](const std::array<bool, 2>& use) {
+    Matrix3d R0;
     const Matrix3d Rr = X_BS_[kRight].R.transpose(), Rl = X_BS_[kLeft].R.transpose();
-    if (contact_[kRight] && contact_[kLeft]) {
+    if (use[kRight] && use[kLeft]) {
       R0 = Rr * model::exp3(0.5 * model::log3(Rr.transpose() * Rl));
+    } else if (use[kRight] || use[kLeft]) {
+      R0 = use[kRight] ? Rr : Rl;
     } else {
-      R0 = contact_[kRight] ? Rr : Rl;
+      const Vector3d u = (R_BI_ * s.imu_accel_B).normalized();  // gravity's "up" in B
+      R0 = Eigen::Quaterniond::FromTwoVectors(u, kZ).toRotationMatrix();
     }
-  } else {
-    const Vector3d u = (R_BI_ * s.imu_accel_B).normalized();  // gravity's "up" in B
-    const Eigen::Quaterniond tilt = Eigen::Quaterniond::FromTwoVectors(u, kZ);
-    R0 = tilt.toRotationMatrix();
-  }
-  R_ = Eigen::AngleAxisd(yaw - yaw_of(R0), kZ).toRotationMatrix() * R0;
+    R_ = Eigen::AngleAxisd(yaw - yaw_of(R0), kZ).toRotationMatrix() * R0;
+    contact_ = {};
+    update_contacts(s);
+  };
+  R_.setIdentity();
+  orientation_from({s.ft_wrench_S[kRight].head<3>().norm() > config_.contact_on,
+                    s.ft_wrench_S[kLeft].head<3>().norm() > config_.contact_on});
+  const bool any_anchor = anchor_[kRight] || anchor_[kLeft];
+  if (any_anchor && anchor_ != contact_) orientation_from(anchor_);
   b_.setZero();
   P_att_.setZero();
   P_att_.topLeftCorner<3, 3>() = Matrix3d::Identity() * std::pow(0.01, 2);
   P_att_.bottomRightCorner<3, 3>() = Matrix3d::Identity() * std::pow(config_.gyro_bias_initial, 2);
-  // Contacts with the orientation known; then position: the soles in contact (both when none) on the
-  // ground, centred on the origin.
-  contact_ = {};
-  update_contacts(s);
+  // Position: the soles in contact (both when none) on the ground, centred on the origin.
   const bool any = contact_[kRight] || contact_[kLeft];
   anchored_ = any;
+  const std::array<bool, 2> place = any ? contact_ : std::array<bool, 2>{true, true};
   Vector3d mid = Vector3d::Zero();
   int n = 0;
   for (int k = 0; k < 2; ++k) {
-    if (!any || contact_[static_cast<size_t>(k)]) {
+    if (place[static_cast<size_t>(k)]) {
       mid += R_ * X_BS_[static_cast<size_t>(k)].p;
       ++n;
     }
@@ -367,6 +383,7 @@ void Estimator::attitude(const SensorSample& s, double dt) {
     const auto ku = static_cast<size_t>(k);
     if (!contact_[ku]) continue;
     any = true;
+    if (!anchor_[ku]) continue;
     const Matrix3d R_meas = R_WS_hold_[ku] * X_BS_[ku].R.transpose();
     attitude_correct(model::log3(R_.transpose() * R_meas), config_.kinematic_orientation_noise, Matrix3d::Identity());
   }
@@ -385,7 +402,7 @@ void Estimator::attitude(const SensorSample& s, double dt) {
   P_w_ *= 1.0 - K;
   for (int k = 0; k < 2; ++k) {
     const auto ku = static_cast<size_t>(k);
-    if (!contact_[ku]) continue;
+    if (!anchor_[ku]) continue;
     K = P_w_ / (P_w_ + config_.kinematic_rate_noise * config_.kinematic_rate_noise);
     w_ += K * (-w_BS_[ku] - w_);
     P_w_ *= 1.0 - K;
@@ -440,6 +457,7 @@ void Estimator::position(const SensorSample& s, double dt) {
       x_.segment<3>(i) = x_.head<3>() + R_ * d;  // a swinging sole follows the leg
       continue;
     }
+    if (!anchor_[ku]) continue;  // rotating about an edge: its centre moves, no correction
     const Vector3d r_pos = R_ * d - (x_.segment<3>(i) - x_.head<3>());
     position_correct(i, r_pos, config_.kinematic_position_noise, false);
     const Vector3d v_meas = -R_ * (w_.cross(d) + v_BS_[ku] - v_BI_);

@@ -5,6 +5,7 @@
 // the working-set changes of a real recovery.
 //
 //   bench_motion_opt [robot] [seconds]    prints median, p99 and max of MotionOptimizer::step [us]
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <vector>
@@ -47,7 +48,10 @@ int main(int argc, char** argv) {
     const auto& r = ref.update(sim.time());
     const auto& o = gen.step(sim.time(), dt, balance, have_balance, posture_error);
     const auto t0 = std::chrono::steady_clock::now();
-    const auto& out = opt.step(q, v, r, o.l_ref_W, true, dt);
+    const bool generating = std::any_of(o.phase.begin(), o.phase.end(), [](reference_gen::Phase ph) {
+      return ph == reference_gen::Phase::kGenerate || ph == reference_gen::Phase::kReduce;
+    });
+    const auto& out = opt.step(q, v, r, o.l_ref_W, true, dt, generating);
     us.push_back(std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count());
     changes.push_back(out.qp_iterations);
     posture_error = out.posture_error;

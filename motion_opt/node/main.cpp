@@ -55,11 +55,16 @@ int main(int argc, char** argv) {
           const auto& ref = reference.update(state.time);
           const bool fresh = cam_in.has_value() && cam_in.tick() >= info.tick - stale_ticks;
           Eigen::Vector3d l_ref = Eigen::Vector3d::Zero();
+          bool generating = false;
           if (fresh) {
             const auto& c = cam_in.latest();
             l_ref = Eigen::Vector3d(c.l_ref_W[0], c.l_ref_W[1], c.l_ref_W[2]);
+            for (int k = 0; k < 3; ++k) {
+              generating = generating || c.phase[k] == humanoid::cam_reference_t::PHASE_GENERATE ||
+                           c.phase[k] == humanoid::cam_reference_t::PHASE_REDUCE;
+            }
           }
-          const auto& o = opt.step(state.q, state.v, ref, l_ref, fresh, dt);
+          const auto& o = opt.step(state.q, state.v, ref, l_ref, fresh, dt, generating);
           if (!fresh) {
             rt.set_fault("reference", "CAM_REFERENCE stale: posture task only");
           } else {

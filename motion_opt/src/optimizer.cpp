@@ -31,6 +31,8 @@ MotionOptConfig MotionOptConfig::load(const Config& c, const model::RobotSpec& r
       m.Q_l = w.is_scalar("cam") ? Vector3d::Constant(w.real("cam", 0, 1e6)) : w.vec3("cam", 0, 1e6);
     }
     m.Q_p = w.real_or("posture", m.Q_p, 1e-9, 1e6);
+    m.cam_idle_fraction = w.real_or("cam_idle_fraction", m.cam_idle_fraction, 0.0, 1.0);
+    m.cam_release_time = w.real_or("cam_release_time", m.cam_release_time, 0.0, 10.0);
     if (w.has("posture_overrides")) {
       const Config o = w.section("posture_overrides");
       for (const auto& k : o.keys()) m.Q_p_overrides[k] = o.real(k, 1e-9, 1e6);
@@ -149,7 +151,7 @@ void MotionOptimizer::limits(int c, const balance::TaskReference& ref, double& d
 }
 
 const MotionOptOutput& MotionOptimizer::step(const VectorXd& q, const VectorXd& v, const balance::TaskReference& ref,
-                                             const Vector3d& l_ref, bool l_ref_fresh, double dt) {
+                                             const Vector3d& l_ref, bool l_ref_fresh, double dt, bool cam_active) {
   const model::Model& m = robot_->model;
   const int nc = static_cast<int>(coords_.size());
   model::ccrba(m, data_, q, v);  // A_G, I_c, the CoM and its Jacobian: all Ā needs
@@ -238,7 +240,17 @@ const MotionOptOutput& MotionOptimizer::step(const VectorXd& q, const VectorXd& 
     H_(a, a) = qp_w;
     g_(a) = -qp_w * xd(a);
   }
-  const Eigen::Matrix3d Ql = config_.Q_l.asDiagonal();
+  // CAM weight: full while CAM is generated, ramped down to the idle fraction otherwise.
+  const double idle = config_.cam_idle_fraction;
+  if (cam_active) {
+    cam_scale_ = 1.0;
+  } else if (first_ || config_.cam_release_time <= 0.0) {
+    cam_scale_ = idle;
+  } else {
+    cam_scale_ = std::max(idle, cam_scale_ - (1.0 - idle) * dt / config_.cam_release_time);
+  }
+  out_.cam_weight_scale = cam_scale_;
+  const Eigen::Matrix3d Ql = (cam_scale_ * config_.Q_l).asDiagonal();
   H_.noalias() += Aa.transpose() * Ql * Aa;
   g_.noalias() += Aa.transpose() * Ql * (l_u - lref);
   VectorXd xa(k);

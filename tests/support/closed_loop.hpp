@@ -3,6 +3,7 @@
 // process, without LCM (the processes themselves are tested separately). The data flow per tick is
 // the stack's: sensors → estimator → (reference_gen with the previous tick's balance status →
 // motion_opt) → wbc → joint command → simulator.
+#include <algorithm>
 #include <functional>
 #include <memory>
 #include <optional>
@@ -63,7 +64,10 @@ struct ClosedLoop {
     const balance::TaskReference* cmd = &r;
     if (opt.cam) {
       const auto& o = generator->step(sim.time(), dt, balance, have_balance, posture_error);
-      const auto& m = optimizer->step(st.q, st.v, r, o.l_ref_W, true, dt);
+      const bool generating = std::any_of(o.phase.begin(), o.phase.end(), [](reference_gen::Phase p) {
+        return p == reference_gen::Phase::kGenerate || p == reference_gen::Phase::kReduce;
+      });
+      const auto& m = optimizer->step(st.q, st.v, r, o.l_ref_W, true, dt, generating);
       posture_error = m.posture_error;
       cmd = &m.command;
     }

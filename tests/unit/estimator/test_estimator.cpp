@@ -18,7 +18,8 @@ using Eigen::Vector3d;
 /// Sensor samples of a robot standing still in configuration q, each foot carrying `load` of its
 /// weight (ground force straight up at the sole centre), from the model's kinematics and statics.
 struct StaticSensors {
-  StaticSensors(const model::RobotSpec& robot_in, const Eigen::VectorXd& q_in, std::array<double, 2> load = {0.5, 0.5})
+  StaticSensors(const model::RobotSpec& robot_in, const Eigen::VectorXd& q_in, std::array<double, 2> load = {0.5, 0.5},
+                std::array<Vector3d, 2> cop_offset = {Vector3d::Zero(), Vector3d::Zero()})
       : robot(robot_in), q(q_in), data(robot_in.model) {
     const model::Model& m = robot.model;
     model::forward_kinematics(m, data, q);
@@ -45,8 +46,9 @@ struct StaticSensors {
       const Vector3d f_ground(0, 0, load[k] * m.mass * -m.gravity.z());
       // Foot on leg = ground wrench + foot weight, about the sensor origin.
       const Vector3d f = f_ground + I.m * m.gravity;
-      const Vector3d tau = (X_WS.p + shift - X_WF.p).cross(f_ground) + (I.com() - X_WF.p).cross(I.m * m.gravity);
-      tau_sole[k] = shift.cross(f_ground);
+      const Vector3d cop = shift + cop_offset[k];
+      const Vector3d tau = (X_WS.p + cop - X_WF.p).cross(f_ground) + (I.com() - X_WF.p).cross(I.m * m.gravity);
+      tau_sole[k] = cop.cross(f_ground);
       sample.ft_wrench_S[k].head<3>() = X_WF.R.transpose() * f;
       sample.ft_wrench_S[k].tail<3>() = X_WF.R.transpose() * tau;
     }
@@ -145,6 +147,35 @@ TEST_F(EstimatorTest, RecoversAStaticPoseExactly) {
   }
 }
 
+TEST_F(EstimatorTest, ASoleLoadedAtItsEdgeIsNoAnchor) {
+  // The right sole carries its load at the toe and its leg says it is pitched by 0.05 rad (rotating
+  // about the toe): the estimate must follow the flat left sole, not the average of the two.
+  const Eigen::VectorXd q = standing_with_yaw(robot, 0.0);
+  const double toe = 0.5 * robot.feet[0].length - 0.002;
+  StaticSensors sensors(robot, q, {0.5, 0.5}, {Vector3d(toe, 0, 0), Vector3d::Zero()});
+  const int ankle = robot.model.joint_index("r_ankle_pitch");
+  sensors.sample.q(ankle) += 0.05;
+  estimator::Estimator est(robot, estimator::EstimatorConfig{});
+  for (int k = 0; k <= 500; ++k) {
+    sensors.sample.tick = k;
+    sensors.sample.time = 1e-3 * k;
+    est.update(sensors.sample);
+  }
+  EXPECT_TRUE(est.state().contact[0] && est.state().contact[1]) << "still in contact";
+  EXPECT_LT(angle(est.state().q, q), 1e-4) << "orientation from the flat sole only";
+  EXPECT_LT((est.state().q.head<3>() - q.head<3>()).norm(), 5e-3) << "half the pitched sole's centre error at most";
+  // The same sample with the load at the sole centre: the pitched leg now pulls the estimate.
+  StaticSensors centred(robot, q);
+  centred.sample.q(ankle) += 0.05;
+  estimator::Estimator est2(robot, estimator::EstimatorConfig{});
+  for (int k = 0; k <= 500; ++k) {
+    centred.sample.tick = k;
+    centred.sample.time = 1e-3 * k;
+    est2.update(centred.sample);
+  }
+  EXPECT_GT(angle(est2.state().q, q), 0.01);
+}
+
 TEST_F(EstimatorTest, EstimatesTheGyroBias) {
   const Eigen::VectorXd q = standing_with_yaw(robot, 0.0);
   StaticSensors sensors(robot, q);
@@ -220,7 +251,9 @@ TEST_F(EstimatorTest, RefusesImplausibleSamplesAndKeepsTheEstimate) {
   for (const auto& c : cases) {
     SensorSample s = sensors.sample;
     c.spoil(s);
+    const int tick = k;
     const EstimatedState& out = feed(s);
+    EXPECT_EQ(out.tick, tick) << c.what << ": the flagged state is for this tick";
     EXPECT_NE(out.status & estimator::kStatusImplausible, 0) << c.what;
     EXPECT_NE(est.implausible_reason().find(c.reason), std::string::npos) << c.what << ": " << est.implausible_reason();
     EXPECT_TRUE(out.q.allFinite()) << c.what;

@@ -6,7 +6,10 @@
 ///  - Joints: positions and velocities from an α-β filter per joint (the steady-state Kalman filter
 ///    of a constant-velocity model), which removes encoder quantisation noise with little lag.
 ///  - Contact: each foot's normal ground force, from its ankle sensor plus the weight of the foot
-///    below the sensor, with hysteresis (on above `contact_on`, off below `contact_off`).
+///    below the sensor, with hysteresis (on above `contact_on`, off below `contact_off`). A sole in
+///    contact whose centre of pressure is within `cop_edge_margin` of its edge may be rotating about
+///    that edge (heel or toe): it stays in contact but its kinematics correct nothing until the CoP
+///    moves back inside.
 ///  - Attitude: an error-state Kalman filter on (R_WB, gyro bias b), predicted with the gyro and
 ///    corrected by the orientation the legs in contact give (sole flat on level ground, its yaw held
 ///    since touchdown), and without contact by the accelerometer's gravity direction.
@@ -60,6 +63,8 @@ struct EstimatorConfig {
   // Contact.
   double contact_on = 30.0;               ///< [N] normal ground force to declare contact
   double contact_off = 5.0;              ///< [N] to release it
+  double cop_edge_margin = 0.01;          ///< [m] a sole whose CoP is closer than this to its edge may be
+                                          ///< rotating about it: its kinematics do not correct the filters
   // Momentum observer.
   double cam_observer_gain = 20.0;        ///< K_l [1/s]
   // Health.
@@ -94,7 +99,8 @@ class Estimator {
 
   /// Processes one sensor sample. The first sample initialises; without a foot in contact the
   /// orientation comes from the accelerometer and the world frame is placed again at the first
-  /// contact. A sample that fails the plausibility checks leaves the estimate untouched and is flagged.
+  /// contact. A sample that fails the plausibility checks leaves the estimate untouched and is flagged
+  /// (the returned state carries the sample's tick, so that consumers still step on it).
   const EstimatedState& update(const SensorSample& sample);
   /// Forgets everything; the next sample initialises.
   void reset();
@@ -148,8 +154,8 @@ class Estimator {
   std::array<Eigen::Vector3d, 2> c_BF_{};            // centre of mass of the part below each sensor
   std::array<double, 2> m_F_{};                      // its mass
 
-  // Contact.
-  std::array<bool, 2> contact_{};
+  // Contact, and whether a sole in contact is a reliable anchor (flat: CoP inside the sole).
+  std::array<bool, 2> contact_{}, anchor_{};
   std::array<Eigen::Matrix<double, 6, 1>, 2> wrench_W_{};  // ground on foot, world axes, at the sole centre
   std::array<double, 2> fz_{};
 

@@ -35,6 +35,8 @@ struct MotionOptConfig {
   Eigen::Vector3d Q_l{10.0, 10.0, 10.0};                      ///< CAM weight (14a)
   double Q_p = 0.1;                                            ///< posture weight (14b), default
   std::map<std::string, double> Q_p_overrides;                 ///< per coordinate name
+  double cam_idle_fraction = 0.05;                             ///< Q_l scale while no CAM is generated (idle, phase 3)
+  double cam_release_time = 0.2;                               ///< [s] ramp of Q_l down to that fraction
   double K_p = 2.0;                                            ///< posture convergence [1/s] (16)
   double K_a = 10.0;                                           ///< limit approach gain [1/s] (17)
   Eigen::Vector3d base_min{-0.25, -0.35, -0.3}, base_max{0.25, 0.35, 0.3};  ///< base rotation offsets [rad]
@@ -69,6 +71,7 @@ struct MotionOptOutput {
   double posture_error = 0.0;
   int qp_status = 0, qp_iterations = 0;
   double qp_solve_time_us = 0.0;
+  double cam_weight_scale = 1.0;                  ///< the factor applied to Q_l this tick
   bool qp_failed = false, reference_stale = false, singular = false;
 };
 
@@ -77,9 +80,14 @@ class MotionOptimizer {
   MotionOptimizer(const model::RobotSpec& robot, MotionOptConfig config);
 
   /// One tick: state (q, v) in the model's coordinates, the reference posture trajectory, and the
-  /// CAM reference (world axes about the CoM; `l_ref_fresh` false treats it as zero).
+  /// CAM reference (world axes about the CoM; `l_ref_fresh` false treats it as zero). `cam_active`
+  /// tells whether the generator is in phase 1 or 2 on some axis: otherwise (idle, phase 3, stale)
+  /// the CAM weight ramps down to `cam_idle_fraction` of Q_l so that the posture converges at about
+  /// K_p (with the full weight the momentum-producing directions of the return slow down to
+  /// K_p Q_p / (Q_p + σ² Q_l), σ a singular value of Ā_a: several seconds). Phase 1 restores the
+  /// full weight at once.
   const MotionOptOutput& step(const Eigen::VectorXd& q, const Eigen::VectorXd& v, const balance::TaskReference& ref,
-                              const Eigen::Vector3d& l_ref, bool l_ref_fresh, double dt);
+                              const Eigen::Vector3d& l_ref, bool l_ref_fresh, double dt, bool cam_active = true);
 
   [[nodiscard]] const std::vector<Coordinate>& coordinates() const { return coords_; }
   [[nodiscard]] const MotionOptOutput& output() const { return out_; }
@@ -109,6 +117,7 @@ class MotionOptimizer {
   std::vector<int> last_set_;
   Eigen::Vector3d l_cmd_prev_ = Eigen::Vector3d::Zero();
   bool first_ = true;
+  double cam_scale_ = 1.0;
   MotionOptOutput out_;
   Eigen::MatrixXd H_, A_;
   Eigen::VectorXd g_, lb_, ub_, lbA_, ubA_;

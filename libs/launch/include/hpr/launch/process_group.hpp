@@ -1,0 +1,62 @@
+#pragma once
+/// \file
+/// Starting and stopping the stack's processes from a tool or a test: each child in its own process
+/// group (so that stopping it also stops whatever it started), LCM_DEFAULT_URL set for it, output to
+/// a log file, and SIGKILL when the parent dies (PR_SET_PDEATHSIG), so nothing is left behind.
+
+#include <sys/types.h>
+
+#include <chrono>
+#include <map>
+#include <string>
+#include <vector>
+
+namespace hpr::launch {
+
+/// An LCM URL no other run uses at the same time: a free UDP port and a random multicast group in
+/// 239.255.0.0/16, with ttl 0 (never leaves the host).
+std::string unique_lcm_url();
+
+/// The directory of the running executable (where the stack's other executables are installed).
+std::string executable_dir();
+
+struct ProcessResult {
+  bool exited = false;  ///< false: still running or killed by a signal
+  int exit_code = -1;
+  int signal = 0;
+};
+
+class ProcessGroup {
+ public:
+  /// `lcm_url` is given to every child as LCM_DEFAULT_URL; executables named without a '/' are
+  /// looked up in `bin_dir` (default: executable_dir()).
+  explicit ProcessGroup(std::string lcm_url = unique_lcm_url(), std::string bin_dir = "");
+  ~ProcessGroup();
+  ProcessGroup(const ProcessGroup&) = delete;
+  ProcessGroup& operator=(const ProcessGroup&) = delete;
+
+  [[nodiscard]] const std::string& lcm_url() const { return lcm_url_; }
+  [[nodiscard]] const std::string& bin_dir() const { return bin_dir_; }
+
+  /// Starts `exe` with `args`; stdout and stderr go to `log_file` when given (else inherited).
+  /// Returns the pid. Throws std::runtime_error when fork fails.
+  pid_t start(const std::string& exe, const std::vector<std::string>& args,
+              const std::map<std::string, std::string>& env = {}, const std::string& log_file = "");
+  /// Sends `sig` to one process.
+  void signal(pid_t pid, int sig);
+  /// Waits up to `timeout` for the process to end.
+  ProcessResult wait(pid_t pid, std::chrono::milliseconds timeout);
+  [[nodiscard]] bool running(pid_t pid);
+  /// SIGTERM to every process group, SIGKILL after `grace`; reaps all.
+  void stop_all(std::chrono::milliseconds grace = std::chrono::milliseconds(2000));
+  [[nodiscard]] const std::vector<pid_t>& pids() const { return pids_; }
+
+ private:
+  void reap(pid_t pid, int status);
+
+  std::string lcm_url_, bin_dir_;
+  std::vector<pid_t> pids_;
+  std::map<pid_t, ProcessResult> reaped_;
+};
+
+}  // namespace hpr::launch

@@ -1,0 +1,141 @@
+#include "hpr/launch/process_group.hpp"
+
+#include <arpa/inet.h>
+#include <fcntl.h>
+#include <netinet/in.h>
+#include <sys/prctl.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <csignal>
+#include <cstdlib>
+#include <filesystem>
+#include <random>
+#include <stdexcept>
+#include <thread>
+
+namespace hpr::launch {
+
+std::string unique_lcm_url() {
+  // A port the kernel reports free for UDP, and a random group in 239.255.0.0/16.
+  const int fd = ::socket(AF_INET, SOCK_DGRAM, 0);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_addr.s_addr = htonl(INADDR_ANY);
+  addr.sin_port = 0;
+  int port = 0;
+  if (fd >= 0 && ::bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)) == 0) {
+    socklen_t len = sizeof(addr);
+    ::getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &len);
+    port = ntohs(addr.sin_port);
+  }
+  if (fd >= 0) ::close(fd);
+  std::random_device rd;
+  std::mt19937 gen(rd() ^ static_cast<unsigned>(::getpid()));
+  if (port == 0) port = 20000 + static_cast<int>(gen() % 30000);
+  const int a = 1 + static_cast<int>(gen() % 250), b = 1 + static_cast<int>(gen() % 250);
+  return "udpm://239.255." + std::to_string(a) + "." + std::to_string(b) + ":" + std::to_string(port) + "?ttl=0";
+}
+
+std::string executable_dir() {
+  std::error_code ec;
+  const auto exe = std::filesystem::read_symlink("/proc/self/exe", ec);
+  return ec ? std::string(".") : exe.parent_path().string();
+}
+
+ProcessGroup::ProcessGroup(std::string lcm_url, std::string bin_dir) : lcm_url_(std::move(lcm_url)), bin_dir_(std::move(bin_dir)) {
+  if (bin_dir_.empty()) bin_dir_ = executable_dir();
+}
+
+ProcessGroup::~ProcessGroup() { stop_all(); }
+
+pid_t ProcessGroup::start(const std::string& exe, const std::vector<std::string>& args,
+                          const std::map<std::string, std::string>& env, const std::string& log_file) {
+  const std::string path = exe.find('/') == std::string::npos ? bin_dir_ + "/" + exe : exe;
+  std::vector<std::string> argv_s{path};
+  argv_s.insert(argv_s.end(), args.begin(), args.end());
+  const pid_t parent = ::getpid();
+  const pid_t pid = ::fork();
+  if (pid < 0) throw std::runtime_error("fork failed");
+  if (pid == 0) {
+    ::setpgid(0, 0);
+    ::prctl(PR_SET_PDEATHSIG, SIGKILL);
+    if (::getppid() != parent) ::_exit(127);
+    ::setenv("LCM_DEFAULT_URL", lcm_url_.c_str(), 1);
+    for (const auto& [k, v] : env) ::setenv(k.c_str(), v.c_str(), 1);
+    if (!log_file.empty()) {
+      const int fd = ::open(log_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+      if (fd >= 0) {
+        ::dup2(fd, STDOUT_FILENO);
+        ::dup2(fd, STDERR_FILENO);
+        ::close(fd);
+      }
+    }
+    std::vector<char*> argv;
+    for (auto& s : argv_s) argv.push_back(s.data());
+    argv.push_back(nullptr);
+    ::execv(path.c_str(), argv.data());
+    ::_exit(127);
+  }
+  ::setpgid(pid, pid);
+  pids_.push_back(pid);
+  return pid;
+}
+
+void ProcessGroup::signal(pid_t pid, int sig) { ::kill(pid, sig); }
+
+ProcessResult ProcessGroup::wait(pid_t pid, std::chrono::milliseconds timeout) {
+  if (auto it = reaped_.find(pid); it != reaped_.end()) return it->second;
+  const auto end = std::chrono::steady_clock::now() + timeout;
+  while (true) {
+    int status = 0;
+    const pid_t r = ::waitpid(pid, &status, WNOHANG);
+    if (r == pid) {
+      reap(pid, status);
+      return reaped_[pid];
+    }
+    if (r < 0) return reaped_[pid];
+    if (std::chrono::steady_clock::now() >= end) return ProcessResult{};
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+}
+
+bool ProcessGroup::running(pid_t pid) {
+  if (reaped_.count(pid) != 0) return false;
+  int status = 0;
+  const pid_t r = ::waitpid(pid, &status, WNOHANG);
+  if (r == 0) return true;
+  if (r == pid) reap(pid, status);
+  return false;
+}
+
+void ProcessGroup::reap(pid_t pid, int status) {
+  ProcessResult res;
+  if (WIFEXITED(status)) {
+    res.exited = true;
+    res.exit_code = WEXITSTATUS(status);
+  } else if (WIFSIGNALED(status)) {
+    res.signal = WTERMSIG(status);
+  }
+  reaped_[pid] = res;
+}
+
+void ProcessGroup::stop_all(std::chrono::milliseconds grace) {
+  for (pid_t pid : pids_) {
+    if (running(pid)) ::kill(-pid, SIGTERM);
+  }
+  const auto end = std::chrono::steady_clock::now() + grace;
+  for (pid_t pid : pids_) {
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(end - std::chrono::steady_clock::now());
+    if (wait(pid, std::max(left, std::chrono::milliseconds(0))).exited) continue;
+    if (running(pid)) {
+      ::kill(-pid, SIGKILL);
+      wait(pid, std::chrono::milliseconds(2000));
+    }
+  }
+  for (pid_t pid : pids_) ::kill(-pid, SIGKILL);  // anything left in the groups
+  pids_.clear();
+}
+
+}  // namespace hpr::launch

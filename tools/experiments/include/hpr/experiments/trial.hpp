@@ -1,0 +1,122 @@
+#pragma once
+/// \file
+/// One push-recovery experiment with every process of the stack in lockstep against the simulator
+/// (estimator in the loop), and its evaluation from the messages of the run.
+///
+/// "Recovered" means: not fallen 5 s after the push ends, the stance soles flat (tilt below 2°) and
+/// sliding less than 1 cm from the push on, and the posture back within 1 cm and 1° of the
+/// pre-push posture within 5 s of the push end (CoM position; base orientation and every free
+/// joint within 1°).
+
+#include <humanoid/robot_sensors_t.hpp>
+#include <humanoid/sim_truth_t.hpp>
+#include <humanoid/wholebody_command_t.hpp>
+
+#include <Eigen/Core>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "hpr/model/robot.hpp"
+
+namespace hpr::experiments {
+
+enum class Strategy { kCam, kAnkle };
+const char* to_string(Strategy s);
+Strategy strategy_from_string(const std::string& s);
+
+/// The configuration file of a robot: a path, or a name looked up in $HPR_CONFIG_DIR, the source
+/// tree next to the build and the installed share directory. Throws std::runtime_error with the
+/// places searched when not found.
+std::string find_config(const std::string& robot_or_path);
+
+struct TrialSpec {
+  std::string config;                 ///< configuration file (find_config)
+  std::string support = "double";     ///< double | left | right
+  Strategy strategy = Strategy::kCam; ///< cam: reference_gen + motion_opt + wbc; ankle: wbc holding the posture
+  double direction_deg = 0.0;         ///< push direction: 0 = pushed forward from behind (+x), 90 = towards +y
+  double impulse = 18.0;              ///< [N s] of the half-sine (0: from peak and duration)
+  double peak = 65.0;                 ///< peak force [N]
+  double duration = 0.0;              ///< [s] (0: from impulse and peak, I = 2 F T / π)
+  std::string link;                   ///< link pushed (default: the base link)
+  std::optional<double> height;       ///< height of the push point above the ground at the start [m] (default: the link origin)
+  std::optional<double> alpha, beta;  ///< reference_gen overrides for every axis
+  double push_time = 0.0;             ///< [s] simulation time of the push (0: when the support is settled)
+  double after = 5.0;                 ///< [s] simulated after the push ends
+  std::vector<std::string> overrides; ///< more --set key=value for every process
+  std::string log_file;               ///< LCM log of the run (lcm-logger), empty: none
+  std::string work_dir;               ///< folder for the processes' output (default: a temporary one)
+  double timeout = 600.0;             ///< [s] wall clock for the whole run
+  bool stop_when_decided = false;     ///< end the run as soon as it cannot count as recovered (sweeps)
+
+  /// The push's duration from impulse and peak when not given.
+  [[nodiscard]] double push_duration() const;
+  /// The command-line flags that reproduce this spec with push_trial.
+  [[nodiscard]] std::string describe() const;
+};
+
+struct TrialResult {
+  bool recovered = false, fallen = false, completed = false;
+  std::string failure;                 ///< why not recovered ("" when recovered)
+  Eigen::Vector3d impulse_W = Eigen::Vector3d::Zero();  ///< applied impulse [N s]
+  double max_tilt_deg = 0.0;           ///< stance soles, from the push on
+  double max_slip = 0.0;               ///< [m] stance soles, horizontal, from the push on
+  Eigen::Vector3d peak_cam = Eigen::Vector3d::Zero();   ///< max |l_c| per axis (truth) [N m s]
+  Eigen::Vector3d peak_cam_cmd = Eigen::Vector3d::Zero();  ///< max |commanded CAM| per axis
+  double min_cop_margin = 0.0;         ///< [m] smallest distance of a stance sole's CoP to its edge
+  double max_com_deviation = 0.0;      ///< [m] from the pre-push CoM
+  std::optional<double> return_time;   ///< [s] after the push end until the posture stays within 1 cm and 1°
+  double final_com_deviation = 0.0;    ///< [m] at the end of the run, from the pre-push posture
+  double final_base_angle_deg = 0.0;   ///< base orientation
+  double final_joint_deg = 0.0;        ///< largest free-joint deviation
+  std::string final_joint;             ///< and its joint
+  double push_start = 0.0, push_end = 0.0, sim_time = 0.0, wall_time = 0.0;
+  std::string log_file;
+
+  /// One JSON object (the fields above, units in the names).
+  [[nodiscard]] std::string to_json(const TrialSpec& spec) const;
+};
+
+/// Computes the result from the run's messages (fed in order). Independent of how they were produced.
+class TrialEvaluator {
+ public:
+  TrialEvaluator(const model::RobotSpec& robot, const std::string& support, double push_start, double push_end);
+  void on_truth(const humanoid::sim_truth_t& t);
+  void on_sensors(const humanoid::robot_sensors_t& s);
+  void on_wholebody(const humanoid::wholebody_command_t& w);
+  /// The result once the run is over (`sim_time` reached).
+  [[nodiscard]] TrialResult result() const;
+  [[nodiscard]] double last_time() const { return last_time_; }
+  [[nodiscard]] bool fallen() const { return r_.fallen; }
+  /// True once the run can no longer count as recovered (fallen, a sole tilted or slid too far).
+  [[nodiscard]] bool failed() const {
+    return r_.fallen || r_.max_tilt_deg >= kTiltLimitDeg || r_.max_slip >= kSlipLimit;
+  }
+
+  static constexpr double kTiltLimitDeg = 2.0, kSlipLimit = 0.01, kPostureDistance = 0.01, kPostureAngleDeg = 1.0,
+                          kSettleTime = 5.0;
+
+ private:
+  const model::RobotSpec* robot_;
+  std::vector<int> stance_;
+  double push_start_, push_end_;
+  TrialResult r_;
+  double last_time_ = 0.0;
+  // Pre-push posture, averaged over the 0.2 s before the push.
+  Eigen::Vector3d com_ref_ = Eigen::Vector3d::Zero();
+  Eigen::Vector4d quat_ref_ = Eigen::Vector4d::Zero();
+  Eigen::VectorXd joints_ref_, joints_now_;
+  int n_ref_ = 0, n_joint_ref_ = 0;
+  bool have_joints_ = false;
+  std::array<Eigen::Vector3d, 2> sole0_{};
+  bool have_sole0_ = false;
+  double last_out_of_posture_ = -1.0;  ///< last time (after the push start) the posture was outside the band
+  bool evaluated_after_push_ = false;
+};
+
+/// Runs the experiment: starts the processes on a private LCM URL, logs when asked, evaluates,
+/// stops everything. `progress` receives a line per simulated second (may be empty).
+TrialResult run_trial(const TrialSpec& spec, const std::function<void(const std::string&)>& progress = {});
+
+}  // namespace hpr::experiments

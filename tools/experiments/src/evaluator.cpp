@@ -1,0 +1,183 @@
+#include <fmt/format.h>
+
+#include <Eigen/Geometry>
+#include <cmath>
+#include <nlohmann/json.hpp>
+
+#include "hpr/experiments/trial.hpp"
+
+namespace hpr::experiments {
+
+using Eigen::Vector3d;
+
+namespace {
+
+Eigen::Quaterniond quat(const double (&wxyz)[4]) { return {wxyz[0], wxyz[1], wxyz[2], wxyz[3]}; }
+Eigen::Quaterniond quat(const std::vector<double>& wxyz) { return {wxyz[0], wxyz[1], wxyz[2], wxyz[3]}; }
+
+}  // namespace
+
+const char* to_string(Strategy s) { return s == Strategy::kCam ? "cam" : "ankle"; }
+
+Strategy strategy_from_string(const std::string& s) {
+  if (s == "cam") return Strategy::kCam;
+  if (s == "ankle") return Strategy::kAnkle;
+  throw std::invalid_argument("strategy '" + s + "': expected cam or ankle");
+}
+
+TrialEvaluator::TrialEvaluator(const model::RobotSpec& robot, const std::string& support, double push_start, double push_end)
+    : robot_(&robot), push_start_(push_start), push_end_(push_end) {
+  if (support == "double") {
+    stance_ = {model::kRight, model::kLeft};
+  } else if (support == "right") {
+    stance_ = {model::kRight};
+  } else if (support == "left") {
+    stance_ = {model::kLeft};
+  } else {
+    throw std::invalid_argument("support '" + support + "': expected double, left or right");
+  }
+  r_.push_start = push_start;
+  r_.push_end = push_end;
+  r_.min_cop_margin = 1e9;
+  const auto nf = static_cast<Eigen::Index>(robot.free_joints.size());
+  joints_ref_ = joints_now_ = Eigen::VectorXd::Zero(nf);
+}
+
+void TrialEvaluator::on_sensors(const humanoid::robot_sensors_t& s) {
+  if (s.num_joints != robot_->model.nj) return;
+  const double t = static_cast<double>(s.utime) * 1e-6;
+  for (size_t f = 0; f < robot_->free_joints.size(); ++f) {
+    joints_now_(static_cast<Eigen::Index>(f)) = s.q[static_cast<size_t>(robot_->free_joints[f])];
+  }
+  have_joints_ = true;
+  if (t >= push_start_ - 0.2 && t < push_start_) {
+    joints_ref_ += joints_now_;
+    ++n_joint_ref_;
+  }
+}
+
+void TrialEvaluator::on_wholebody(const humanoid::wholebody_command_t& w) {
+  const double t = static_cast<double>(w.utime) * 1e-6;
+  if (t < push_start_) return;
+  for (int i = 0; i < 3; ++i) r_.peak_cam_cmd(i) = std::max(r_.peak_cam_cmd(i), std::abs(w.l_cmd_W[i]));
+}
+
+void TrialEvaluator::on_truth(const humanoid::sim_truth_t& t) {
+  const double time = t.sim_time;
+  last_time_ = time;
+  r_.sim_time = time;
+  r_.fallen = r_.fallen || t.fallen;
+  if (t.push_id >= 0) r_.impulse_W = Vector3d(t.push_impulse_W[0], t.push_impulse_W[1], t.push_impulse_W[2]);
+  const Vector3d com(t.p_WCom[0], t.p_WCom[1], t.p_WCom[2]);
+  if (time >= push_start_ - 0.2 && time < push_start_) {
+    com_ref_ += com;
+    const Eigen::Quaterniond q = quat(t.quat_WB);
+    Eigen::Vector4d c(q.w(), q.x(), q.y(), q.z());
+    if (n_ref_ > 0 && c.dot(quat_ref_) < 0) c = -c;
+    quat_ref_ += c;
+    ++n_ref_;
+  }
+  if (time < push_start_ || n_ref_ == 0) return;
+  if (!have_sole0_) {
+    for (int k : stance_) {
+      const auto& p = t.p_WF[static_cast<size_t>(k)];
+      sole0_[static_cast<size_t>(k)] = Vector3d(p[0], p[1], p[2]);
+    }
+    have_sole0_ = true;
+  }
+  const double weight = robot_->model.mass * robot_->model.gravity.norm();
+  for (int k : stance_) {
+    const auto ku = static_cast<size_t>(k);
+    r_.max_tilt_deg = std::max(r_.max_tilt_deg, t.foot_tilt[ku] * 180.0 / M_PI);
+    const Vector3d p(t.p_WF[ku][0], t.p_WF[ku][1], t.p_WF[ku][2]);
+    r_.max_slip = std::max(r_.max_slip, (p - sole0_[ku]).head<2>().norm());
+    // Centre of pressure in the sole frame, for a foot that carries load.
+    const Eigen::Matrix3d R = quat(t.quat_WF[ku]).normalized().toRotationMatrix();
+    const auto& w = t.contact_wrench_W[ku];
+    const Vector3d f = R.transpose() * Vector3d(w[0], w[1], w[2]);
+    const Vector3d tau = R.transpose() * Vector3d(w[3], w[4], w[5]);
+    if (f.z() > 0.05 * weight) {
+      const double cx = -tau.y() / f.z(), cy = tau.x() / f.z();
+      const auto& foot = robot_->feet[ku];
+      const double margin = std::min(0.5 * foot.length - std::abs(cx), 0.5 * foot.width - std::abs(cy));
+      r_.min_cop_margin = std::min(r_.min_cop_margin, margin);
+    }
+  }
+  for (int i = 0; i < 3; ++i) r_.peak_cam(i) = std::max(r_.peak_cam(i), std::abs(t.l_WCom[i]));
+  const Vector3d com0 = com_ref_ / n_ref_;
+  const double dev = (com - com0).norm();
+  r_.max_com_deviation = std::max(r_.max_com_deviation, dev);
+  // Posture band: CoM, base orientation and the free joints.
+  const Eigen::Vector4d qr = quat_ref_.normalized();
+  const Eigen::Quaterniond q0(qr(0), qr(1), qr(2), qr(3));
+  const double angle = quat(t.quat_WB).normalized().angularDistance(q0) * 180.0 / M_PI;
+  double joints = 0.0;
+  if (have_joints_ && n_joint_ref_ > 0) {
+    Eigen::Index worst = 0;
+    joints = (joints_now_ - joints_ref_ / n_joint_ref_).cwiseAbs().maxCoeff(&worst) * 180.0 / M_PI;
+    r_.final_joint = robot_->model.joint_name[static_cast<size_t>(robot_->free_joints[static_cast<size_t>(worst)])];
+  }
+  r_.final_com_deviation = dev;
+  r_.final_base_angle_deg = angle;
+  r_.final_joint_deg = joints;
+  const bool in_band = dev < kPostureDistance && angle < kPostureAngleDeg && joints < kPostureAngleDeg;
+  if (!in_band) last_out_of_posture_ = time;
+  evaluated_after_push_ = true;
+}
+
+TrialResult TrialEvaluator::result() const {
+  TrialResult r = r_;
+  if (r.min_cop_margin > 1e8) r.min_cop_margin = 0.0;
+  r.completed = evaluated_after_push_ && last_time_ >= push_end_ + kSettleTime - 1e-3;
+  if (last_out_of_posture_ < 0) {
+    r.return_time = 0.0;
+  } else if (last_out_of_posture_ < last_time_) {
+    r.return_time = std::max(0.0, last_out_of_posture_ - push_end_);
+  }
+  std::vector<std::string> why;
+  if (r.fallen) why.emplace_back("fell");
+  const bool decided = r.fallen || r.max_tilt_deg >= kTiltLimitDeg || r.max_slip >= kSlipLimit;
+  if (!r.completed && !decided) why.emplace_back(fmt::format("run ended at t = {:.2f} s, before 5 s after the push", last_time_));
+  if (r.max_tilt_deg >= kTiltLimitDeg) why.emplace_back(fmt::format("sole tilt {:.1f} deg", r.max_tilt_deg));
+  if (r.max_slip >= kSlipLimit) why.emplace_back(fmt::format("sole slip {:.1f} mm", r.max_slip * 1e3));
+  if (!decided && (!r.return_time || *r.return_time > kSettleTime)) why.emplace_back("posture not back within 1 cm and 1 deg");
+  r.recovered = why.empty();
+  for (size_t i = 0; i < why.size(); ++i) r.failure += (i > 0 ? "; " : "") + why[i];
+  return r;
+}
+
+std::string TrialResult::to_json(const TrialSpec& spec) const {
+  nlohmann::ordered_json j;
+  j["robot"] = spec.config;
+  j["support"] = spec.support;
+  j["strategy"] = to_string(spec.strategy);
+  j["direction_deg"] = spec.direction_deg;
+  j["peak_force_N"] = spec.peak;
+  j["duration_s"] = spec.push_duration();
+  j["recovered"] = recovered;
+  j["fallen"] = fallen;
+  j["failure"] = failure;
+  j["applied_impulse_Ns"] = impulse_W.norm();
+  j["applied_impulse_W_Ns"] = {impulse_W.x(), impulse_W.y(), impulse_W.z()};
+  j["max_foot_tilt_deg"] = max_tilt_deg;
+  j["max_sole_slip_m"] = max_slip;
+  j["peak_cam_Nms"] = {peak_cam.x(), peak_cam.y(), peak_cam.z()};
+  j["peak_cam_commanded_Nms"] = {peak_cam_cmd.x(), peak_cam_cmd.y(), peak_cam_cmd.z()};
+  j["min_cop_margin_m"] = min_cop_margin;
+  j["max_com_deviation_m"] = max_com_deviation;
+  j["return_time_s"] = return_time ? nlohmann::ordered_json(*return_time) : nlohmann::ordered_json(nullptr);
+  j["final_com_deviation_m"] = final_com_deviation;
+  j["final_base_angle_deg"] = final_base_angle_deg;
+  j["final_joint_deviation_deg"] = final_joint_deg;
+  j["final_joint"] = final_joint;
+  j["push_start_s"] = push_start;
+  j["push_end_s"] = push_end;
+  j["simulated_s"] = sim_time;
+  j["wall_s"] = wall_time;
+  if (spec.alpha) j["alpha"] = *spec.alpha;
+  if (spec.beta) j["beta"] = *spec.beta;
+  if (!log_file.empty()) j["log"] = log_file;
+  return j.dump();
+}
+
+}  // namespace hpr::experiments

@@ -1,0 +1,223 @@
+#include "hpr/experiments/trial.hpp"
+
+#include <fmt/format.h>
+#include <humanoid/health_t.hpp>
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <lcm/lcm-cpp.hpp>
+#include <set>
+
+#include "hpr/common/config.hpp"
+#include "hpr/launch/process_group.hpp"
+#include "hpr/model/algorithms.hpp"
+
+namespace hpr::experiments {
+
+namespace fs = std::filesystem;
+using namespace std::chrono_literals;
+
+std::string find_config(const std::string& robot) {
+  if (robot.find('/') != std::string::npos || robot.ends_with(".yaml")) {
+    if (fs::exists(robot)) return fs::absolute(robot).string();
+    throw std::runtime_error("configuration file '" + robot + "' not found");
+  }
+  std::vector<fs::path> dirs;
+  if (const char* env = std::getenv("HPR_CONFIG_DIR")) dirs.emplace_back(env);
+  const fs::path exe = launch::executable_dir();
+  dirs.push_back(exe / ".." / ".." / "config");       // build tree: build/bin
+  dirs.push_back(exe / ".." / "share" / "hpr" / "config");  // installed: prefix/bin
+  std::string searched;
+  for (const auto& d : dirs) {
+    const fs::path p = d / (robot + ".yaml");
+    if (fs::exists(p)) return fs::canonical(p).string();
+    searched += " " + p.lexically_normal().string();
+  }
+  throw std::runtime_error("no configuration for robot '" + robot + "' (looked for" + searched + ")");
+}
+
+double TrialSpec::push_duration() const {
+  if (duration > 0.0) return duration;
+  return impulse * M_PI / (2.0 * peak);
+}
+
+std::string TrialSpec::describe() const {
+  std::string s = fmt::format("--robot {} --support {} --strategy {} --direction {:g} --peak {:g} --duration {:.4f}", config,
+                              support, to_string(strategy), direction_deg, peak, push_duration());
+  if (!link.empty()) s += " --link " + link;
+  if (height) s += fmt::format(" --height {:g}", *height);
+  if (alpha) s += fmt::format(" --alpha {:g}", *alpha);
+  if (beta) s += fmt::format(" --beta {:g}", *beta);
+  for (const auto& o : overrides) s += " --set " + o;
+  return s;
+}
+
+namespace {
+
+/// Collects the run's messages into the evaluator and watches HEALTH for readiness.
+class Listener {
+ public:
+  Listener(lcm::LCM& lcm, TrialEvaluator& eval) : eval_(eval) {
+    lcm.subscribe("SIM_TRUTH", &Listener::truth, this);
+    lcm.subscribe("ROBOT_SENSORS", &Listener::sensors, this);
+    lcm.subscribe("WHOLEBODY_COMMAND", &Listener::wholebody, this);
+    lcm.subscribe("HEALTH", &Listener::health, this);
+  }
+  void truth(const lcm::ReceiveBuffer*, const std::string&, const humanoid::sim_truth_t* m) { eval_.on_truth(*m); }
+  void sensors(const lcm::ReceiveBuffer*, const std::string&, const humanoid::robot_sensors_t* m) { eval_.on_sensors(*m); }
+  void wholebody(const lcm::ReceiveBuffer*, const std::string&, const humanoid::wholebody_command_t* m) { eval_.on_wholebody(*m); }
+  void health(const lcm::ReceiveBuffer*, const std::string&, const humanoid::health_t* m) { seen_.insert(m->node); }
+  [[nodiscard]] bool seen(const std::string& node) const { return seen_.count(node) != 0; }
+
+ private:
+  TrialEvaluator& eval_;
+  std::set<std::string> seen_;
+};
+
+}  // namespace
+
+TrialResult run_trial(const TrialSpec& spec, const std::function<void(const std::string&)>& progress) {
+  const auto wall0 = std::chrono::steady_clock::now();
+  const std::string config = find_config(spec.config);
+  const Config cfg = Config::load(config, spec.overrides);
+  const auto robot = model::RobotSpec::load(cfg.section("robot"));
+  if (spec.support != "double" && spec.support != "left" && spec.support != "right") {
+    throw std::invalid_argument("support '" + spec.support + "': expected double, left or right");
+  }
+  if (!(spec.peak > 0.0) || !(spec.push_duration() > 0.0)) throw std::invalid_argument("the push needs a positive peak force and duration");
+  // When the push comes: 1 s after the support is settled.
+  const Config balance = cfg.section("balance");
+  double settled = balance.real_or("init_time", 1.0);
+  if (spec.support != "double") settled += balance.real_or("shift_time", 1.2) + balance.real_or("lift_time", 0.6);
+  const double t_push = spec.push_time > 0.0 ? spec.push_time : settled + 1.0;
+  const double t_end = t_push + spec.push_duration();
+  // The push point: on the link (default the base), at the requested height above the ground in
+  // the standing posture.
+  const std::string link = spec.link.empty() ? robot.model.body_name[0] : spec.link;
+  const int frame = robot.model.frame_index(link);
+  Eigen::Vector3d point_L = Eigen::Vector3d::Zero();
+  if (spec.height) {
+    model::Data data(robot.model);
+    model::forward_kinematics(robot.model, data, robot.standing_configuration());
+    const model::SE3& X = model::update_frame_placement(robot.model, data, frame);
+    point_L = X.R.transpose() * Eigen::Vector3d(0.0, 0.0, *spec.height - X.p.z());
+  }
+  const double th = spec.direction_deg * M_PI / 180.0;
+  const Eigen::Vector3d force = spec.peak * Eigen::Vector3d(std::cos(th), std::sin(th), 0.0);
+
+  std::string work = spec.work_dir;
+  if (work.empty()) {
+    work = (fs::temp_directory_path() / fmt::format("hpr-trial-{}-{}", ::getpid(), wall0.time_since_epoch().count())).string();
+  }
+  fs::create_directories(work);
+  const std::string scenario = work + "/push.yaml";
+  {
+    std::ofstream f(scenario);
+    f << fmt::format("pushes:\n  - {{link: {}, point: [{:.6f}, {:.6f}, {:.6f}], force: [{:.6f}, {:.6f}, 0.0], start: {:.6f}, "
+                     "duration: {:.6f}, profile: half_sine}}\n",
+                     link, point_L.x(), point_L.y(), point_L.z(), force.x(), force.y(), t_push, spec.push_duration());
+  }
+  std::vector<std::string> common = {"--config", config, "--set", "balance.support=" + spec.support};
+  for (const auto& o : spec.overrides) {
+    common.emplace_back("--set");
+    common.push_back(o);
+  }
+  if (spec.alpha) {
+    common.emplace_back("--set");
+    common.push_back(fmt::format("reference_gen.alpha={}", *spec.alpha));
+  }
+  if (spec.beta) {
+    common.emplace_back("--set");
+    common.push_back(fmt::format("reference_gen.beta={}", *spec.beta));
+  }
+  auto with = [&](std::vector<std::string> extra) {
+    std::vector<std::string> a = common;
+    a.insert(a.end(), extra.begin(), extra.end());
+    return a;
+  };
+
+  launch::ProcessGroup group;
+  lcm::LCM lcm(group.lcm_url());
+  if (!lcm.good()) throw std::runtime_error("cannot open LCM on " + group.lcm_url() + " (is multicast routed on lo?)");
+  TrialEvaluator eval(robot, spec.support, t_push, t_end);
+  Listener listener(lcm, eval);
+  if (!spec.log_file.empty()) {
+    fs::create_directories(fs::absolute(spec.log_file).parent_path());
+    group.start("/usr/bin/lcm-logger", {"-f", "-q", "--lcm-url=" + group.lcm_url(), spec.log_file}, {}, work + "/lcm-logger.log");
+  }
+  std::vector<std::string> nodes = {"estimator", "wbc"};
+  group.start("estimator", with({}), {}, work + "/estimator.log");
+  if (spec.strategy == Strategy::kCam) {
+    group.start("wbc", with({}), {}, work + "/wbc.log");
+    group.start("reference_gen", with({}), {}, work + "/reference_gen.log");
+    group.start("motion_opt", with({}), {}, work + "/motion_opt.log");
+    nodes.insert(nodes.end(), {"reference_gen", "motion_opt"});
+  } else {
+    group.start("wbc", with({"--set", "wbc.wait_for_wholebody=false"}), {}, work + "/wbc.log");
+  }
+  // Every controller subscribed (its HEALTH seen) before the simulator publishes tick 0.
+  const auto ready_deadline = std::chrono::steady_clock::now() + 20s;
+  auto all_ready = [&] {
+    for (const auto& n : nodes) {
+      if (!listener.seen(n)) return false;
+    }
+    return true;
+  };
+  while (!all_ready() && std::chrono::steady_clock::now() < ready_deadline) lcm.handleTimeout(50);
+  if (!all_ready()) {
+    std::string msg = "the controllers did not start:";
+    for (const auto& n : nodes) {
+      if (listener.seen(n)) continue;
+      msg += "\n  " + n + " (no HEALTH within 20 s); the end of " + work + "/" + n + ".log:";
+      std::ifstream f(work + "/" + n + ".log");
+      std::vector<std::string> lines;
+      for (std::string line; std::getline(f, line);) lines.push_back(line);
+      for (size_t i = lines.size() > 5 ? lines.size() - 5 : 0; i < lines.size(); ++i) msg += "\n    " + lines[i];
+    }
+    throw std::runtime_error(msg);
+  }
+  const double sim_duration = t_end + spec.after + 0.01;
+  const pid_t sim = group.start("sim_bullet",
+                                with({"--set", "sim.mode=lockstep", "--set", fmt::format("sim.duration={:.6f}", sim_duration),
+                                      "--set", "sim.scenario=" + scenario}),
+                                {}, work + "/sim_bullet.log");
+  double next_report = 1.0;
+  const auto deadline = wall0 + std::chrono::duration<double>(spec.timeout);
+  bool timed_out = false;
+  while (group.running(sim)) {
+    lcm.handleTimeout(50);
+    if (progress && eval.last_time() >= next_report) {
+      progress(fmt::format("  t = {:5.2f} s{}", eval.last_time(),
+                           eval.last_time() >= t_push && eval.last_time() < t_end ? "  (push)" : ""));
+      next_report = std::floor(eval.last_time()) + 1.0;
+    }
+    if (eval.fallen()) {
+      if (progress) progress(fmt::format("  fell at t = {:.2f} s", eval.last_time()));
+      break;
+    }
+    if (spec.stop_when_decided && eval.failed()) {
+      if (progress) progress(fmt::format("  not recoverable at t = {:.2f} s: stopped", eval.last_time()));
+      break;
+    }
+    if (std::chrono::steady_clock::now() > deadline) {
+      timed_out = true;
+      break;
+    }
+  }
+  // Drain what is still in flight, then stop everything (the logger with SIGINT so that it flushes).
+  for (int i = 0; i < 5; ++i) lcm.handleTimeout(10);
+  group.stop_all(2000ms);
+  TrialResult r = eval.result();
+  if (timed_out) r.failure += (r.failure.empty() ? "" : "; ") + fmt::format("timed out after {:.0f} s", spec.timeout);
+  r.log_file = spec.log_file;
+  r.wall_time = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+  if (spec.work_dir.empty()) fs::remove_all(work);
+  return r;
+}
+
+}  // namespace hpr::experiments

@@ -1,0 +1,304 @@
+// lcm_export: an LCM log of the stack to one CSV file per channel (for plots and analysis).
+//
+//   lcm_export LOG OUTDIR [--channels A,B,...] [--every N]
+//
+// Columns: the log time of the event [s] (first event = 0), then the message's fields flattened
+// (arrays as name_0, name_1, ...; per-joint arrays by joint name). Channels of unknown type are
+// counted and skipped; undecodable events are reported with their position in the log.
+#include <humanoid/balance_status_t.hpp>
+#include <humanoid/cam_reference_t.hpp>
+#include <humanoid/joint_command_t.hpp>
+#include <humanoid/robot_sensors_t.hpp>
+#include <humanoid/robot_state_t.hpp>
+#include <humanoid/sim_truth_t.hpp>
+#include <humanoid/wholebody_command_t.hpp>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <lcm/lcm-cpp.hpp>
+#include <map>
+#include <memory>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace {
+
+namespace fs = std::filesystem;
+
+/// One CSV row: names on the first row written, values after.
+class Row {
+ public:
+  void add(const std::string& name, double v) {
+    names_.push_back(name);
+    values_.push_back(v);
+  }
+  template <size_t N>
+  void arr(const std::string& name, const double (&a)[N]) {
+    for (size_t i = 0; i < N; ++i) add(name + "_" + std::to_string(i), a[i]);
+  }
+  void vec(const std::string& name, const std::vector<double>& v, const std::vector<std::string>& labels = {}) {
+    for (size_t i = 0; i < v.size(); ++i) add(name + "_" + (i < labels.size() ? labels[i] : std::to_string(i)), v[i]);
+  }
+  void mat(const std::string& name, const std::vector<std::vector<double>>& m, const std::vector<std::string>& labels) {
+    for (size_t i = 0; i < m.size(); ++i) vec(name + "_" + (i < labels.size() ? labels[i] : std::to_string(i)), m[i]);
+  }
+  std::vector<std::string> names_;
+  std::vector<double> values_;
+};
+
+void fill(Row& r, const humanoid::sim_truth_t& m) {
+  r.add("tick", static_cast<double>(m.tick));
+  r.add("t", m.sim_time);
+  r.arr("p_WB", m.p_WB);
+  r.arr("quat_WB", m.quat_WB);
+  r.arr("v_WB", m.v_WB);
+  r.arr("omega_WB", m.omega_WB);
+  r.arr("p_WCom", m.p_WCom);
+  r.arr("v_WCom", m.v_WCom);
+  r.arr("l_WCom", m.l_WCom);
+  r.mat("p_WF", m.p_WF, m.foot_name);
+  r.mat("contact_wrench_W", m.contact_wrench_W, m.foot_name);
+  r.vec("foot_tilt", m.foot_tilt, m.foot_name);
+  r.add("push_active", m.push_active ? 1 : 0);
+  r.arr("push_force_W", m.push_force_W);
+  r.arr("push_impulse_W", m.push_impulse_W);
+  r.add("fallen", m.fallen ? 1 : 0);
+}
+
+void fill(Row& r, const humanoid::robot_state_t& m) {
+  r.add("tick", static_cast<double>(m.tick));
+  r.add("t", static_cast<double>(m.utime) * 1e-6);
+  r.arr("p_WB", m.p_WB);
+  r.arr("quat_WB", m.quat_WB);
+  r.arr("v_WB", m.v_WB);
+  r.arr("omega_WB", m.omega_WB);
+  r.arr("p_WCom", m.p_WCom);
+  r.arr("v_WCom", m.v_WCom);
+  r.vec("q", m.q, m.joint_name);
+  r.vec("qd", m.qd, m.joint_name);
+  r.vec("tau", m.tau, m.joint_name);
+  std::vector<double> contact(m.foot_contact.begin(), m.foot_contact.end());
+  r.vec("foot_contact", contact, m.foot_name);
+  r.vec("foot_force_z", m.foot_force_z, m.foot_name);
+  r.arr("l_WCom", m.l_WCom);
+  r.arr("ldot_WCom", m.ldot_WCom);
+  r.add("status", m.status);
+}
+
+void fill(Row& r, const humanoid::balance_status_t& m) {
+  r.add("tick", static_cast<double>(m.tick));
+  r.add("t", static_cast<double>(m.utime) * 1e-6);
+  r.add("support", m.support);
+  r.arr("p_WV", m.p_WV);
+  r.add("yaw_WV", m.yaw_WV);
+  r.arr("tau_ankle_V", m.tau_ankle_V);
+  r.arr("tau_hip_V", m.tau_hip_V);
+  r.arr("tau_V", m.tau_V);
+  r.arr("tau_min_V", m.tau_min_V);
+  r.arr("tau_max_V", m.tau_max_V);
+  r.arr("cop_V", m.cop_V);
+  r.arr("cop_measured_V", m.cop_measured_V);
+  r.add("f_vz", m.f_vz);
+  r.arr("w_des_WCom", m.w_des_WCom);
+  r.arr("w_achieved_WCom", m.w_achieved_WCom);
+  r.add("qp_status", m.qp_status);
+  r.add("qp_iterations", m.qp_iterations);
+  r.add("qp_solve_time_us", m.qp_solve_time_us);
+  r.add("qp_fallback", m.qp_fallback ? 1 : 0);
+  r.add("compute_time_us", m.compute_time_us);
+}
+
+void fill(Row& r, const humanoid::cam_reference_t& m) {
+  r.add("tick", static_cast<double>(m.tick));
+  r.add("t", static_cast<double>(m.utime) * 1e-6);
+  r.arr("l_ref_W", m.l_ref_W);
+  r.arr("ldot_ref_W", m.ldot_ref_W);
+  r.arr("l_ref_V", m.l_ref_V);
+  r.arr("ldot_ref_V", m.ldot_ref_V);
+  r.add("yaw_WV", m.yaw_WV);
+  for (int k = 0; k < 3; ++k) r.add("phase_" + std::to_string(k), m.phase[k]);
+  for (int k = 0; k < 3; ++k) {
+    for (int p = 0; p < 3; ++p) r.add("t_phase_start_" + std::to_string(k) + "_" + std::to_string(p + 1), m.t_phase_start[k][p]);
+  }
+  r.arr("tau_thres_V", m.tau_thres_V);
+  r.arr("ldot_max_V", m.ldot_max_V);
+  r.add("status", m.status);
+}
+
+void fill(Row& r, const humanoid::wholebody_command_t& m) {
+  r.add("tick", static_cast<double>(m.tick));
+  r.add("t", static_cast<double>(m.utime) * 1e-6);
+  r.add("support", m.support);
+  r.arr("p_WCom", m.p_WCom);
+  r.arr("v_WCom", m.v_WCom);
+  r.arr("quat_WB", m.quat_WB);
+  r.arr("omega_WB", m.omega_WB);
+  r.mat("p_WF", m.p_WF, m.foot_name);
+  r.vec("q_free", m.q_free, m.free_joint);
+  r.vec("qd_free", m.qd_free, m.free_joint);
+  r.arr("l_cmd_W", m.l_cmd_W);
+  r.arr("ldot_cmd_W", m.ldot_cmd_W);
+  r.arr("l_ref_W", m.l_ref_W);
+  r.vec("xa_opt", m.xa_opt, m.adjusted_name);
+  r.vec("xad_opt", m.xad_opt, m.adjusted_name);
+  r.vec("xa_min", m.xa_min, m.adjusted_name);
+  r.vec("xa_max", m.xa_max, m.adjusted_name);
+  r.vec("xad_min", m.xad_min, m.adjusted_name);
+  r.vec("xad_max", m.xad_max, m.adjusted_name);
+  r.mat("segment_l_W", m.segment_l_W, m.segment_name);
+  r.add("posture_error", m.posture_error);
+  r.add("qp_status", m.qp_status);
+  r.add("qp_iterations", m.qp_iterations);
+  r.add("status", m.status);
+}
+
+void fill(Row& r, const humanoid::robot_sensors_t& m) {
+  r.add("tick", static_cast<double>(m.tick));
+  r.add("t", static_cast<double>(m.utime) * 1e-6);
+  r.vec("q", m.q, m.joint_name);
+  r.vec("qd", m.qd, m.joint_name);
+  r.vec("tau", m.tau, m.joint_name);
+  r.arr("imu_gyro_B", m.imu_gyro_B);
+  r.arr("imu_accel_B", m.imu_accel_B);
+  r.mat("ft_wrench_S", m.ft_wrench_S, m.ft_name);
+}
+
+void fill(Row& r, const humanoid::joint_command_t& m) {
+  r.add("tick", static_cast<double>(m.tick));
+  r.add("t", static_cast<double>(m.utime) * 1e-6);
+  r.add("mode", m.mode);
+  r.vec("tau_ff", m.tau_ff, m.joint_name);
+  r.vec("q_des", m.q_des, m.joint_name);
+  r.vec("kp", m.kp, m.joint_name);
+  r.vec("kd", m.kd, m.joint_name);
+}
+
+/// Writes one channel's CSV; the header comes from the first message (later messages with another
+/// layout, e.g. a changed adjusted set, are written under the first header when they have the same
+/// number of columns, else counted as skipped).
+class Sink {
+ public:
+  explicit Sink(const fs::path& path) : out_(path) {}
+  template <class Msg>
+  bool write(const lcm::LogEvent& ev, double t0) {
+    Msg m;
+    if (m.decode(ev.data, 0, static_cast<int>(ev.datalen)) < 0) return false;
+    Row r;
+    fill(r, m);
+    if (header_.empty()) {
+      header_ = r.names_;
+      out_ << "log_time";
+      for (const auto& n : header_) out_ << "," << n;
+      out_ << "\n";
+    }
+    if (r.values_.size() != header_.size()) {
+      ++skipped_;
+      return true;
+    }
+    out_ << static_cast<double>(ev.timestamp) * 1e-6 - t0;
+    char buf[32];
+    for (double v : r.values_) {
+      std::snprintf(buf, sizeof(buf), ",%.9g", v);
+      out_ << buf;
+    }
+    out_ << "\n";
+    ++rows_;
+    return true;
+  }
+  long rows_ = 0, skipped_ = 0;
+
+ private:
+  std::ofstream out_;
+  std::vector<std::string> header_;
+};
+
+bool ends_with(const std::string& s, const std::string& suffix) {
+  return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 3 || std::string(argv[1]) == "-h" || std::string(argv[1]) == "--help") {
+    std::fprintf(argc < 3 ? stderr : stdout, "usage: lcm_export LOG OUTDIR [--channels A,B,...] [--every N]\n");
+    return argc < 3 ? 2 : 0;
+  }
+  const std::string log_path = argv[1], out_dir = argv[2];
+  std::set<std::string> only;
+  long every = 1;
+  for (int i = 3; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--channels" && i + 1 < argc) {
+      std::stringstream ss(argv[++i]);
+      std::string c;
+      while (std::getline(ss, c, ',')) only.insert(c);
+    } else if (a == "--every" && i + 1 < argc) {
+      every = std::max(1L, std::stol(argv[++i]));
+    } else {
+      std::fprintf(stderr, "lcm_export: unknown option '%s'\n", a.c_str());
+      return 2;
+    }
+  }
+  lcm::LogFile log(log_path, "r");
+  if (!log.good()) {
+    std::fprintf(stderr, "lcm_export: cannot read the LCM log '%s'\n", log_path.c_str());
+    return 1;
+  }
+  fs::create_directories(out_dir);
+  std::map<std::string, std::unique_ptr<Sink>> sinks;
+  std::map<std::string, long> unknown, seen;
+  long events = 0, bad = 0;
+  double t0 = -1.0;
+  for (const lcm::LogEvent* ev = log.readNextEvent(); ev != nullptr; ev = log.readNextEvent()) {
+    ++events;
+    if (t0 < 0) t0 = static_cast<double>(ev->timestamp) * 1e-6;
+    const std::string& ch = ev->channel;
+    if (!only.empty() && only.count(ch) == 0) continue;
+    if ((seen[ch]++ % every) != 0) continue;
+    auto& sink = sinks[ch];
+    auto open = [&] {
+      if (!sink) sink = std::make_unique<Sink>(fs::path(out_dir) / (ch + ".csv"));
+    };
+    bool ok = true;
+    if (ends_with(ch, "SIM_TRUTH")) {
+      open();
+      ok = sink->write<humanoid::sim_truth_t>(*ev, t0);
+    } else if (ends_with(ch, "ROBOT_STATE")) {
+      open();
+      ok = sink->write<humanoid::robot_state_t>(*ev, t0);
+    } else if (ends_with(ch, "BALANCE_STATUS")) {
+      open();
+      ok = sink->write<humanoid::balance_status_t>(*ev, t0);
+    } else if (ends_with(ch, "CAM_REFERENCE")) {
+      open();
+      ok = sink->write<humanoid::cam_reference_t>(*ev, t0);
+    } else if (ends_with(ch, "WHOLEBODY_COMMAND")) {
+      open();
+      ok = sink->write<humanoid::wholebody_command_t>(*ev, t0);
+    } else if (ends_with(ch, "ROBOT_SENSORS")) {
+      open();
+      ok = sink->write<humanoid::robot_sensors_t>(*ev, t0);
+    } else if (ends_with(ch, "JOINT_COMMAND")) {
+      open();
+      ok = sink->write<humanoid::joint_command_t>(*ev, t0);
+    } else {
+      sinks.erase(ch);
+      ++unknown[ch];
+      continue;
+    }
+    if (!ok) {
+      ++bad;
+      std::fprintf(stderr, "lcm_export: event %ld on %s does not decode as its type; skipped\n", ev->eventnum, ch.c_str());
+    }
+  }
+  for (const auto& [ch, s] : sinks) {
+    std::printf("%-20s %8ld rows%s\n", ch.c_str(), s->rows_,
+                s->skipped_ > 0 ? (" (" + std::to_string(s->skipped_) + " with another layout skipped)").c_str() : "");
+  }
+  for (const auto& [ch, n] : unknown) std::printf("%-20s %8ld events not exported\n", ch.c_str(), n);
+  std::printf("%ld events read, %ld undecodable; CSV files in %s\n", events, bad, out_dir.c_str());
+  return bad > 0 ? 1 : 0;
+}

@@ -1,0 +1,259 @@
+// push_sweep: the push envelope. For each direction, support and strategy, the largest impulse the
+// robot recovers (push_trial's criteria), found by bracketing and bisection to a resolution; a
+// progress line per trial; a JSON table and a polar plot (largest recovered impulse per direction,
+// CAM against ankle).
+#include <fmt/format.h>
+
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <future>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "hpr/experiments/trial.hpp"
+#include "hpr/launch/process_group.hpp"
+
+namespace {
+
+using namespace hpr::experiments;
+namespace fs = std::filesystem;
+
+void usage(std::FILE* out) {
+  std::fprintf(out, R"(usage: push_sweep [options]
+
+  --robot NAME|FILE       configuration (default toro)
+  --supports LIST         comma-separated: double,left,right (default double)
+  --strategies LIST       comma-separated: cam,ankle (default cam,ankle)
+  --directions N          N directions evenly spaced from 0 deg (default 8)
+  --angles LIST           explicit directions in degrees (instead of --directions)
+  --peak N                peak force of the half-sine [N] (default 65)
+  --start NS              first impulse tried [N s] (default 15)
+  --max-impulse NS        largest impulse tried [N s] (default 80)
+  --resolution NS         bisection resolution [N s] (default 0.5)
+  --jobs J                trials run at the same time (default 1)
+  --alpha A, --beta B     reference generator overrides
+  --set KEY=VALUE         configuration override (repeatable)
+  --out DIR               where sweep.json and sweep.png go (default sweep-<date>)
+)");
+}
+
+std::vector<std::string> split(const std::string& s) {
+  std::vector<std::string> out;
+  std::stringstream ss(s);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    if (!item.empty()) out.push_back(item);
+  }
+  return out;
+}
+
+struct Case {
+  std::string support;
+  Strategy strategy;
+  double direction;
+  double max_recovered = 0.0;
+  bool reached_max = false;
+  std::vector<std::pair<double, bool>> trials;
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  TrialSpec base;
+  base.config = "toro";
+  base.stop_when_decided = true;
+  std::vector<std::string> supports = {"double"}, strategies = {"cam", "ankle"};
+  std::vector<double> angles;
+  int directions = 8, jobs = 1;
+  double start = 15.0, max_impulse = 80.0, resolution = 0.5;
+  std::string out_dir;
+  try {
+    for (int i = 1; i < argc; ++i) {
+      const std::string a = argv[i];
+      auto value = [&]() -> std::string {
+        if (i + 1 >= argc) throw std::invalid_argument(a + " needs a value");
+        return argv[++i];
+      };
+      auto number = [&]() { return std::stod(value()); };
+      if (a == "-h" || a == "--help") {
+        usage(stdout);
+        return 0;
+      } else if (a == "--robot") {
+        base.config = value();
+      } else if (a == "--supports") {
+        supports = split(value());
+      } else if (a == "--strategies") {
+        strategies = split(value());
+      } else if (a == "--directions") {
+        directions = std::stoi(value());
+      } else if (a == "--angles") {
+        for (const auto& s : split(value())) angles.push_back(std::stod(s));
+      } else if (a == "--peak") {
+        base.peak = number();
+      } else if (a == "--start") {
+        start = number();
+      } else if (a == "--max-impulse") {
+        max_impulse = number();
+      } else if (a == "--resolution") {
+        resolution = number();
+      } else if (a == "--jobs") {
+        jobs = std::max(1, std::stoi(value()));
+      } else if (a == "--alpha") {
+        base.alpha = number();
+      } else if (a == "--beta") {
+        base.beta = number();
+      } else if (a == "--set") {
+        base.overrides.push_back(value());
+      } else if (a == "--out") {
+        out_dir = value();
+      } else {
+        throw std::invalid_argument("unknown option '" + a + "'");
+      }
+    }
+    base.config = find_config(base.config);
+    for (const auto& s : strategies) (void)strategy_from_string(s);
+    if (angles.empty()) {
+      for (int d = 0; d < directions; ++d) angles.push_back(360.0 * d / directions);
+    }
+    if (!(resolution > 0) || !(start > 0) || !(max_impulse > start) || !(base.peak > 0)) {
+      throw std::invalid_argument("need 0 < --start < --max-impulse, --resolution > 0 and --peak > 0");
+    }
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "push_sweep: %s\n", e.what());
+    usage(stderr);
+    return 2;
+  }
+  if (out_dir.empty()) {
+    const auto t = std::time(nullptr);
+    char buf[64];
+    std::strftime(buf, sizeof(buf), "sweep-%Y%m%d-%H%M%S", std::localtime(&t));
+    out_dir = buf;
+  }
+  fs::create_directories(out_dir);
+
+  std::vector<Case> cases;
+  for (const auto& s : supports) {
+    for (const auto& st : strategies) {
+      for (double d : angles) cases.push_back({s, strategy_from_string(st), d, 0.0, false, {}});
+    }
+  }
+  std::mutex print_mutex;
+  std::atomic<int> trials_done{0};
+  const auto t0 = std::chrono::steady_clock::now();
+  auto run_case = [&](Case& c) {
+    auto trial = [&](double impulse) {
+      TrialSpec spec = base;
+      spec.support = c.support;
+      spec.strategy = c.strategy;
+      spec.direction_deg = c.direction;
+      spec.impulse = impulse;
+      bool ok = false;
+      std::string why;
+      try {
+        const TrialResult r = run_trial(spec);
+        ok = r.recovered;
+        why = r.failure;
+      } catch (const std::exception& e) {
+        why = e.what();
+      }
+      c.trials.emplace_back(impulse, ok);
+      const int n = ++trials_done;
+      const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      std::lock_guard<std::mutex> lock(print_mutex);
+      std::fprintf(stderr, "[%4d, %6.0f s] %-6s %-5s %5.1f deg %6.2f N s: %s\n", n, elapsed, c.support.c_str(),
+                   to_string(c.strategy), c.direction, impulse, ok ? "recovered" : ("not recovered (" + why + ")").c_str());
+      return ok;
+    };
+    // Bracket: grow from the start while recovered, shrink while not.
+    double lo = 0.0, hi = 0.0, g = start;
+    if (trial(g)) {
+      lo = g;
+      while (true) {
+        g = std::min(max_impulse, g * 1.5);
+        if (trial(g)) {
+          lo = g;
+          if (g >= max_impulse) {
+            c.reached_max = true;
+            break;
+          }
+        } else {
+          hi = g;
+          break;
+        }
+      }
+    } else {
+      hi = g;
+      while (g > resolution) {
+        g /= 1.5;
+        if (trial(g)) {
+          lo = g;
+          break;
+        }
+        hi = g;
+      }
+    }
+    while (!c.reached_max && hi - lo > resolution) {
+      const double mid = 0.5 * (lo + hi);
+      if (trial(mid)) {
+        lo = mid;
+      } else {
+        hi = mid;
+      }
+    }
+    c.max_recovered = lo;
+    std::lock_guard<std::mutex> lock(print_mutex);
+    std::fprintf(stderr, "  => %s %s %.0f deg: largest recovered impulse %.2f N s%s\n", c.support.c_str(), to_string(c.strategy),
+                 c.direction, lo, c.reached_max ? " (the maximum tried)" : "");
+  };
+  // Cases run `jobs` at a time, each on its own LCM URL.
+  std::atomic<size_t> next{0};
+  std::vector<std::future<void>> workers;
+  for (int w = 0; w < jobs; ++w) {
+    workers.push_back(std::async(std::launch::async, [&] {
+      for (size_t i = next++; i < cases.size(); i = next++) run_case(cases[i]);
+    }));
+  }
+  for (auto& w : workers) w.get();
+
+  nlohmann::ordered_json j;
+  j["robot"] = base.config;
+  j["peak_force_N"] = base.peak;
+  j["resolution_Ns"] = resolution;
+  j["max_impulse_Ns"] = max_impulse;
+  if (base.alpha) j["alpha"] = *base.alpha;
+  if (base.beta) j["beta"] = *base.beta;
+  j["overrides"] = base.overrides;
+  j["results"] = nlohmann::ordered_json::array();
+  for (const auto& c : cases) {
+    nlohmann::ordered_json r;
+    r["support"] = c.support;
+    r["strategy"] = to_string(c.strategy);
+    r["direction_deg"] = c.direction;
+    r["max_recovered_Ns"] = c.max_recovered;
+    r["reached_max"] = c.reached_max;
+    r["trials"] = nlohmann::ordered_json::array();
+    for (const auto& [imp, ok] : c.trials) r["trials"].push_back({{"impulse_Ns", imp}, {"recovered", ok}});
+    j["results"].push_back(r);
+  }
+  const std::string json_path = out_dir + "/sweep.json";
+  std::ofstream(json_path) << j.dump(2) << "\n";
+  std::printf("%-7s %-6s %9s %14s\n", "support", "strat.", "direction", "max impulse");
+  for (const auto& c : cases) {
+    std::printf("%-7s %-6s %7.0f deg %10.2f N s%s\n", c.support.c_str(), to_string(c.strategy), c.direction, c.max_recovered,
+                c.reached_max ? "+" : "");
+  }
+  std::printf("table: %s\n", json_path.c_str());
+  // The polar plot (matplotlib).
+  const fs::path exe = hpr::launch::executable_dir();
+  for (const fs::path& script : {exe / ".." / ".." / "tools" / "plots" / "plot_sweep.py", exe / ".." / "share" / "hpr" / "plots" / "plot_sweep.py"}) {
+    if (!fs::exists(script)) continue;
+    const std::string cmd = fmt::format("/usr/bin/python3 '{}' '{}' '{}/sweep.png'", script.string(), json_path, out_dir);
+    if (std::system(cmd.c_str()) == 0) std::printf("plot: %s/sweep.png\n", out_dir.c_str());
+    break;
+  }
+  return 0;
+}

@@ -1,0 +1,149 @@
+// push_trial: one push-recovery experiment with every process of the stack in lockstep against
+// sim_bullet (estimator in the loop). Prints one JSON object on stdout and progress on stderr.
+//
+// Exit status: 0 recovered, 1 not recovered, 2 bad arguments or configuration, 4 the run failed.
+#include <cstdio>
+#include <cstdlib>
+#include <iostream>
+#include <string>
+
+#include "hpr/common/config.hpp"
+#include "hpr/experiments/trial.hpp"
+
+namespace {
+
+void usage(std::FILE* out) {
+  std::fprintf(out, R"(usage: push_trial [options]
+
+One push experiment: sim_bullet, estimator, wbc and (strategy cam) reference_gen and motion_opt in
+lockstep on a private LCM URL. Prints a JSON object: recovered, fallen, applied impulse, maximum foot
+tilt, maximum sole slip, peak CAM per axis, minimum CoP margin, time to return to the posture.
+
+  --robot NAME|FILE     configuration (default toro; NAME looks in the config folder)
+  --support S           double | left | right (default double)
+  --strategy S          cam | ankle (ankle: the wbc holds the posture, no CAM reference) (default cam)
+  --direction DEG       push direction: 0 = pushed forward from behind, 90 = towards +y, 180 = from the front
+  --impulse NS          impulse of the half-sine push [N s] (default 18)
+  --peak N              peak force [N] (default 65)
+  --duration S          push duration [s] (default: from impulse and peak, I = 2 F T / pi)
+  --link LINK           link pushed (default: the base link)
+  --height M            height of the push point above the ground in the standing posture [m]
+  --alpha A, --beta B   reference generator parameters (23), (27) for every axis
+  --push-time S         simulation time of the push (default: 1 s after the support is settled)
+  --after S             simulated time after the push ends (default 5)
+  --set KEY=VALUE       configuration override for every process (repeatable)
+  --log FILE            record the LCM log of the run
+  --work-dir DIR        keep the processes' output there
+  --json FILE           also write the JSON object to FILE
+  --quiet               no progress on stderr
+)");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace hpr::experiments;
+  TrialSpec spec;
+  spec.config = "toro";
+  std::string json_file;
+  bool quiet = false;
+  try {
+    for (int i = 1; i < argc; ++i) {
+      const std::string a = argv[i];
+      auto value = [&]() -> std::string {
+        if (i + 1 >= argc) throw std::invalid_argument(a + " needs a value");
+        return argv[++i];
+      };
+      auto number = [&]() {
+        const std::string v = value();
+        char* end = nullptr;
+        const double d = std::strtod(v.c_str(), &end);
+        if (end == v.c_str() || *end != '\0' || !std::isfinite(d)) throw std::invalid_argument(a + ": '" + v + "' is not a number");
+        return d;
+      };
+      if (a == "-h" || a == "--help") {
+        usage(stdout);
+        return 0;
+      } else if (a == "--robot") {
+        spec.config = value();
+      } else if (a == "--support") {
+        spec.support = value();
+      } else if (a == "--strategy") {
+        spec.strategy = strategy_from_string(value());
+      } else if (a == "--direction") {
+        spec.direction_deg = number();
+      } else if (a == "--impulse") {
+        spec.impulse = number();
+      } else if (a == "--peak") {
+        spec.peak = number();
+      } else if (a == "--duration") {
+        spec.duration = number();
+      } else if (a == "--link") {
+        spec.link = value();
+      } else if (a == "--height") {
+        spec.height = number();
+      } else if (a == "--alpha") {
+        spec.alpha = number();
+      } else if (a == "--beta") {
+        spec.beta = number();
+      } else if (a == "--push-time") {
+        spec.push_time = number();
+      } else if (a == "--after") {
+        spec.after = number();
+      } else if (a == "--set") {
+        spec.overrides.push_back(value());
+      } else if (a == "--log") {
+        spec.log_file = value();
+      } else if (a == "--work-dir") {
+        spec.work_dir = value();
+      } else if (a == "--json") {
+        json_file = value();
+      } else if (a == "--quiet") {
+        quiet = true;
+      } else {
+        throw std::invalid_argument("unknown option '" + a + "'");
+      }
+    }
+    if (spec.support != "double" && spec.support != "left" && spec.support != "right") {
+      throw std::invalid_argument("--support '" + spec.support + "': expected double, left or right");
+    }
+    if (!(spec.peak > 0) || spec.impulse < 0 || spec.duration < 0 || (spec.impulse == 0 && spec.duration == 0)) {
+      throw std::invalid_argument("the push needs --peak > 0 and a positive --impulse or --duration");
+    }
+    spec.config = find_config(spec.config);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "push_trial: %s\n", e.what());
+    usage(stderr);
+    return 2;
+  }
+  try {
+    if (!quiet) {
+      std::fprintf(stderr, "push_trial: %s, %s support, %s strategy, %.4g N s at %.0f deg (%.0f N peak, %.3f s)\n",
+                   spec.config.c_str(), spec.support.c_str(), to_string(spec.strategy), spec.impulse, spec.direction_deg,
+                   spec.peak, spec.push_duration());
+    }
+    const TrialResult r = run_trial(spec, quiet ? std::function<void(const std::string&)>() : [](const std::string& line) {
+      std::fprintf(stderr, "%s\n", line.c_str());
+    });
+    const std::string json = r.to_json(spec);
+    std::printf("%s\n", json.c_str());
+    if (!json_file.empty()) {
+      std::FILE* f = std::fopen(json_file.c_str(), "w");
+      if (f != nullptr) {
+        std::fprintf(f, "%s\n", json.c_str());
+        std::fclose(f);
+      }
+    }
+    if (!quiet) {
+      std::fprintf(stderr, "push_trial: %s%s (%.1f s simulated in %.1f s)\n", r.recovered ? "recovered" : "NOT recovered: ",
+                   r.failure.c_str(), r.sim_time, r.wall_time);
+    }
+    return r.recovered ? 0 : 1;
+  } catch (const hpr::ConfigError& e) {
+    std::fprintf(stderr, "push_trial: %s\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "push_trial: %s\n", e.what());
+    return 4;
+  }
+}
