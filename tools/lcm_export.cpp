@@ -176,43 +176,56 @@ void fill(Row& r, const humanoid::joint_command_t& m) {
   r.vec("kd", m.kd, m.joint_name);
 }
 
-/// Writes one channel's CSV; the header comes from the first message (later messages with another
-/// layout, e.g. a changed adjusted set, are written under the first header when they have the same
-/// number of columns, else counted as skipped).
+/// One channel's CSV. The log is read twice: the first pass collects the union of the columns (the
+/// layout may change within a run, e.g. the adjusted set when the support changes), the second
+/// writes every message with empty cells for the columns it does not have.
 class Sink {
  public:
-  explicit Sink(const fs::path& path) : out_(path) {}
   template <class Msg>
-  bool write(const lcm::LogEvent& ev, double t0) {
+  bool scan(const lcm::LogEvent& ev) {
     Msg m;
     if (m.decode(ev.data, 0, static_cast<int>(ev.datalen)) < 0) return false;
     Row r;
     fill(r, m);
-    if (header_.empty()) {
-      header_ = r.names_;
-      out_ << "log_time";
-      for (const auto& n : header_) out_ << "," << n;
-      out_ << "\n";
+    for (const auto& n : r.names_) {
+      if (index_.emplace(n, header_.size()).second) header_.push_back(n);
     }
-    if (r.values_.size() != header_.size()) {
-      ++skipped_;
-      return true;
-    }
+    return true;
+  }
+  template <class Msg>
+  void write(const lcm::LogEvent& ev, double t0) {
+    Msg m;
+    if (m.decode(ev.data, 0, static_cast<int>(ev.datalen)) < 0) return;
+    Row r;
+    fill(r, m);
+    if (!out_.is_open()) return;
+    std::vector<const double*> cells(header_.size(), nullptr);
+    for (size_t i = 0; i < r.names_.size(); ++i) cells[index_.at(r.names_[i])] = &r.values_[i];
     out_ << static_cast<double>(ev.timestamp) * 1e-6 - t0;
     char buf[32];
-    for (double v : r.values_) {
-      std::snprintf(buf, sizeof(buf), ",%.9g", v);
-      out_ << buf;
+    for (const double* v : cells) {
+      if (v == nullptr) {
+        out_ << ",";
+      } else {
+        std::snprintf(buf, sizeof(buf), ",%.9g", *v);
+        out_ << buf;
+      }
     }
     out_ << "\n";
     ++rows_;
-    return true;
   }
-  long rows_ = 0, skipped_ = 0;
+  void open(const fs::path& path) {
+    out_.open(path);
+    out_ << "log_time";
+    for (const auto& n : header_) out_ << "," << n;
+    out_ << "\n";
+  }
+  long rows_ = 0;
 
  private:
   std::ofstream out_;
   std::vector<std::string> header_;
+  std::map<std::string, size_t> index_;
 };
 
 bool ends_with(const std::string& s, const std::string& suffix) {
@@ -242,62 +255,60 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
-  lcm::LogFile log(log_path, "r");
-  if (!log.good()) {
-    std::fprintf(stderr, "lcm_export: cannot read the LCM log '%s'\n", log_path.c_str());
-    return 1;
-  }
   fs::create_directories(out_dir);
-  std::map<std::string, std::unique_ptr<Sink>> sinks;
-  std::map<std::string, long> unknown, seen;
+  std::map<std::string, Sink> sinks;
+  std::map<std::string, long> unknown;
   long events = 0, bad = 0;
   double t0 = -1.0;
-  for (const lcm::LogEvent* ev = log.readNextEvent(); ev != nullptr; ev = log.readNextEvent()) {
-    ++events;
-    if (t0 < 0) t0 = static_cast<double>(ev->timestamp) * 1e-6;
-    const std::string& ch = ev->channel;
-    if (!only.empty() && only.count(ch) == 0) continue;
-    if ((seen[ch]++ % every) != 0) continue;
-    auto& sink = sinks[ch];
-    auto open = [&] {
-      if (!sink) sink = std::make_unique<Sink>(fs::path(out_dir) / (ch + ".csv"));
+  // Dispatch on the channel's type (channel names may carry a prefix).
+  auto visit = [&](const lcm::LogEvent& ev, bool writing) {
+    const std::string& ch = ev.channel;
+    auto go = [&]<class Msg>() {
+      Sink& sink = sinks[ch];
+      if (writing) {
+        sink.write<Msg>(ev, t0);
+      } else if (!sink.scan<Msg>(ev)) {
+        ++bad;
+        std::fprintf(stderr, "lcm_export: event %ld on %s does not decode as its type; skipped\n", ev.eventnum, ch.c_str());
+      }
     };
-    bool ok = true;
     if (ends_with(ch, "SIM_TRUTH")) {
-      open();
-      ok = sink->write<humanoid::sim_truth_t>(*ev, t0);
+      go.template operator()<humanoid::sim_truth_t>();
     } else if (ends_with(ch, "ROBOT_STATE")) {
-      open();
-      ok = sink->write<humanoid::robot_state_t>(*ev, t0);
+      go.template operator()<humanoid::robot_state_t>();
     } else if (ends_with(ch, "BALANCE_STATUS")) {
-      open();
-      ok = sink->write<humanoid::balance_status_t>(*ev, t0);
+      go.template operator()<humanoid::balance_status_t>();
     } else if (ends_with(ch, "CAM_REFERENCE")) {
-      open();
-      ok = sink->write<humanoid::cam_reference_t>(*ev, t0);
+      go.template operator()<humanoid::cam_reference_t>();
     } else if (ends_with(ch, "WHOLEBODY_COMMAND")) {
-      open();
-      ok = sink->write<humanoid::wholebody_command_t>(*ev, t0);
+      go.template operator()<humanoid::wholebody_command_t>();
     } else if (ends_with(ch, "ROBOT_SENSORS")) {
-      open();
-      ok = sink->write<humanoid::robot_sensors_t>(*ev, t0);
+      go.template operator()<humanoid::robot_sensors_t>();
     } else if (ends_with(ch, "JOINT_COMMAND")) {
-      open();
-      ok = sink->write<humanoid::joint_command_t>(*ev, t0);
-    } else {
-      sinks.erase(ch);
+      go.template operator()<humanoid::joint_command_t>();
+    } else if (!writing) {
       ++unknown[ch];
-      continue;
     }
-    if (!ok) {
-      ++bad;
-      std::fprintf(stderr, "lcm_export: event %ld on %s does not decode as its type; skipped\n", ev->eventnum, ch.c_str());
+  };
+  for (int pass = 0; pass < 2; ++pass) {
+    lcm::LogFile log(log_path, "r");
+    if (!log.good()) {
+      std::fprintf(stderr, "lcm_export: cannot read the LCM log '%s'\n", log_path.c_str());
+      return 1;
+    }
+    if (pass == 1) {
+      for (auto& [ch, sink] : sinks) sink.open(fs::path(out_dir) / (ch + ".csv"));
+    }
+    std::map<std::string, long> seen;
+    for (const lcm::LogEvent* ev = log.readNextEvent(); ev != nullptr; ev = log.readNextEvent()) {
+      if (pass == 0) ++events;
+      if (t0 < 0) t0 = static_cast<double>(ev->timestamp) * 1e-6;
+      if (!only.empty() && only.count(ev->channel) == 0) continue;
+      if ((seen[ev->channel]++ % every) != 0) continue;
+      visit(*ev, pass == 1);
     }
   }
-  for (const auto& [ch, s] : sinks) {
-    std::printf("%-20s %8ld rows%s\n", ch.c_str(), s->rows_,
-                s->skipped_ > 0 ? (" (" + std::to_string(s->skipped_) + " with another layout skipped)").c_str() : "");
-  }
+  for (const auto& [ch, s] : sinks) std::printf("%-20s %8ld rows\n", ch.c_str(), s.rows_);
   for (const auto& [ch, n] : unknown) std::printf("%-20s %8ld events not exported\n", ch.c_str(), n);
   std::printf("%ld events read, %ld undecodable; CSV files in %s\n", events, bad, out_dir.c_str());
   return bad > 0 ? 1 : 0;

@@ -241,13 +241,19 @@ const MotionOptOutput& MotionOptimizer::step(const VectorXd& q, const VectorXd& 
     g_(a) = -qp_w * xd(a);
   }
   // CAM weight: full while CAM is generated, ramped down to the idle fraction otherwise.
+  // The release follows a smoothstep in time (C¹), so that the posture return starts without a
+  // jump in the commanded accelerations.
   const double idle = config_.cam_idle_fraction;
   if (cam_active) {
     cam_scale_ = 1.0;
+    release_progress_ = 0.0;
   } else if (first_ || config_.cam_release_time <= 0.0) {
     cam_scale_ = idle;
+    release_progress_ = 1.0;
   } else {
-    cam_scale_ = std::max(idle, cam_scale_ - (1.0 - idle) * dt / config_.cam_release_time);
+    release_progress_ = std::min(1.0, release_progress_ + dt / config_.cam_release_time);
+    const double s = release_progress_ * release_progress_ * (3.0 - 2.0 * release_progress_);
+    cam_scale_ = 1.0 - s * (1.0 - idle);
   }
   out_.cam_weight_scale = cam_scale_;
   const Eigen::Matrix3d Ql = (cam_scale_ * config_.Q_l).asDiagonal();

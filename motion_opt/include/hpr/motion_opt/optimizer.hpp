@@ -36,7 +36,7 @@ struct MotionOptConfig {
   double Q_p = 0.1;                                            ///< posture weight (14b), default
   std::map<std::string, double> Q_p_overrides;                 ///< per coordinate name
   double cam_idle_fraction = 0.05;                             ///< Q_l scale while no CAM is generated (idle, phase 3)
-  double cam_release_time = 0.2;                               ///< [s] ramp of Q_l down to that fraction
+  double cam_release_time = 0.5;                               ///< [s] smooth ramp of Q_l down to that fraction
   double K_p = 2.0;                                            ///< posture convergence [1/s] (16)
   double K_a = 10.0;                                           ///< limit approach gain [1/s] (17)
   Eigen::Vector3d base_min{-0.25, -0.35, -0.3}, base_max{0.25, 0.35, 0.3};  ///< base rotation offsets [rad]
@@ -117,7 +117,7 @@ class MotionOptimizer {
   std::vector<int> last_set_;
   Eigen::Vector3d l_cmd_prev_ = Eigen::Vector3d::Zero();
   bool first_ = true;
-  double cam_scale_ = 1.0;
+  double cam_scale_ = 1.0, release_progress_ = 1.0;
   MotionOptOutput out_;
   Eigen::MatrixXd H_, A_;
   Eigen::VectorXd g_, lb_, ub_, lbA_, ubA_;

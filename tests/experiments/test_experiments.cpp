@@ -1,0 +1,245 @@
+// The paper's experiments in simulation, every process of the stack in lockstep with the estimator
+// in the loop (push_trial, push_sweep), TORO-like robot with its default configuration (α = 0.9,
+// β = 0.4) and the second robot with configuration changes only. Figures from each run's LCM log
+// go to the test's work folder (build/test-work/...).
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <lcm/lcm-cpp.hpp>
+#include <nlohmann/json.hpp>
+
+#include <humanoid/cam_reference_t.hpp>
+#include <humanoid/wholebody_command_t.hpp>
+
+#include "process_group.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+/// Runs a tool of the build tree, returns its exit status and stdout.
+int run(const std::string& cmd, std::string* out = nullptr) {
+  std::fprintf(stderr, "$ %s\n", cmd.c_str());
+  FILE* p = ::popen(cmd.c_str(), "r");
+  if (p == nullptr) return -1;
+  std::string text;
+  char buf[4096];
+  while (std::fgets(buf, sizeof(buf), p) != nullptr) text += buf;
+  const int status = ::pclose(p);
+  if (out != nullptr) *out = text;
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+std::string bin(const std::string& name) { return hpr::test::bin_dir() + "/" + name; }
+
+/// push_trial with `args`; the JSON result. The LCM log and figures go to `dir` when given.
+json trial(const std::string& args, const std::string& dir = "", const std::string& title = "") {
+  std::string cmd = bin("push_trial") + " --quiet " + args;
+  if (!dir.empty()) cmd += " --log " + dir + "/run.lcm";
+  std::string out;
+  const int rc = run(cmd, &out);
+  EXPECT_TRUE(rc == 0 || rc == 1) << "push_trial failed (" << rc << "): " << out;
+  json j = json::parse(out, nullptr, false);
+  EXPECT_FALSE(j.is_discarded()) << out;
+  std::fprintf(stderr, "%s\n", out.c_str());
+  if (!dir.empty() && !j.is_discarded()) {
+    EXPECT_EQ(run(bin("lcm_export") + " " + dir + "/run.lcm " + dir + "/csv > /dev/null"), 0);
+    EXPECT_EQ(run("/usr/bin/python3 " + hpr::test::source_dir() + "/tools/plots/plot_trial.py " + dir + "/csv " + dir +
+                  " --title '" + title + "'"),
+              0);
+    EXPECT_TRUE(fs::exists(dir + "/fig5.png"));
+  }
+  return j;
+}
+
+/// Every WHOLEBODY_COMMAND and CAM_REFERENCE of a log.
+struct LogData {
+  std::vector<humanoid::wholebody_command_t> wholebody;
+  std::vector<humanoid::cam_reference_t> cam;
+};
+
+LogData read_log(const std::string& path) {
+  LogData d;
+  lcm::LogFile log(path, "r");
+  EXPECT_TRUE(log.good()) << path;
+  for (const lcm::LogEvent* ev = log.readNextEvent(); ev != nullptr; ev = log.readNextEvent()) {
+    if (ev->channel == "WHOLEBODY_COMMAND") {
+      humanoid::wholebody_command_t m;
+      if (m.decode(ev->data, 0, static_cast<int>(ev->datalen)) >= 0) d.wholebody.push_back(std::move(m));
+    } else if (ev->channel == "CAM_REFERENCE") {
+      humanoid::cam_reference_t m;
+      if (m.decode(ev->data, 0, static_cast<int>(ev->datalen)) >= 0) d.cam.push_back(m);
+    }
+  }
+  return d;
+}
+
+/// Largest |value| of a named adjusted coordinate's offset, with its sign.
+double peak_offset(const LogData& d, const std::string& name) {
+  double best = 0.0;
+  for (const auto& w : d.wholebody) {
+    for (size_t i = 0; i < w.adjusted_name.size(); ++i) {
+      if (w.adjusted_name[i] == name && std::abs(w.xa_opt[i]) > std::abs(best)) best = w.xa_opt[i];
+    }
+  }
+  return best;
+}
+
+/// Largest |CAM| about `axis` contributed by the segments whose name contains `part`, with its sign.
+double peak_segment(const LogData& d, const std::string& part, int axis) {
+  double best = 0.0;
+  for (const auto& w : d.wholebody) {
+    double sum = 0.0;
+    for (size_t s = 0; s < w.segment_name.size(); ++s) {
+      if (w.segment_name[s].find(part) != std::string::npos) sum += w.segment_l_W[s][static_cast<size_t>(axis)];
+    }
+    if (std::abs(sum) > std::abs(best)) best = sum;
+  }
+  return best;
+}
+
+TEST(PaperExperiments, Experiment1DoubleSupportPushFromBehind18Ns) {
+  const std::string dir = hpr::test::temp_dir("experiment1");
+  const json cam = trial("--robot toro --support double --strategy cam --direction 0 --peak 65 --impulse 18", dir,
+                         "Experiment 1: double support, 18 N s from behind, CAM strategy");
+  EXPECT_TRUE(cam["recovered"].get<bool>()) << cam.dump();
+  EXPECT_NEAR(cam["applied_impulse_Ns"].get<double>(), 18.0, 0.1);
+  // The robot bends forward and swings its arms back: CAM about +y, the sign that counteracts the
+  // push (the ankles saturate resisting it), from the trunk and from both arms.
+  const LogData d = read_log(dir + "/run.lcm");
+  const double l_peak = cam["peak_cam_commanded_Nms"][1].get<double>();
+  EXPECT_GT(l_peak, 0.2);
+  double l_signed = 0.0;
+  for (const auto& w : d.wholebody) l_signed = std::abs(w.l_cmd_W[1]) > std::abs(l_signed) ? w.l_cmd_W[1] : l_signed;
+  EXPECT_GT(l_signed, 0.0) << "CAM about +y";
+  EXPECT_GT(peak_offset(d, "base_rotation_y"), 0.005) << "the trunk bends forward";
+  EXPECT_GT(peak_segment(d, "arm", 1), 0.05) << "the arms swing back";
+  // The ankle strategy alone with the same gains at the same push, reported.
+  const json ankle = trial("--robot toro --support double --strategy ankle --direction 0 --peak 65 --impulse 18",
+                           hpr::test::temp_dir("experiment1-ankle"), "Experiment 1: the ankle strategy alone");
+  std::printf("experiment 1 (18 N s from behind): CAM strategy %s, ankle strategy %s\n",
+              cam["recovered"].get<bool>() ? "recovered" : "NOT recovered",
+              ankle["recovered"].get<bool>() ? "recovered" : ("NOT recovered: " + ankle["failure"].get<std::string>()).c_str());
+  std::printf("  CAM: min CoP margin %.1f mm, peak CAM %.2f N m s, back in %.2f s; ankle: min CoP margin %.1f mm\n",
+              cam["min_cop_margin_m"].get<double>() * 1e3, cam["peak_cam_Nms"][1].get<double>(),
+              cam["return_time_s"].is_null() ? -1.0 : cam["return_time_s"].get<double>(),
+              ankle["min_cop_margin_m"].get<double>() * 1e3);
+}
+
+TEST(PaperExperiments, Experiment2SingleSupportPushFromTheFront22_5Ns) {
+  const std::string dir = hpr::test::temp_dir("experiment2");
+  const json r = trial("--robot toro --support right --strategy cam --direction 180 --peak 75 --impulse 22.5", dir,
+                       "Experiment 2: single support (right), 22.5 N s from the front");
+  EXPECT_TRUE(r["recovered"].get<bool>()) << r.dump();
+  EXPECT_NEAR(r["applied_impulse_Ns"].get<double>(), 22.5, 0.1);
+  // The swing leg contributes to the commanded CAM, with the sign of the total.
+  const LogData d = read_log(dir + "/run.lcm");
+  double total = 0.0;
+  for (const auto& w : d.wholebody) total = std::abs(w.l_cmd_W[1]) > std::abs(total) ? w.l_cmd_W[1] : total;
+  const double swing = peak_segment(d, "left_foot", 1);
+  std::printf("experiment 2: peak commanded CAM %.2f N m s about y, of which the swing foot %.2f N m s\n", total, swing);
+  EXPECT_LT(total, 0.0) << "pushed from the front: CAM about -y";
+  EXPECT_LT(swing, 0.0);
+  EXPECT_GT(std::abs(swing), 0.1 * std::abs(total)) << "the swing leg takes part";
+}
+
+/// Phase-1 onset [s] (negative if phase 1 never started) and peak |l_c^ref| about y [N m s] of a
+/// push from behind at the given α, with the trial's figures left in its folder.
+std::pair<double, double> fig3_trial(double impulse, double alpha) {
+  char tag[64];
+  std::snprintf(tag, sizeof(tag), "fig3-%.0fNs-alpha%.0f", impulse, alpha * 10);
+  const std::string dir = hpr::test::temp_dir(tag);
+  char args[256];
+  std::snprintf(args, sizeof(args), "--robot toro --strategy cam --direction 0 --peak 65 --impulse %.1f --alpha %.1f", impulse,
+                alpha);
+  char title[128];
+  std::snprintf(title, sizeof(title), "Fig. 3 scenario: %.0f N s from behind, alpha = %.1f", impulse, alpha);
+  const json r = trial(args, dir, title);
+  EXPECT_TRUE(r["recovered"].get<bool>()) << impulse << " N s, alpha " << alpha << ": " << r.dump();
+  const LogData d = read_log(dir + "/run.lcm");
+  double start = -1.0, peak = 0.0;
+  for (const auto& c : d.cam) {
+    if (start < 0 && c.phase[1] == humanoid::cam_reference_t::PHASE_GENERATE) start = static_cast<double>(c.utime) * 1e-6;
+    peak = std::max(peak, std::abs(c.l_ref_V[1]));
+  }
+  std::printf("%.0f N s, alpha %.1f: phase 1 from %.3f s, peak CAM reference %.3f N m s\n", impulse, alpha, start, peak);
+  return {start, peak};
+}
+
+TEST(PaperExperiments, Fig3ScenarioAtThreeAlphas) {
+  // The paper's scenario, 12 N s from behind at α ∈ {0.7, 0.8, 0.9}, figures for each. This robot's
+  // soles take the 12 N s push with the ankle torque at about 0.74 of its limit, so only α = 0.7
+  // enters phase 1; a larger α activates later or not at all and never generates more CAM.
+  double last_start = 0.0, last_peak = 1e9;
+  for (const double alpha : {0.7, 0.8, 0.9}) {
+    const auto [start, peak] = fig3_trial(12.0, alpha);
+    if (alpha < 0.75) {
+      EXPECT_GT(start, 0.0) << "phase 1 must start at alpha 0.7";
+    }
+    if (start > 0) {
+      EXPECT_GT(start, last_start);
+    }
+    EXPECT_LE(peak, last_peak);
+    last_start = start > 0 ? start : 1e9;
+    last_peak = peak;
+  }
+  // The same scenario at 18 N s crosses all three thresholds: strictly later and less CAM with α.
+  last_start = 0.0;
+  last_peak = 1e9;
+  for (const double alpha : {0.7, 0.8, 0.9}) {
+    const auto [start, peak] = fig3_trial(18.0, alpha);
+    ASSERT_GT(start, 0.0) << "phase 1 must start at alpha " << alpha;
+    EXPECT_GT(start, last_start);
+    EXPECT_LT(peak, last_peak);
+    last_start = start;
+    last_peak = peak;
+  }
+}
+
+/// The largest recovered impulses of a sweep, by (strategy, direction).
+std::map<std::pair<std::string, double>, double> sweep(const std::string& args, const std::string& dir) {
+  std::string out;
+  EXPECT_EQ(run(bin("push_sweep") + " " + args + " --jobs 2 --out " + dir, &out), 0) << out;
+  std::fprintf(stderr, "%s\n", out.c_str());
+  std::ifstream f(dir + "/sweep.json");
+  const json j = json::parse(f, nullptr, false);
+  std::map<std::pair<std::string, double>, double> m;
+  if (j.is_discarded()) {
+    ADD_FAILURE() << "no sweep.json in " << dir;
+    return m;
+  }
+  for (const auto& r : j["results"]) m[{r["strategy"].get<std::string>(), r["direction_deg"].get<double>()}] = r["max_recovered_Ns"].get<double>();
+  return m;
+}
+
+TEST(PaperExperiments, EnvelopeCamBeatsTheAnkleStrategyInEveryDirection) {
+  const std::string dir = hpr::test::temp_dir("envelope");
+  const auto m = sweep("--robot toro --supports double --strategies cam,ankle --directions 8 --resolution 0.5", dir);
+  ASSERT_EQ(m.size(), 16U);
+  for (double d = 0; d < 360; d += 45) {
+    const double cam = m.at({"cam", d}), ankle = m.at({"ankle", d});
+    std::printf("%5.0f deg: CAM %.2f N s, ankle %.2f N s (x%.2f)\n", d, cam, ankle, cam / ankle);
+    EXPECT_GE(cam, ankle) << d << " deg";
+  }
+  EXPECT_GE(m.at({"cam", 0.0}), 1.3 * m.at({"ankle", 0.0})) << "from behind";
+  EXPECT_GE(m.at({"cam", 180.0}), 1.3 * m.at({"ankle", 180.0})) << "from the front";
+  EXPECT_TRUE(fs::exists(dir + "/sweep.png"));
+}
+
+TEST(SecondRobot, H1StandsAndRecoversAPushItsAnkleStrategyDoesNot) {
+  // Configuration only (config/h1_2.yaml). The impulse sits between the two strategies' limits
+  // from behind (see docs/RESULTS.md for the sweep that found them).
+  const std::string args = "--robot h1_2 --support double --direction 0 --peak 65 --impulse ";
+  const json stand = trial(args + "1 --strategy cam");
+  EXPECT_TRUE(stand["recovered"].get<bool>()) << "stands: " << stand.dump();
+  const std::string impulse = HPR_H1_TEST_IMPULSE;
+  const json ankle = trial(args + impulse + " --strategy ankle");
+  const json cam = trial(args + impulse + " --strategy cam", hpr::test::temp_dir("h1-cam"), "H1-2: push from behind, CAM strategy");
+  EXPECT_FALSE(ankle["recovered"].get<bool>()) << ankle.dump();
+  EXPECT_TRUE(cam["recovered"].get<bool>()) << cam.dump();
+}
+
+}  // namespace
