@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "hpr/common/log.hpp"
+#include "hpr/sim/sim_io.hpp"
 
 namespace hpr::sim {
 
@@ -33,21 +34,15 @@ SimNode::SimNode(node::Runtime& rt, Simulator& sim, SimNodeOptions options)
         return std::string();
       });
   rt.subscribe<humanoid::push_t>("PUSH", {}, [this](const humanoid::push_t& p) {
-    Push push;
-    push.id = p.id;
-    push.link = p.link;
-    push.point_L = Eigen::Vector3d(p.point_L[0], p.point_L[1], p.point_L[2]);
-    push.force_W = Eigen::Vector3d(p.force_W[0], p.force_W[1], p.force_W[2]);
-    push.start = p.start_time;
-    push.duration = p.duration;
-    push.profile = p.profile == humanoid::push_t::PROFILE_RECTANGLE ? Push::Profile::kRectangle : Push::Profile::kHalfSine;
-    if (!sim_.robot().model.has_frame(push.link) || !push.force_W.allFinite() || !(push.duration > 0)) {
-      log::warn("PUSH {} refused: link '{}' unknown, or force or duration invalid", p.id, p.link);
+    std::string why;
+    const auto push = from_message(p, sim_.robot().model, &why);
+    if (!push) {
+      log::warn("PUSH {} refused: {}", p.id, why);
       return;
     }
-    log::info("push {} on '{}': {:.1f} N peak for {:.3f} s at t = {:.3f} s", p.id, p.link, push.force_W.norm(),
-              push.duration, push.start < 0 ? sim_.time() : push.start);
-    sim_.add_push(push);
+    log::info("push {} on '{}': {:.1f} N peak for {:.3f} s at t = {:.3f} s", p.id, push->link, push->force_W.norm(),
+              push->duration, push->start < 0 ? sim_.time() : push->start);
+    sim_.add_push(*push);
   });
   sensors_out_ = rt.advertise<humanoid::robot_sensors_t>("ROBOT_SENSORS");
   truth_out_ = rt.advertise<humanoid::sim_truth_t>("SIM_TRUTH");
@@ -64,41 +59,8 @@ void SimNode::publish() {
   msg::to_message(sim_.sensors(), names_, sensors_msg_);
   sensors_out_.publish(sensors_msg_);
   if (!options_.publish_truth) return;
-  const TruthData& t = sim_.truth();
-  humanoid::sim_truth_t& m = truth_msg_;
-  m.tick = t.tick;
-  m.utime = static_cast<int64_t>(std::llround(t.time * 1e6));
-  for (int k = 0; k < 3; ++k) {
-    m.p_WB[k] = t.p_WB(k);
-    m.v_WB[k] = t.v_WB(k);
-    m.omega_WB[k] = t.omega_WB(k);
-    m.p_WCom[k] = t.p_WCom(k);
-    m.v_WCom[k] = t.v_WCom(k);
-    m.h_lin_W[k] = t.h_lin_W(k);
-    m.l_WCom[k] = t.l_WCom(k);
-    m.push_force_W[k] = t.push_force_W(k);
-    m.push_impulse_W[k] = t.push_impulse_W(k);
-  }
-  for (int k = 0; k < 4; ++k) m.quat_WB[k] = t.quat_WB(k);
-  m.num_feet = 2;
-  m.foot_name = {names_.feet[0], names_.feet[1]};
-  m.p_WF.resize(2);
-  m.quat_WF.resize(2);
-  m.contact_wrench_W.resize(2);
-  m.foot_contact.resize(2);
-  m.foot_tilt.resize(2);
-  for (size_t f = 0; f < 2; ++f) {
-    m.p_WF[f].assign(t.p_WF[f].data(), t.p_WF[f].data() + 3);
-    m.quat_WF[f].assign(t.quat_WF[f].data(), t.quat_WF[f].data() + 4);
-    m.contact_wrench_W[f].assign(t.contact_wrench_W[f].data(), t.contact_wrench_W[f].data() + 6);
-    m.foot_contact[f] = t.foot_contact[f] ? 1 : 0;
-    m.foot_tilt[f] = t.foot_tilt[f];
-  }
-  m.push_id = t.push_id;
-  m.push_active = t.push_active;
-  m.fallen = t.fallen;
-  m.sim_time = t.time;
-  truth_out_.publish(m);
+  to_message(sim_.truth(), names_.feet, truth_msg_);
+  truth_out_.publish(truth_msg_);
 }
 
 int SimNode::run() {

@@ -24,3 +24,31 @@ inline std::int64_t wall_us() {
 }
 
 }  // namespace hpr
+
+namespace hpr {
+
+/// A fixed-rate schedule on the monotonic clock (absolute deadlines, so periods never drift).
+/// next() advances the deadline one period; when more than `max_behind` late it restarts from now
+/// rather than bursting through the missed periods.
+class PeriodicClock {
+ public:
+  explicit PeriodicClock(double period_s) : period_ns_(static_cast<std::int64_t>(period_s * 1e9 + 0.5)), next_ns_(monotonic_ns()) {}
+  /// Deadline of the current period [s].
+  [[nodiscard]] double deadline() const { return static_cast<double>(next_ns_) * 1e-9; }
+  /// Seconds left until the deadline (negative when late).
+  [[nodiscard]] double left() const { return static_cast<double>(next_ns_ - monotonic_ns()) * 1e-9; }
+  /// Starts the next period; returns how late [s] the current deadline was met when called.
+  double next(double max_behind_s = 0.1) {
+    const std::int64_t now = monotonic_ns();
+    const double late = static_cast<double>(now - next_ns_) * 1e-9;
+    next_ns_ += period_ns_;
+    if (late > max_behind_s) next_ns_ = now + period_ns_;
+    return late;
+  }
+  [[nodiscard]] double period() const { return static_cast<double>(period_ns_) * 1e-9; }
+
+ private:
+  std::int64_t period_ns_, next_ns_;
+};
+
+}  // namespace hpr

@@ -1,0 +1,106 @@
+// drive_emulator: answers the drive protocol of every joint (and the IMU and F/T sensor frames)
+// over the hal's transports, backed by the Bullet simulation. With hal it forms the
+// hardware-in-the-loop stand-in: the real codec, transport and safety path against a simulated robot.
+#include <poll.h>
+
+#include <humanoid/push_t.hpp>
+#include <humanoid/sim_truth_t.hpp>
+
+#include "hpr/common/log.hpp"
+#include "hpr/common/time.hpp"
+#include "hpr/hal/drive_emulator.hpp"
+#include "hpr/model/robot.hpp"
+#include "hpr/model/urdf.hpp"
+#include "hpr/sim/sim_io.hpp"
+#include "hpr/node/command_line.hpp"
+#include "hpr/node/runtime.hpp"
+
+namespace {
+
+using namespace hpr;
+
+int run(const node::CommandLine& cl, const Config& cfg) {
+  const Config robot_cfg = cfg.section("robot");
+  const auto robot = model::RobotSpec::load(robot_cfg);
+  const auto description = model::load_urdf(robot_cfg.file_path("urdf"));
+  const hal::HalConfig config = hal::HalConfig::load(cfg.section("hal"), robot.model);
+  const auto options = cfg.has("emulator") ? hal::EmulatorOptions::load(cfg.section("emulator")) : hal::EmulatorOptions{};
+  const Config sim_cfg = cfg.section("sim");
+  const sim::SimConfig sim_config = sim::SimConfig::load(sim_cfg);
+  const double duration = cfg.has("emulator") ? cfg.section("emulator").real_or("duration", 0.0, 0.0, 1e7) : 0.0;
+  node::Runtime rt(cl.name, node::lcm_url(cl, cfg), node::runtime_options(cfg, sim_config.dt));
+  sim::Simulator simulator(robot, description, sim_config);
+  auto buses = hal::open_buses(config, true);
+  hal::DriveEmulator emu(config, simulator, std::make_unique<hal::MitCodec>(), options);
+
+  rt.subscribe<humanoid::push_t>("PUSH", {}, [&](const humanoid::push_t& p) {
+    std::string why;
+    const auto push = sim::from_message(p, robot.model, &why);
+    if (!push) {
+      log::warn("PUSH {} refused: {}", p.id, why);
+      return;
+    }
+    log::info("push {} on '{}': {:.1f} N peak for {:.3f} s", p.id, push->link, push->force_W.norm(), push->duration);
+    simulator.add_push(*push);
+  });
+  auto truth_out = rt.advertise<humanoid::sim_truth_t>("SIM_TRUTH");
+  humanoid::sim_truth_t truth_msg;
+  std::array<std::string, 2> feet{"right", "left"};
+
+  std::vector<pollfd> fds;
+  for (const auto& b : buses) fds.push_back({b->fd(), POLLIN, 0});
+  fds.push_back({rt.lcm().getFileno(), POLLIN, 0});
+  std::vector<hal::CanFrame> rx;
+  rx.reserve(256);
+  PeriodicClock clock(sim_config.dt);
+  std::int64_t late = 0;
+  bool fallen_reported = false, released_reported = false;
+  log::info("drive emulator: {} drives on {} buses, {} (on its gantry until the first enable)", config.drives.size(),
+            config.buses.size(), robot.name);
+  while (!rt.stop_requested()) {
+    if (duration > 0 && simulator.time() >= duration) break;
+    // Frames until the period ends: every request answered at once from the present state.
+    while (!rt.stop_requested()) {
+      for (std::size_t b = 0; b < buses.size(); ++b) {
+        rx.clear();
+        buses[b]->receive(rx);
+        const double now = monotonic_s();
+        for (const auto& f : rx) emu.handle(static_cast<int>(b), f, now, *buses[b]);
+        buses[b]->flush();
+      }
+      if (fds.back().revents != 0) rt.spin_once(0.0);
+      const double left = clock.left();
+      if (left <= 0) break;
+      for (auto& p : fds) p.revents = 0;
+      ::poll(fds.data(), fds.size(), std::max(0, static_cast<int>(left * 1e3)));
+    }
+    if (clock.next() > 0.5 * sim_config.dt) ++late;
+    const double t0 = monotonic_s();
+    emu.step(t0);
+    for (std::size_t b = 0; b < buses.size(); ++b) {
+      emu.report_bus_state(static_cast<int>(b), *buses[b]);
+      buses[b]->flush();
+    }
+    rt.record_step(simulator.tick(), monotonic_s() - t0);
+    if (emu.released() && !released_reported) {
+      released_reported = true;
+      log::info("drives in motor mode: released from the gantry at tick {}", simulator.tick());
+    }
+    if (emu.released()) {
+      sim::to_message(simulator.truth(), feet, truth_msg);
+      truth_out.publish(truth_msg);
+    }
+    if (simulator.truth().fallen && !fallen_reported) {
+      fallen_reported = true;
+      log::warn("the robot fell at t = {:.3f} s", simulator.time());
+    }
+  }
+  log::info("drive emulator stopped at t = {:.3f} s; late periods {}, frames ignored {}", simulator.time(), late, emu.frames_ignored());
+  return node::kExitOk;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  return hpr::node::run_main(argc, argv, "drive_emulator", "joint drives and sensors on CAN, backed by the Bullet simulation", run);
+}

@@ -1,0 +1,71 @@
+#pragma once
+/// \file
+/// A drive emulator: answers the drive protocol for every joint over the same transports as the
+/// real drives, backed by the Bullet simulation. The drives keep their last command and fall back
+/// to their own damping when commands stop (drive timeout); faults can be injected.
+#include <memory>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "hpr/hal/hal.hpp"
+#include "hpr/sim/simulator.hpp"
+
+namespace hpr::hal {
+
+struct EmulatorOptions {
+  double drive_timeout = 0.02;       ///< [s] without a command frame: the drive damps by itself
+  double drive_damping_kd = 10.0;    ///< [Nm s/rad]
+  double drop_reply_probability = 0; ///< per reply
+  double corrupt_probability = 0;    ///< per reply: sent with a wrong length
+  std::string fault_joint;           ///< this drive reports `fault_code` from `fault_at` [s sim time]
+  int fault_code = 0;
+  double fault_at = -1;
+  std::string bus_off_bus;           ///< this bus goes bus-off at `bus_off_at` [s sim time]
+  double bus_off_at = -1;
+  unsigned seed = 1;
+  static EmulatorOptions load(const Config& emulator_section);
+};
+
+class DriveEmulator {
+ public:
+  DriveEmulator(const HalConfig& config, sim::Simulator& sim, std::unique_ptr<DriveCodec> codec, EmulatorOptions options);
+
+  /// Handles a frame received on `bus` at `now` [s, monotonic]; replies are queued on `out`.
+  void handle(int bus, const CanFrame& f, double now, CanTransport& out);
+  /// Advances the physics one period with what each drive is doing at `now`.
+  void step(double now);
+  /// Queues what a bus in bus-off reports (an error frame) on it; call once per period per bus.
+  void report_bus_state(int bus, CanTransport& out);
+
+  [[nodiscard]] bool motor_mode(std::size_t drive) const { return drives_[drive].motor_mode; }
+  [[nodiscard]] bool timed_out(std::size_t drive, double now) const;
+  [[nodiscard]] std::int64_t frames_ignored() const { return ignored_; }
+  [[nodiscard]] const JointCommand& applied() const { return applied_; }
+  /// False until a drive first enters motor mode: the robot hangs on its gantry (physics frozen).
+  [[nodiscard]] bool released() const { return released_; }
+
+ private:
+  struct Drive {
+    bool motor_mode = false;
+    DriveCommand command;
+    double command_time = -1e9;
+  };
+  void reply(std::size_t i, CanTransport& out);
+  bool bus_off(int bus) const;
+
+  const HalConfig& config_;
+  sim::Simulator& sim_;
+  std::unique_ptr<DriveCodec> codec_;
+  EmulatorOptions options_;
+  std::vector<Drive> drives_;
+  std::vector<std::vector<int>> drive_by_id_;
+  int fault_drive_ = -1, bus_off_bus_ = -1;
+  JointCommand applied_;
+  std::mt19937_64 rng_;
+  std::uniform_real_distribution<double> uniform_{0.0, 1.0};
+  std::int64_t ignored_ = 0;
+  bool released_ = false;
+};
+
+}  // namespace hpr::hal

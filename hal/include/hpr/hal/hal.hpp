@@ -1,0 +1,126 @@
+#pragma once
+/// \file
+/// The hardware abstraction without LCM: joint commands in, CAN frames out, replies and sensor
+/// frames in, one SensorSample and a status out, with the safety state machine in between.
+///
+/// One tick: begin_tick (safety update, a frame per drive, SYNC on the sensor bus, flush) →
+/// receive until replies_complete or the reply window closes → end_tick (missed replies, faults).
+/// Joint and drive units: q = sign · p + offset, τ = sign · t (kp and kd are the same on both sides).
+#include <Eigen/Core>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "hpr/common/config.hpp"
+#include "hpr/common/robot_io.hpp"
+#include "hpr/hal/can.hpp"
+#include "hpr/hal/mit_codec.hpp"
+#include "hpr/hal/safety.hpp"
+#include "hpr/model/model.hpp"
+
+namespace hpr::hal {
+
+struct BusConfig {
+  std::string name;
+  std::string transport;  ///< "socketcan" or "udp"
+  std::string interface;  ///< socketcan
+  bool fd = false;        ///< CAN FD frames
+  std::string local, remote;  ///< udp "host:port" (hal side; the emulator swaps them)
+};
+
+struct DriveConfig {
+  std::string joint;
+  int joint_index = -1;
+  int bus = -1;
+  int id = 0;
+  double sign = 1.0, offset = 0.0;
+  DriveLimits limits;
+  double q_lower = -1e9, q_upper = 1e9;  ///< hard joint limits [rad] (soft-limit damping near them)
+};
+
+struct HalConfig {
+  std::string file;                 ///< the configuration file (messages)
+  double period = 0.001;            ///< [s]
+  double reply_window = 0.0007;     ///< [s] after the tick start to wait for replies
+  std::vector<BusConfig> buses;
+  std::vector<DriveConfig> drives;  ///< one per model joint, in model order
+  int sensor_bus = -1;              ///< bus of the IMU and F/T sensors (-1: none)
+  SafetyConfig safety;
+  double damping_kd = 10.0;         ///< [Nm s/rad] damping mode, capped at each drive's kd_max
+  double soft_limit_margin = 0.05;  ///< [rad] inside the hard limits where damping is added
+  double soft_limit_kd = 20.0;      ///< [Nm s/rad] added at the hard limit, ramping from 0 at the margin
+  /// Reads and validates the `hal` section against the model (every joint mapped once, ids unique per bus).
+  static HalConfig load(const Config& hal_section, const model::Model& m);
+};
+
+/// Opens the transports of the configured buses. `emulator_side` swaps local and remote for udp.
+std::vector<std::unique_ptr<CanTransport>> open_buses(const HalConfig& c, bool emulator_side);
+
+/// Drive states as HAL_STATUS reports them (hal_status_t::DRIVE_*).
+enum DriveState : std::int8_t { kDriveOff = 0, kDriveRun = 1, kDriveDamp = 2, kDriveFault = 3, kDriveNoReply = 4 };
+/// Per-joint status bits in ROBOT_SENSORS (robot_sensors_t::DRIVE_*).
+enum DriveBits : std::int32_t { kBitEnabled = 1, kBitDamping = 2, kBitFault = 4, kBitStale = 8 };
+/// OPERATOR commands the hal acts on (operator_t::COMMAND_*).
+enum OperatorCommand : int { kOperatorEnable = 1, kOperatorDamp = 2, kOperatorStop = 3 };
+
+struct DriveStatus {
+  std::int8_t state = 0;  ///< DriveState
+  double temperature = 0;
+  int fault = 0;
+  std::int64_t missed = 0;
+  int missed_run = 0;
+  bool replied = false;   ///< this tick
+};
+
+class Hal {
+ public:
+  Hal(HalConfig config, std::vector<std::unique_ptr<CanTransport>> buses, std::unique_ptr<DriveCodec> codec);
+
+  /// Takes a JOINT_COMMAND received at `now` [s, monotonic]. A non-finite or out-of-limit command is
+  /// rejected whole and counted (the previous one keeps ageing); returns why, or empty.
+  std::string set_command(const JointCommand& command, double now);
+  /// OPERATOR: enable, damp, stop. Returns a message for the log.
+  std::string operator_command(int command, double now, const std::string& source);
+
+  void begin_tick(std::int64_t tick, double now);
+  /// Drains every bus; returns the frames handled.
+  int receive();
+  [[nodiscard]] bool replies_complete() const;
+  void end_tick(double now);
+
+  [[nodiscard]] const SensorSample& sensors() const { return sensors_; }
+  [[nodiscard]] const SafetyMachine& safety() const { return safety_; }
+  /// Acknowledges a state change (after HAL_STATUS went out for it).
+  void clear_changed() { safety_.clear_changed(); }
+  [[nodiscard]] const std::vector<DriveStatus>& drives() const { return drive_status_; }
+  [[nodiscard]] const HalConfig& config() const { return config_; }
+  [[nodiscard]] const std::vector<std::unique_ptr<CanTransport>>& buses() const { return buses_; }
+  [[nodiscard]] std::int64_t commands_rejected() const { return rejected_; }
+  [[nodiscard]] std::int64_t commands_stale() const { return stale_; }
+  [[nodiscard]] std::int64_t frames_malformed() const { return malformed_; }
+  /// The frame each drive was sent this tick (drive units as decoded by a drive; tests).
+  [[nodiscard]] const std::vector<DriveCommand>& sent() const { return sent_; }
+  /// A short description of the active fault conditions (empty if none).
+  [[nodiscard]] std::string fault_conditions() const;
+
+ private:
+  void handle_frame(int bus, const CanFrame& f);
+  DriveCommand damping_command(std::size_t i) const;
+
+  HalConfig config_;
+  std::vector<std::unique_ptr<CanTransport>> buses_;
+  std::unique_ptr<DriveCodec> codec_;
+  SafetyMachine safety_;
+  JointCommand command_;
+  bool have_command_ = false;
+  double command_time_ = -1e9;
+  std::int64_t rejected_ = 0, stale_ = 0, malformed_ = 0;
+  SensorSample sensors_;
+  std::vector<DriveStatus> drive_status_;
+  std::vector<DriveCommand> sent_;
+  std::vector<std::vector<int>> drive_by_id_;  ///< per bus: drive id → drive index (-1)
+  std::vector<CanFrame> rx_;
+  int sensor_frames_ = 0, sensor_frames_expected_ = 0;
+};
+
+}  // namespace hpr::hal

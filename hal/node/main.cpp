@@ -1,0 +1,183 @@
+// hal: the hardware abstraction. JOINT_COMMAND and OPERATOR in, MIT-mode frames to the joint drives
+// over SocketCAN (or cannelloni UDP), ROBOT_SENSORS and HAL_STATUS out, safety at the motors.
+#include <poll.h>
+
+#include <humanoid/hal_status_t.hpp>
+#include <humanoid/joint_command_t.hpp>
+#include <humanoid/operator_t.hpp>
+#include <humanoid/robot_sensors_t.hpp>
+
+#include "hpr/common/log.hpp"
+#include "hpr/common/time.hpp"
+#include "hpr/hal/hal.hpp"
+#include "hpr/model/robot.hpp"
+#include "hpr/msg/robot_io.hpp"
+#include "hpr/node/command_line.hpp"
+#include "hpr/node/runtime.hpp"
+
+namespace {
+
+using namespace hpr;
+
+// The hal library's codes are the message constants.
+static_assert(hal::kDriveRun == humanoid::hal_status_t::DRIVE_RUN && hal::kDriveNoReply == humanoid::hal_status_t::DRIVE_NO_REPLY &&
+              hal::kDriveFault == humanoid::hal_status_t::DRIVE_FAULT && hal::kDriveDamp == humanoid::hal_status_t::DRIVE_DAMP);
+static_assert(int{hal::kBitEnabled} == int{humanoid::robot_sensors_t::DRIVE_ENABLED} && int{hal::kBitDamping} == int{humanoid::robot_sensors_t::DRIVE_DAMPING} &&
+              int{hal::kBitFault} == int{humanoid::robot_sensors_t::DRIVE_FAULT} && int{hal::kBitStale} == int{humanoid::robot_sensors_t::DRIVE_STALE});
+static_assert(hal::kOperatorEnable == humanoid::operator_t::COMMAND_ENABLE && hal::kOperatorDamp == humanoid::operator_t::COMMAND_DAMP &&
+              hal::kOperatorStop == humanoid::operator_t::COMMAND_STOP);
+static_assert(static_cast<int>(hal::SafetyState::kFault) == humanoid::hal_status_t::STATE_FAULT &&
+              static_cast<int>(hal::SafetyState::kTorqueOff) == humanoid::hal_status_t::STATE_TORQUE_OFF);
+
+void fill_status(const hal::Hal& h, std::int64_t tick, humanoid::hal_status_t& m, const std::vector<double>& tx_fps,
+                 const std::vector<double>& rx_fps) {
+  const auto& c = h.config();
+  m.tick = tick;
+  m.utime = wall_us();
+  m.state = static_cast<std::int8_t>(h.safety().state());
+  m.state_reason = h.safety().reason();
+  m.num_drives = static_cast<std::int32_t>(c.drives.size());
+  m.drive_joint.resize(c.drives.size());
+  m.drive_id.resize(c.drives.size());
+  m.drive_state.resize(c.drives.size());
+  m.drive_temperature.resize(c.drives.size());
+  m.drive_fault.resize(c.drives.size());
+  m.drive_missed.resize(c.drives.size());
+  m.drive_missed_run.resize(c.drives.size());
+  for (std::size_t i = 0; i < c.drives.size(); ++i) {
+    const auto& d = h.drives()[i];
+    m.drive_joint[i] = c.drives[i].joint;
+    m.drive_id[i] = c.drives[i].id;
+    m.drive_state[i] = d.state;
+    m.drive_temperature[i] = d.temperature;
+    m.drive_fault[i] = d.fault;
+    m.drive_missed[i] = d.missed;
+    m.drive_missed_run[i] = d.missed_run;
+  }
+  m.num_buses = static_cast<std::int32_t>(c.buses.size());
+  m.bus_name.resize(c.buses.size());
+  m.bus_tx_fps = tx_fps;
+  m.bus_rx_fps = rx_fps;
+  m.bus_errors.resize(c.buses.size());
+  m.bus_off.resize(c.buses.size());
+  for (std::size_t b = 0; b < c.buses.size(); ++b) {
+    m.bus_name[b] = c.buses[b].name;
+    m.bus_errors[b] = h.buses()[b]->counters().errors;
+    m.bus_off[b] = h.buses()[b]->counters().bus_off;
+  }
+  m.commands_rejected = h.commands_rejected();
+  m.commands_stale = h.commands_stale();
+  m.frames_malformed = h.frames_malformed();
+}
+
+int run(const node::CommandLine& cl, const Config& cfg) {
+  const Config robot_cfg = cfg.section("robot");
+  const auto robot = model::RobotSpec::load(robot_cfg);
+  const Config hal_cfg = cfg.section("hal");
+  hal::HalConfig config = hal::HalConfig::load(hal_cfg, robot.model);
+  const bool enable_on_start = hal_cfg.boolean_or("enable_on_start", false);
+  const double duration = hal_cfg.real_or("duration", 0.0, 0.0, 1e7);
+  node::Runtime rt(cl.name, node::lcm_url(cl, cfg), node::runtime_options(cfg, config.period));
+  hal::Hal h(config, hal::open_buses(config, false), std::make_unique<hal::MitCodec>());
+  for (std::size_t b = 0; b < config.buses.size(); ++b) log::info("bus {}: {}", config.buses[b].name, h.buses()[b]->describe());
+
+  msg::RobotNames names;
+  names.joints = robot.model.joint_name;
+  JointCommand command;
+  command.resize(robot.model.nj);
+  rt.subscribe<humanoid::joint_command_t>("JOINT_COMMAND", [&](const humanoid::joint_command_t& m) {
+    std::string why = msg::from_message(m, names, command);
+    if (why.empty()) why = h.set_command(command, monotonic_s());
+    return why;  // rejected commands are counted by the runtime and by the hal, never sent
+  });
+  rt.subscribe<humanoid::operator_t>("OPERATOR", {}, [&](const humanoid::operator_t& m) {
+    const std::string what = h.operator_command(m.command, monotonic_s(), m.source.empty() ? "operator" : m.source);
+    if (!what.empty()) log::info("OPERATOR {}: {}{}", m.command, what, m.reason.empty() ? "" : " (" + m.reason + ")");
+  });
+  auto sensors_out = rt.advertise<humanoid::robot_sensors_t>("ROBOT_SENSORS");
+  auto status_out = rt.advertise<humanoid::hal_status_t>("HAL_STATUS");
+  humanoid::robot_sensors_t sensors_msg;
+  humanoid::hal_status_t status_msg;
+
+  std::vector<pollfd> fds;
+  for (const auto& b : h.buses()) fds.push_back({b->fd(), POLLIN, 0});
+  std::vector<std::int64_t> tx_prev(config.buses.size(), 0), rx_prev(config.buses.size(), 0);
+  std::vector<double> tx_fps(config.buses.size(), 0.0), rx_fps(config.buses.size(), 0.0);
+  RollingStats work(60000), jitter(60000);
+  PeriodicClock clock(config.period);
+  const double start = monotonic_s();
+  double last_status = -1.0, last_rate = start;
+  std::int64_t tick = 0;
+  hal::SafetyState last_state = h.safety().state();
+  if (enable_on_start) log::info("{}", h.operator_command(humanoid::operator_t::COMMAND_ENABLE, start, "configuration"));
+  log::info("hal: {} drives on {} buses, period {} ms, reply window {} ms, command max age {} ms, state {}", config.drives.size(),
+            config.buses.size(), config.period * 1e3, config.reply_window * 1e3, config.safety.command_max_age * 1e3,
+            hal::to_string(h.safety().state()));
+  while (!rt.stop_requested()) {
+    if (duration > 0 && monotonic_s() - start >= duration) break;
+    const double t0 = monotonic_s();
+    jitter.add(t0 - clock.deadline());
+    rt.spin_once(0.0);  // the freshest JOINT_COMMAND and OPERATOR before the frames go out
+    h.begin_tick(tick, t0);
+    // Replies within the window, one poll per wait.
+    while (true) {
+      h.receive();
+      if (h.replies_complete()) break;
+      const double left = t0 + config.reply_window - monotonic_s();
+      if (left <= 0) break;
+      ::poll(fds.data(), fds.size(), std::max(0, static_cast<int>(left * 1e3)));
+    }
+    h.end_tick(t0);
+    msg::to_message(h.sensors(), names, sensors_msg);
+    sensors_msg.utime = wall_us();
+    sensors_out.publish(sensors_msg);
+    const double now = monotonic_s();
+    if (now - last_rate >= 0.1) {
+      for (std::size_t b = 0; b < config.buses.size(); ++b) {
+        const auto& cnt = h.buses()[b]->counters();
+        tx_fps[b] = static_cast<double>(cnt.tx_frames - tx_prev[b]) / (now - last_rate);
+        rx_fps[b] = static_cast<double>(cnt.rx_frames - rx_prev[b]) / (now - last_rate);
+        tx_prev[b] = cnt.tx_frames;
+        rx_prev[b] = cnt.rx_frames;
+      }
+      last_rate = now;
+    }
+    const bool changed = h.safety().state() != last_state || h.safety().changed();
+    if (changed) {
+      log::info("state {}: {}", hal::to_string(h.safety().state()), h.safety().reason());
+      last_state = h.safety().state();
+      h.clear_changed();
+    }
+    if (changed || now - last_status >= 0.1) {
+      fill_status(h, tick, status_msg, tx_fps, rx_fps);
+      status_out.publish(status_msg);
+      last_status = now;
+      const std::string faults = h.fault_conditions();
+      if (faults.empty()) {
+        rt.clear_fault("drives");
+      } else {
+        rt.set_fault("drives", faults);
+      }
+    }
+    rt.record_step(tick, monotonic_s() - t0);
+    work.add(monotonic_s() - t0);
+    ++tick;
+    clock.next();
+    while (!rt.stop_requested()) {
+      const double left = clock.left();
+      if (left <= 0) break;
+      rt.spin_once(left);
+    }
+  }
+  log::info("hal stopped after {} ticks: tick work median {:.1f} us, p99 {:.1f} us; period jitter p99 {:.1f} us, max {:.1f} us; "
+            "commands rejected {}, stale ticks {}, malformed frames {}",
+            tick, work.median() * 1e6, work.percentile(0.99) * 1e6, jitter.percentile(0.99) * 1e6, jitter.max() * 1e6,
+            h.commands_rejected(), h.commands_stale(), h.frames_malformed());
+  return node::kExitOk;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  return hpr::node::run_main(argc, argv, "hal", "hardware abstraction: joint drives over SocketCAN or cannelloni UDP", run);
+}

@@ -1,0 +1,309 @@
+// The hal against the drive emulator in one process over in-memory buses, stepped in lockstep:
+// the safety state machine's transitions, command validation, missed replies, bus-off and the
+// drives' own timeout.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+
+#include "hpr/hal/drive_emulator.hpp"
+#include "hpr/hal/hal.hpp"
+#include "hpr/hal/memory_transport.hpp"
+#include "hpr/model/urdf.hpp"
+#include "process_group.hpp"
+
+namespace {
+
+using namespace hpr;
+using hal::SafetyState;
+
+TEST(SafetyMachine, TransitionsOfTheTable) {
+  hal::SafetyConfig c;
+  c.command_max_age = 0.005;
+  c.torque_off_after = 0.5;
+  hal::SafetyMachine s(c);
+  EXPECT_EQ(s.state(), SafetyState::kOff);
+  EXPECT_EQ(s.drive_mode(), hal::DriveMode::kOff);
+  s.update(0.0, 1e9);
+  EXPECT_EQ(s.state(), SafetyState::kOff) << "no command while off is nothing to act on";
+  EXPECT_NE(s.enable(0.0, true, "bus-off on can3"), "") << "enable refused while a fault is present";
+  EXPECT_EQ(s.state(), SafetyState::kOff);
+  EXPECT_EQ(s.enable(0.0, false, ""), "");
+  EXPECT_TRUE(s.entering());
+  s.update(0.001, 0.001);
+  EXPECT_EQ(s.state(), SafetyState::kEnabled);
+  EXPECT_EQ(s.drive_mode(), hal::DriveMode::kRun);
+  s.update(0.006, 0.0051);
+  EXPECT_EQ(s.state(), SafetyState::kDamping) << "stale command: damping in the same tick";
+  EXPECT_EQ(s.drive_mode(), hal::DriveMode::kDamp);
+  s.update(0.3, 0.0);
+  EXPECT_EQ(s.state(), SafetyState::kDamping) << "fresh commands do not re-enable by themselves";
+  s.update(0.507, 0.0);
+  EXPECT_EQ(s.state(), SafetyState::kTorqueOff);
+  EXPECT_EQ(s.drive_mode(), hal::DriveMode::kOff);
+  EXPECT_EQ(s.enable(1.0, false, ""), "");
+  s.damp(1.1, "stop from operator");
+  EXPECT_EQ(s.state(), SafetyState::kDamping);
+  EXPECT_EQ(s.enable(1.2, false, ""), "");
+  s.fault(1.3, "r_knee fault code 3");
+  EXPECT_EQ(s.state(), SafetyState::kFault);
+  EXPECT_EQ(s.drive_mode(), hal::DriveMode::kDamp);
+  s.damp(1.35, "damp");
+  EXPECT_EQ(s.state(), SafetyState::kFault) << "a fault keeps its state";
+  s.update(1.81, 0.0);
+  EXPECT_EQ(s.drive_mode(), hal::DriveMode::kOff) << "torque off after the fault has lasted torque_off_after";
+  EXPECT_EQ(s.state(), SafetyState::kFault);
+}
+
+/// hal and emulator joined by memory buses, stepped tick by tick on a simulated clock.
+struct Rig {
+  Config cfg;
+  model::RobotSpec robot;
+  model::RobotDescription description;
+  hal::HalConfig config;
+  sim::Simulator sim;
+  std::vector<hal::MemoryTransport*> hal_side, drive_side;
+  std::vector<std::unique_ptr<hal::CanTransport>> drive_buses;
+  std::unique_ptr<hal::Hal> h;
+  std::unique_ptr<hal::DriveEmulator> emu;
+  double now = 0.0;
+  std::int64_t tick = 0;
+  bool drives_answer = true;
+
+  explicit Rig(const std::vector<std::string>& overrides = {})
+      : cfg(Config::load(test::source_dir() + "/config/toro.yaml", overrides)),
+        robot(model::RobotSpec::load(cfg.section("robot"))),
+        description(model::load_urdf(cfg.section("robot").file_path("urdf"))),
+        config(hal::HalConfig::load(cfg.section("hal"), robot.model)),
+        sim(robot, description, sim::SimConfig::load(cfg.section("sim"))) {
+    std::vector<std::unique_ptr<hal::CanTransport>> hal_buses;
+    for (std::size_t b = 0; b < config.buses.size(); ++b) {
+      auto [a, d] = hal::MemoryTransport::pair();
+      hal_side.push_back(a.get());
+      drive_side.push_back(d.get());
+      hal_buses.push_back(std::move(a));
+      drive_buses.push_back(std::move(d));
+    }
+    h = std::make_unique<hal::Hal>(config, std::move(hal_buses), std::make_unique<hal::MitCodec>());
+    emu = std::make_unique<hal::DriveEmulator>(config, sim, std::make_unique<hal::MitCodec>(),
+                                               hal::EmulatorOptions::load(cfg.section("emulator")));
+  }
+  /// One period: hal sends, drives answer (unless told not to), hal reads, physics steps.
+  void tick_once(bool hal_runs = true) {
+    now += 1e-3;
+    if (hal_runs) h->begin_tick(tick++, now);
+    std::vector<hal::CanFrame> rx;
+    for (std::size_t b = 0; b < drive_buses.size(); ++b) {
+      rx.clear();
+      drive_buses[b]->receive(rx);
+      if (drives_answer) {
+        for (const auto& f : rx) emu->handle(static_cast<int>(b), f, now, *drive_buses[b]);
+      }
+      emu->report_bus_state(static_cast<int>(b), *drive_buses[b]);
+      drive_buses[b]->flush();
+    }
+    if (hal_runs) {
+      h->receive();
+      h->end_tick(now);
+    }
+    emu->step(now);
+  }
+  JointCommand hold() const {
+    JointCommand c;
+    c.resize(robot.model.nj);
+    c.mode = JointCommand::Mode::kRun;
+    c.q_des = robot.q_joints_stand;
+    // Gains an explicitly evaluated joint impedance holds stably at 1 kHz, also on the light wrists.
+    sim::hold_gains(robot, robot.standing_configuration(), 300.0, 10.0, 1e-3, c.kp, c.kd);
+    return c;
+  }
+};
+
+TEST(Hal, ClosesTheLoopThroughTheCodecAndSensorsMatchTheSimulation) {
+  Rig r;
+  for (int k = 0; k < 5; ++k) r.tick_once();
+  EXPECT_FALSE(r.emu->released()) << "on the gantry until enabled";
+  EXPECT_EQ(r.h->operator_command(hal::kOperatorEnable, r.now, "test"), "enabled by test");
+  SensorSample measured;  // what the drives measured when they answered (before the physics step)
+  for (int k = 0; k < 500; ++k) {
+    ASSERT_EQ(r.h->set_command(r.hold(), r.now), "");
+    measured = r.sim.sensors();
+    r.tick_once();
+    ASSERT_TRUE(r.h->replies_complete()) << k;
+  }
+  EXPECT_EQ(r.h->safety().state(), SafetyState::kEnabled);
+  EXPECT_TRUE(r.emu->released());
+  // The sample the hal assembled is what the drives and sensors measured, within half a step of
+  // each field's quantisation.
+  const SensorSample& s = r.h->sensors();
+  for (int j = 0; j < r.robot.model.nj; ++j) {
+    const auto& l = r.config.drives[static_cast<std::size_t>(j)].limits;
+    const std::string name = r.robot.model.joint_name[static_cast<std::size_t>(j)];
+    EXPECT_NEAR(s.q(j), measured.q(j), 0.5 * (l.p_max - l.p_min) / 65535.0 + 1e-12) << name;
+    EXPECT_NEAR(s.qd(j), measured.qd(j), 0.5 * (l.v_max - l.v_min) / 4095.0 + 1e-12) << name;
+    EXPECT_NEAR(s.tau(j), measured.tau(j), 0.5 * (l.t_max - l.t_min) / 4095.0 + 1e-12) << name;
+  }
+  for (int f = 0; f < 2; ++f) {
+    for (int k = 0; k < 3; ++k) {
+      EXPECT_NEAR(s.ft_wrench_S[static_cast<std::size_t>(f)](k), measured.ft_wrench_S[static_cast<std::size_t>(f)](k), 0.5 * hal::kFtForceScale + 1e-12);
+      EXPECT_NEAR(s.ft_wrench_S[static_cast<std::size_t>(f)](3 + k), measured.ft_wrench_S[static_cast<std::size_t>(f)](3 + k), 0.5 * hal::kFtTorqueScale + 1e-12);
+    }
+  }
+  EXPECT_LT((s.imu_gyro_B - measured.imu_gyro_B).cwiseAbs().maxCoeff(), 0.5 * hal::kImuGyroScale + 1e-12);
+  EXPECT_LT((s.imu_accel_B - measured.imu_accel_B).cwiseAbs().maxCoeff(), 0.5 * hal::kImuAccelScale + 1e-12);
+  EXPECT_LT((s.imu_quat_WB - measured.imu_quat_WB).cwiseAbs().maxCoeff(), 1e-4);
+  // The emulated drives apply what was commanded (decoded from the frames).
+  const auto& applied = r.emu->applied();
+  const JointCommand hold = r.hold();
+  for (int j = 0; j < r.robot.model.nj; ++j) {
+    EXPECT_NEAR(applied.kp(j), hold.kp(j), 0.5 * 1000.0 / 4095.0 + 1e-9);
+    EXPECT_NEAR(applied.kd(j), hold.kd(j), 0.5 * 50.0 / 4095.0 + 1e-9);
+    EXPECT_NEAR(applied.q_des(j), r.robot.q_joints_stand(j), 1e-3);
+  }
+}
+
+TEST(Hal, StaleCommandsDampWithinOneTickThenTorqueOff) {
+  Rig r({"hal.safety.torque_off_after=0.2"});
+  (void)r.h->operator_command(hal::kOperatorEnable, r.now, "test");
+  for (int k = 0; k < 200; ++k) {
+    (void)r.h->set_command(r.hold(), r.now);
+    r.tick_once();
+  }
+  const double last_command = r.now;
+  int damped_at = -1;
+  for (int k = 1; k <= 400; ++k) {
+    r.tick_once();
+    const bool damping = std::all_of(r.h->sent().begin(), r.h->sent().end(),
+                                     [](const hal::DriveCommand& c) { return c.kp == 0 && c.t_ff == 0 && c.kd > 0; });
+    if (damped_at < 0 && damping) damped_at = k;
+  }
+  ASSERT_GT(damped_at, 0);
+  EXPECT_LE(damped_at * 1e-3, 0.005 + 1e-3 + 1e-9) << "damping within one tick of the command age limit";
+  EXPECT_EQ(r.h->safety().state(), SafetyState::kTorqueOff);
+  for (std::size_t i = 0; i < r.config.drives.size(); ++i) EXPECT_FALSE(r.emu->motor_mode(i)) << "torque off";
+  EXPECT_GT(r.h->commands_stale(), 0);
+  (void)last_command;
+}
+
+TEST(Hal, NonFiniteAndOutOfLimitCommandsAreRejectedAndNeverSent) {
+  Rig r;
+  (void)r.h->operator_command(hal::kOperatorEnable, r.now, "test");
+  JointCommand good = r.hold();
+  for (int k = 0; k < 10; ++k) {
+    ASSERT_EQ(r.h->set_command(good, r.now), "");
+    r.tick_once();
+  }
+  const auto before = r.h->sent();
+  JointCommand bad = good;
+  bad.tau_ff(3) = std::nan("");
+  EXPECT_NE(r.h->set_command(bad, r.now), "");
+  bad = good;
+  bad.tau_ff(3) = 1e4;
+  EXPECT_NE(r.h->set_command(bad, r.now).find("tau_ff"), std::string::npos);
+  bad = good;
+  bad.kp(0) = 5e3;
+  EXPECT_NE(r.h->set_command(bad, r.now).find("kp"), std::string::npos);
+  EXPECT_EQ(r.h->commands_rejected(), 3);
+  r.tick_once();
+  for (std::size_t i = 0; i < before.size(); ++i) {
+    EXPECT_TRUE(std::isfinite(r.h->sent()[i].t_ff));
+    EXPECT_EQ(r.h->sent()[i].t_ff, before[i].t_ff) << "the last valid command is what went out";
+    EXPECT_EQ(r.h->sent()[i].kp, before[i].kp);
+  }
+}
+
+TEST(Hal, MissedRepliesFaultAndEnableNeedsThemBack) {
+  Rig r;
+  (void)r.h->operator_command(hal::kOperatorEnable, r.now, "test");
+  for (int k = 0; k < 20; ++k) {
+    (void)r.h->set_command(r.hold(), r.now);
+    r.tick_once();
+  }
+  r.drives_answer = false;
+  for (int k = 0; k < 5; ++k) {
+    (void)r.h->set_command(r.hold(), r.now);
+    r.tick_once();
+  }
+  EXPECT_EQ(r.h->safety().state(), SafetyState::kFault);
+  EXPECT_EQ(r.h->safety().drive_mode(), hal::DriveMode::kDamp);
+  EXPECT_NE(r.h->fault_conditions().find("missed 5 replies"), std::string::npos) << r.h->fault_conditions();
+  EXPECT_NE(r.h->operator_command(hal::kOperatorEnable, r.now, "test").find("refused"), std::string::npos);
+  r.drives_answer = true;
+  (void)r.h->set_command(r.hold(), r.now);
+  r.tick_once();
+  EXPECT_EQ(r.h->fault_conditions(), "");
+  EXPECT_EQ(r.h->operator_command(hal::kOperatorEnable, r.now, "test"), "enabled by test");
+}
+
+TEST(Hal, BusOffOnOneBusDampsEveryDrive) {
+  Rig r({"emulator.bus_off_bus=can4", "emulator.bus_off_at=0.05"});
+  (void)r.h->operator_command(hal::kOperatorEnable, r.now, "test");
+  for (int k = 0; k < 100; ++k) {
+    (void)r.h->set_command(r.hold(), r.now);
+    r.tick_once();
+  }
+  EXPECT_EQ(r.h->safety().state(), SafetyState::kFault);
+  EXPECT_NE(r.h->fault_conditions().find("bus-off on can4"), std::string::npos) << r.h->fault_conditions();
+  for (std::size_t i = 0; i < r.config.drives.size(); ++i) {
+    EXPECT_EQ(r.h->sent()[i].kp, 0.0);
+    EXPECT_EQ(r.h->sent()[i].t_ff, 0.0);
+  }
+}
+
+TEST(DriveEmulator, DrivesDampByThemselvesWhenTheHalStops) {
+  Rig r;
+  (void)r.h->operator_command(hal::kOperatorEnable, r.now, "test");
+  for (int k = 0; k < 50; ++k) {
+    (void)r.h->set_command(r.hold(), r.now);
+    r.tick_once();
+  }
+  for (int k = 0; k < 30; ++k) r.tick_once(false);  // the hal is gone
+  for (std::size_t i = 0; i < r.config.drives.size(); ++i) {
+    const auto j = static_cast<Eigen::Index>(i);
+    EXPECT_TRUE(r.emu->timed_out(i, r.now));
+    EXPECT_EQ(r.emu->applied().kp(j), 0.0);
+    EXPECT_EQ(r.emu->applied().tau_ff(j), 0.0);
+    EXPECT_GT(r.emu->applied().kd(j), 0.0);
+  }
+}
+
+TEST(HalConfig, ErrorsNameTheFileKeyAndValue) {
+  // A copy of the configuration with one line changed (the URDF path made absolute).
+  std::ifstream in(test::source_dir() + "/config/toro.yaml");
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  auto load = [&](const std::string& from, const std::string& to) {
+    std::string t = text;
+    const auto at = t.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    if (at != std::string::npos) t.replace(at, from.size(), to);
+    const std::string path = test::temp_dir("halcfg") + "/robot.yaml";
+    std::ofstream(path) << t;
+    const Config c = Config::load(path, {"robot.urdf=" + test::source_dir() + "/models/toro/toro.urdf"});
+    const auto robot = model::RobotSpec::load(c.section("robot"));
+    return hal::HalConfig::load(c.section("hal"), robot.model);
+  };
+  EXPECT_NO_THROW((void)load("{joint: r_knee, bus: can1, id: 1}", "{joint: r_knee, bus: can1, id: 1}"));
+  try {
+    (void)load("{joint: r_knee, bus: can1, id: 1}", "{joint: r_knee, bus: can42, id: 1}");
+    FAIL() << "unknown bus accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("can42"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("robot.yaml"), std::string::npos) << e.what();
+  }
+  try {
+    (void)load("{joint: r_knee, bus: can1, id: 1}", "{joint: r_knee, bus: can1, id: 2}");
+    FAIL() << "duplicate drive id accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("used twice"), std::string::npos) << e.what();
+  }
+  try {
+    (void)load("    - {joint: neck_pitch, bus: can8, id: 3}\n", "");
+    FAIL() << "a joint without a drive accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("neck_pitch"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW((void)load("{joint: r_knee, bus: can1, id: 1}", "{joint: r_knee, bus: can1, id: 1, sign: 2}"), ConfigError);
+  EXPECT_THROW((void)load("command_max_age: 0.005", "command_max_age: -1"), ConfigError);
+}
+
+}  // namespace
