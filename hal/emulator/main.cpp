@@ -82,6 +82,15 @@ int run(const node::CommandLine& cl, const Config& cfg) {
       buses[b]->flush();
     }
     rt.record_step(simulator.tick(), monotonic_s() - t0);
+    // The drives' own timeout, reported in HEALTH (the hal stopped talking to them).
+    int timed_out = 0;
+    for (std::size_t i = 0; i < config.drives.size(); ++i) timed_out += emu.motor_mode(i) && emu.timed_out(i, t0) ? 1 : 0;
+    if (timed_out > 0) {
+      if (!rt.has_fault("drive_timeout")) log::warn("{} drives without commands for {} ms: damping by themselves", timed_out, options.drive_timeout * 1e3);
+      rt.set_fault("drive_timeout", std::to_string(timed_out) + " drives timed out: damping");
+    } else {
+      rt.clear_fault("drive_timeout");
+    }
     if (emu.released() && !released_reported) {
       released_reported = true;
       log::info("drives in motor mode: released from the gantry at tick {}", simulator.tick());

@@ -87,8 +87,13 @@ void Runtime::on_input(InputBase& in) {
   const double now = monotonic_s();
   for (auto& t : triggers_) {
     if (t.primary == &in && in.tick() > t.last_tick && in.tick() != t.pending_tick) {
+      // A newer primary tick while one is still waiting for its synced inputs: the robot's clock has
+      // moved on, so the newest tick is served at once with the inputs at hand (timed_out) rather
+      // than waiting longer and falling behind. In lockstep the next tick cannot arrive before
+      // this node has answered, so there every step sees its synced inputs.
+      const bool waiting = t.pending_tick > t.last_tick;
+      t.deadline = waiting ? now : now + t.timeout_s;
       t.pending_tick = in.tick();
-      t.deadline = now + t.timeout_s;
     }
   }
   check_triggers(now);

@@ -170,7 +170,9 @@ class Runtime {
   }
 
   /// Runs `step` for every new tick of `primary` once the `synced` inputs have caught up, or after
-  /// `timeout_s` without them (TickInfo::timed_out). A tick older than the last stepped one is ignored.
+  /// `timeout_s` without them (TickInfo::timed_out), or at once when the next primary tick arrives
+  /// first (real time: never fall behind the robot's clock). A tick older than the last stepped one
+  /// is ignored.
   void on_tick(InputBase& primary, std::vector<Sync> synced, double timeout_s, StepFn step);
   /// Calls `fn` every `period_s` of wall-clock time (monotonic) from the loop.
   void every(double period_s, std::function<void()> fn);
