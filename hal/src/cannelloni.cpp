@@ -169,7 +169,6 @@ void UdpCannelloniTransport::flush() {
 
 int UdpCannelloniTransport::receive(std::vector<CanFrame>& out) {
   int got = 0;
-  std::vector<CanFrame> frames;
   for (;;) {
     const auto n = ::recv(fd_, buffer_.data(), buffer_.size(), 0);
     if (n < 0) break;  // EAGAIN: nothing more

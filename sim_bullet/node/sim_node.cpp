@@ -1,10 +1,9 @@
 #include "sim_node.hpp"
 
-#include <time.h>
-
 #include <cmath>
 
 #include "hpr/common/log.hpp"
+#include "hpr/common/time.hpp"
 #include "hpr/sim/sim_io.hpp"
 
 namespace hpr::sim {
@@ -99,31 +98,18 @@ int SimNode::run_lockstep() {
 }
 
 int SimNode::run_realtime() {
-  timespec next{};
-  clock_gettime(CLOCK_MONOTONIC, &next);
-  const long period = static_cast<long>(std::llround(sim_.config().dt * 1e9));
+  PeriodicClock clock(sim_.config().dt);
   while (!rt_.stop_requested()) {
     if (options_.duration > 0 && sim_.time() >= options_.duration - 1e-9) break;
     const double t0 = monotonic_s();
     sim_.step();
     publish();
     rt_.record_step(sim_.tick(), monotonic_s() - t0);
-    next.tv_nsec += period;
-    while (next.tv_nsec >= 1000000000L) {
-      next.tv_nsec -= 1000000000L;
-      ++next.tv_sec;
-    }
-    timespec now{};
-    clock_gettime(CLOCK_MONOTONIC, &now);
-    const double slack = static_cast<double>(next.tv_sec - now.tv_sec) + 1e-9 * static_cast<double>(next.tv_nsec - now.tv_nsec);
-    if (slack < 0) {
-      ++late_;
-      if (slack < -0.1) next = now;  // far behind: restart the clock rather than burst
-    }
+    clock.next();  // far behind (0.1 s): the clock restarts rather than bursting
+    if (clock.left() < 0) ++late_;  // the step overran into the next period
     // Handle messages until the next period starts.
     while (!rt_.stop_requested()) {
-      clock_gettime(CLOCK_MONOTONIC, &now);
-      const double left = static_cast<double>(next.tv_sec - now.tv_sec) + 1e-9 * static_cast<double>(next.tv_nsec - now.tv_nsec);
+      const double left = clock.left();
       if (left <= 0) break;
       rt_.spin_once(left);
     }
