@@ -71,8 +71,7 @@ int run(const node::CommandLine& cl, const Config& cfg) {
       if (fds.back().revents != 0) rt.spin_once(0.0);
       const double left = clock.left();
       if (left <= 0) break;
-      for (auto& p : fds) p.revents = 0;
-      ::poll(fds.data(), fds.size(), std::max(0, static_cast<int>(left * 1e3)));
+      poll_for(fds, left);
     }
     if (clock.next() > 0.5 * sim_config.dt) ++late;
     const double t0 = monotonic_s();

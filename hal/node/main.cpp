@@ -125,7 +125,7 @@ int run(const node::CommandLine& cl, const Config& cfg) {
       if (h.replies_complete()) break;
       const double left = t0 + config.reply_window - monotonic_s();
       if (left <= 0) break;
-      ::poll(fds.data(), fds.size(), std::max(0, static_cast<int>(left * 1e3)));
+      poll_for(fds, left);
     }
     h.end_tick(t0);
     msg::to_message(h.sensors(), names, sensors_msg);

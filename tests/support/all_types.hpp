@@ -12,6 +12,8 @@
 #include <humanoid/robot_sensors_t.hpp>
 #include <humanoid/robot_state_t.hpp>
 #include <humanoid/sim_truth_t.hpp>
+#include <humanoid/supervisor_command_t.hpp>
+#include <humanoid/supervisor_status_t.hpp>
 #include <humanoid/wholebody_command_t.hpp>
 #include <random>
 #include <string>
@@ -33,6 +35,8 @@ void for_each_type(F&& f) {
   f.template operator()<humanoid::health_t>("HEALTH");
   f.template operator()<humanoid::operator_t>("OPERATOR");
   f.template operator()<humanoid::hal_status_t>("HAL_STATUS");
+  f.template operator()<humanoid::supervisor_status_t>("SUPERVISOR_STATUS");
+  f.template operator()<humanoid::supervisor_command_t>("SUPERVISOR_COMMAND");
 }
 
 class Filler {
@@ -146,6 +150,19 @@ class Filler {
     m.num_buses = 9; m.bus_name = names(9); m.bus_tx_fps = vec(9); m.bus_rx_fps = vec(9);
     m.bus_errors = gen<int64_t>(9, [&] { return i64(); }); m.bus_off = gen<int8_t>(9, [&] { return static_cast<int8_t>(b()); });
     m.commands_rejected = i64(); m.commands_stale = i64(); m.frames_malformed = i64();
+  }
+
+  void fill(humanoid::supervisor_status_t& m) {
+    m.tick = i64(); m.utime = i64(); m.host = s(); m.group = s(); m.pid = i32(); m.run_dir = s(); m.state = i8(); m.message = s();
+    const int n = 6;
+    m.num_processes = n; m.name = names(n); m.process_state = gen<int8_t>(n, [&] { return i8(); });
+    m.process_pid = gen<int32_t>(n, [&] { return i32(); }); m.uptime_s = vec(n);
+    m.restarts = gen<int32_t>(n, [&] { return i32(); }); m.critical = gen<int8_t>(n, [&] { return static_cast<int8_t>(b()); });
+    m.health_state = gen<int8_t>(n, [&] { return i8(); }); m.rate_hz = vec(n);
+    m.deadline_misses = gen<int64_t>(n, [&] { return i64(); }); m.detail = names(n);
+  }
+  void fill(humanoid::supervisor_command_t& m) {
+    m.tick = i64(); m.utime = i64(); m.source = s(); m.host = s(); m.group = s(); m.command = i8(); m.process = s();
   }
 
  private:

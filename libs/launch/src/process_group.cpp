@@ -8,7 +8,11 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <sched.h>
+
+#include <cerrno>
 #include <csignal>
+#include <cstring>
 #include <cstdlib>
 #include <filesystem>
 #include <random>
@@ -52,30 +56,73 @@ ProcessGroup::~ProcessGroup() { stop_all(); }
 
 pid_t ProcessGroup::start(const std::string& exe, const std::vector<std::string>& args,
                           const std::map<std::string, std::string>& env, const std::string& log_file) {
-  const std::string path = exe.find('/') == std::string::npos ? bin_dir_ + "/" + exe : exe;
+  StartOptions o;
+  o.env = env;
+  o.log_file = log_file;
+  return start(exe, args, o);
+}
+
+namespace {
+
+/// The command to exec: a bare name from `bin_dir` when it is there, else as given (execvp searches PATH).
+std::string resolve_command(const std::string& exe, const std::string& bin_dir) {
+  if (exe.find('/') != std::string::npos) return exe;
+  const std::string local = bin_dir + "/" + exe;
+  return ::access(local.c_str(), X_OK) == 0 ? local : exe;
+}
+
+/// In the child, after fork: a message on its stderr (async-signal-safe).
+void child_note(const char* what) {
+  const char prefix[] = "[launch] warn: ";
+  (void)!::write(STDERR_FILENO, prefix, sizeof(prefix) - 1);
+  (void)!::write(STDERR_FILENO, what, std::strlen(what));
+  (void)!::write(STDERR_FILENO, "\n", 1);
+}
+
+}  // namespace
+
+pid_t ProcessGroup::start(const std::string& exe, const std::vector<std::string>& args, const StartOptions& options) {
+  const std::string path = resolve_command(exe, bin_dir_);
   std::vector<std::string> argv_s{path};
   argv_s.insert(argv_s.end(), args.begin(), args.end());
+  // Everything the child needs is prepared before fork: the child only makes system calls.
+  std::vector<char*> argv;
+  for (auto& s : argv_s) argv.push_back(s.data());
+  argv.push_back(nullptr);
+  cpu_set_t cpus;
+  CPU_ZERO(&cpus);
+  for (const int c : options.cpus) CPU_SET(c, &cpus);
   const pid_t parent = ::getpid();
   const pid_t pid = ::fork();
-  if (pid < 0) throw std::runtime_error("fork failed");
+  if (pid < 0) throw std::runtime_error("fork failed: " + std::string(std::strerror(errno)));
   if (pid == 0) {
     ::setpgid(0, 0);
     ::prctl(PR_SET_PDEATHSIG, SIGKILL);
     if (::getppid() != parent) ::_exit(127);
     ::setenv("LCM_DEFAULT_URL", lcm_url_.c_str(), 1);
-    for (const auto& [k, v] : env) ::setenv(k.c_str(), v.c_str(), 1);
-    if (!log_file.empty()) {
-      const int fd = ::open(log_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    for (const auto& [k, v] : options.env) ::setenv(k.c_str(), v.c_str(), 1);
+    if (!options.log_file.empty()) {
+      const int fd = ::open(options.log_file.c_str(), O_WRONLY | O_CREAT | (options.append_log ? O_APPEND : O_TRUNC), 0644);
       if (fd >= 0) {
         ::dup2(fd, STDOUT_FILENO);
         ::dup2(fd, STDERR_FILENO);
         ::close(fd);
       }
     }
-    std::vector<char*> argv;
-    for (auto& s : argv_s) argv.push_back(s.data());
-    argv.push_back(nullptr);
-    ::execv(path.c_str(), argv.data());
+    if (!options.working_dir.empty() && ::chdir(options.working_dir.c_str()) != 0) {
+      child_note("cannot enter the working directory");
+      ::_exit(126);
+    }
+    if (!options.cpus.empty() && ::sched_setaffinity(0, sizeof(cpus), &cpus) != 0) {
+      child_note("CPU affinity refused by the system; running on any CPU");
+    }
+    if (options.rt_priority > 0) {
+      sched_param sp{};
+      sp.sched_priority = options.rt_priority;
+      if (::sched_setscheduler(0, SCHED_FIFO, &sp) != 0) child_note("real-time priority refused by the system (needs root or CAP_SYS_NICE); running with the normal scheduler");
+    }
+    ::execvp(path.c_str(), argv.data());
+    child_note("exec failed: command not found or not executable");
     ::_exit(127);
   }
   ::setpgid(pid, pid);
@@ -84,6 +131,8 @@ pid_t ProcessGroup::start(const std::string& exe, const std::vector<std::string>
 }
 
 void ProcessGroup::signal(pid_t pid, int sig) { ::kill(pid, sig); }
+
+void ProcessGroup::signal_group(pid_t pid, int sig) { ::kill(-pid, sig); }
 
 ProcessResult ProcessGroup::wait(pid_t pid, std::chrono::milliseconds timeout) {
   if (auto it = reaped_.find(pid); it != reaped_.end()) return it->second;

@@ -1,8 +1,12 @@
 #pragma once
 /// \file Clocks used across the stack.
 
+#include <poll.h>
+
 #include <chrono>
 #include <cstdint>
+#include <ctime>
+#include <span>
 
 namespace hpr {
 
@@ -50,5 +54,21 @@ class PeriodicClock {
  private:
   std::int64_t period_ns_, next_ns_;
 };
+
+}  // namespace hpr
+
+namespace hpr {
+
+/// poll(2) with a timeout in seconds at nanosecond resolution (ppoll): poll's millisecond timeout
+/// rounds a sub-millisecond wait down to zero, which turns a real-time loop into a busy spin.
+/// Returns what ppoll returns; revents are reset first.
+inline int poll_for(std::span<pollfd> fds, double timeout_s) {
+  for (auto& p : fds) p.revents = 0;
+  const double wait = timeout_s > 0 ? timeout_s : 0.0;
+  timespec ts{};
+  ts.tv_sec = static_cast<time_t>(wait);
+  ts.tv_nsec = static_cast<long>((wait - static_cast<double>(ts.tv_sec)) * 1e9);
+  return ::ppoll(fds.data(), fds.size(), &ts, nullptr);
+}
 
 }  // namespace hpr

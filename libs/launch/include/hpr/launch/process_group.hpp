@@ -26,6 +26,16 @@ struct ProcessResult {
   int signal = 0;
 };
 
+/// How to start one process (everything but the command line).
+struct StartOptions {
+  std::map<std::string, std::string> env;  ///< added to the environment (after LCM_DEFAULT_URL)
+  std::string log_file;                    ///< stdout and stderr; empty: inherited
+  bool append_log = false;                 ///< append rather than truncate (a restart keeps the earlier output)
+  std::string working_dir;                 ///< empty: the caller's
+  std::vector<int> cpus;                   ///< CPU affinity; empty: any CPU
+  int rt_priority = 0;                     ///< SCHED_FIFO priority 1..99; 0: the normal scheduler
+};
+
 class ProcessGroup {
  public:
   /// `lcm_url` is given to every child as LCM_DEFAULT_URL; executables named without a '/' are
@@ -42,11 +52,17 @@ class ProcessGroup {
   /// Returns the pid. Throws std::runtime_error when fork fails.
   pid_t start(const std::string& exe, const std::vector<std::string>& args,
               const std::map<std::string, std::string>& env = {}, const std::string& log_file = "");
+  /// Starts with the full set of options. A command without a '/' is looked up in `bin_dir`, then
+  /// on PATH. CPU affinity and a real-time priority the system refuses (no permission) are reported
+  /// on the child's log and the process runs without them.
+  pid_t start(const std::string& exe, const std::vector<std::string>& args, const StartOptions& options);
   /// Sends `sig` to one process.
   void signal(pid_t pid, int sig);
   /// Waits up to `timeout` for the process to end.
   ProcessResult wait(pid_t pid, std::chrono::milliseconds timeout);
   [[nodiscard]] bool running(pid_t pid);
+  /// Sends `sig` to the process group of `pid` (the process and whatever it started).
+  void signal_group(pid_t pid, int sig);
   /// SIGTERM to every process group, SIGKILL after `grace`; reaps all.
   void stop_all(std::chrono::milliseconds grace = std::chrono::milliseconds(2000));
   [[nodiscard]] const std::vector<pid_t>& pids() const { return pids_; }

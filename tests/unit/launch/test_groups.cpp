@@ -1,0 +1,133 @@
+// Group files: the shipped file loads, includes and start order, and every malformed entry is
+// rejected with a message naming the file, the key and the value.
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "hpr/common/config.hpp"
+#include "hpr/launch/groups.hpp"
+
+namespace {
+
+using hpr::ConfigError;
+using hpr::launch::GroupsFile;
+
+std::string write(const std::string& text) {
+  static int n = 0;
+  const std::string path = std::filesystem::temp_directory_path() / ("hpr_groups_" + std::to_string(::getpid()) + "_" + std::to_string(n++) + ".yaml");
+  std::ofstream(path) << text;
+  return path;
+}
+
+/// The message of the ConfigError that loading `text` throws ("" when it loads).
+std::string error_of(const std::string& text) {
+  try {
+    GroupsFile::load(write(text));
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+std::vector<std::string> names(const hpr::launch::GroupSpec& g) {
+  std::vector<std::string> out;
+  for (const auto& p : g.processes) out.push_back(p.name);
+  return out;
+}
+
+TEST(Groups, ShippedFileHasEveryBackendWithTheSameControlProcesses) {
+  const GroupsFile f = GroupsFile::load(std::string(HPR_SOURCE_DIR) + "/config/groups.yaml");
+  for (const char* g : {"sim", "hil", "hardware"}) {
+    const auto& group = f.group(g);
+    for (const char* c : {"estimator", "wbc", "reference_gen", "motion_opt"}) {
+      const auto* p = group.find(c);
+      ASSERT_NE(p, nullptr) << g << " lacks " << c;
+      // Swapping the backend never changes the control processes' command line.
+      EXPECT_EQ(p->args, f.group("control").find(c)->args) << g << "/" << c;
+      EXPECT_EQ(p->args.back(), std::string(HPR_SOURCE_DIR) + "/config/toro.yaml");
+    }
+    EXPECT_TRUE(group.find("wbc")->critical);
+  }
+  EXPECT_NE(f.group("sim").find("sim_bullet"), nullptr);
+  EXPECT_NE(f.group("hil").find("drive_emulator"), nullptr);
+  EXPECT_NE(f.group("hardware").find("hal"), nullptr);
+  // The backend starts first; each process after what it depends on.
+  EXPECT_EQ(names(f.group("hil")), (std::vector<std::string>{"drive_emulator", "hal", "estimator", "wbc", "reference_gen", "motion_opt"}));
+  EXPECT_THROW((void)f.group("nonexistent"), std::invalid_argument);
+}
+
+TEST(Groups, VariablesDefaultsAndOverrides) {
+  const std::string path = write(R"(
+vars: {robot: toro}
+defaults: {stop_timeout: 1.5, restart: on-failure}
+groups:
+  g:
+    processes:
+      a: {command: a, args: ["${config_dir}/${robot}.yaml"], env: {X: "${robot}"}, stop_signal: SIGINT, cpus: [0, 1], rt_priority: 50}
+      b: {command: b, restart: never, ready: start, depends_on: [a]}
+)");
+  const GroupsFile f = GroupsFile::load(path, {{"robot", "h1_2"}});
+  const auto& a = *f.group("g").find("a");
+  EXPECT_EQ(a.args.at(0), std::filesystem::path(path).parent_path().string() + "/h1_2.yaml");
+  EXPECT_EQ(a.env.at("X"), "h1_2");
+  EXPECT_EQ(a.stop_signal, SIGINT);
+  EXPECT_DOUBLE_EQ(a.stop_timeout_s, 1.5);
+  EXPECT_EQ(a.restart, hpr::launch::RestartPolicy::kOnFailure);
+  EXPECT_EQ(a.cpus, (std::vector<int>{0, 1}));
+  EXPECT_EQ(a.rt_priority, 50);
+  const auto& b = *f.group("g").find("b");
+  EXPECT_EQ(b.restart, hpr::launch::RestartPolicy::kNever);
+  EXPECT_EQ(b.ready_on, hpr::launch::ReadyOn::kStart);
+  EXPECT_EQ(b.health_node, "b");
+}
+
+TEST(Groups, StartOrderFollowsDependenciesAcrossIncludes) {
+  const GroupsFile f = GroupsFile::load(write(R"(
+groups:
+  base:
+    processes:
+      z: {command: z, depends_on: [y]}
+      y: {command: y}
+  top:
+    include: [base]
+    processes:
+      x: {command: x, depends_on: [z], host: h2}
+)"));
+  EXPECT_EQ(names(f.group("base")), (std::vector<std::string>{"y", "z"}));
+  EXPECT_EQ(names(f.group("top")), (std::vector<std::string>{"y", "z", "x"}));
+  EXPECT_EQ(f.group("top").hosts(), std::vector<std::string>{"h2"});
+  EXPECT_TRUE(f.group("top").runs_on(*f.group("top").find("y"), "h1"));
+  EXPECT_FALSE(f.group("top").runs_on(*f.group("top").find("x"), "h1"));
+}
+
+TEST(Groups, MalformedEntriesNameFileKeyAndValue) {
+  const std::string head = "groups:\n  g:\n    processes:\n";
+  struct Case {
+    std::string body, expect;
+  };
+  const std::vector<Case> cases = {
+      {"      a: {command: a, restart: sometimes}\n", "groups.g.processes.a.restart = sometimes"},
+      {"      a: {command: a, rt_priority: 120}\n", "groups.g.processes.a.rt_priority = 120"},
+      {"      a: {command: a, stop_signal: SIGFOO}\n", "groups.g.processes.a.stop_signal = SIGFOO"},
+      {"      a: {command: a, comand: b}\n", "groups.g.processes.a.comand"},
+      {"      a: {command: a, depends_on: [nope]}\n", "groups.g.processes.a.depends_on = nope"},
+      {"      a: {command: a, depends_on: [b]}\n      b: {command: b, depends_on: [a]}\n", "cycle"},
+      {"      a: {command: a, args: [\"${undefined_var}\"]}\n", "${undefined_var}"},
+      {"      a: {command: a, stop_timeout: -1}\n", "groups.g.processes.a.stop_timeout = -1"},
+      {"      a: {command: a, cpus: [0.5]}\n", "groups.g.processes.a.cpus"},
+      {"      a: {args: [x]}\n", "groups.g.processes.a.command"},
+  };
+  for (const auto& c : cases) {
+    const std::string msg = error_of(head + c.body);
+    EXPECT_NE(msg.find(c.expect), std::string::npos) << "case:\n" << c.body << "message: " << msg;
+    EXPECT_NE(msg.find(".yaml"), std::string::npos) << "the file is named: " << msg;
+  }
+  EXPECT_NE(error_of("groups:\n  g: {include: [missing]}\n").find("no group named 'missing'"), std::string::npos);
+  EXPECT_NE(error_of("groups:\n  g: {include: [h]}\n  h: {include: [g]}\n").find("cycle"), std::string::npos);
+  EXPECT_NE(error_of("grops: {}\n").find("grops"), std::string::npos);
+}
+
+}  // namespace

@@ -1,0 +1,240 @@
+// The supervisor's core against real processes (sh, sleep): start order and readiness, restart
+// policies with back-off, critical deaths, readiness deadlines, stop order with SIGKILL after the
+// grace period, and nothing left behind.
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <cmath>
+#include <csignal>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <functional>
+#include <thread>
+
+#include "hpr/common/time.hpp"
+#include "hpr/launch/supervisor.hpp"
+
+namespace {
+
+using namespace hpr::launch;
+using Kind = SupervisorEvent::Kind;
+
+ProcessSpec proc(const std::string& name, const std::string& script) {
+  ProcessSpec p;
+  p.name = name;
+  p.command = "/bin/sh";
+  p.args = {"-c", script};
+  p.health_node = name;
+  return p;
+}
+
+struct Fixture {
+  explicit Fixture(std::vector<ProcessSpec> ps, std::string host = "h1") {
+    GroupSpec g;
+    g.name = "test";
+    g.processes = std::move(ps);
+    dir = std::filesystem::temp_directory_path() / ("hpr_sup_" + std::to_string(::getpid()) + "_" + std::to_string(counter++));
+    std::filesystem::create_directories(dir);
+    sup = std::make_unique<Supervisor>(g, host, dir, launcher);
+  }
+  const ProcessStatus& st(const std::string& name) const {
+    for (const auto& p : sup->processes()) {
+      if (p.name == name) return p;
+    }
+    throw std::runtime_error("no process " + name);
+  }
+  /// Steps until `done` or `timeout_s`; collects the events.
+  bool run_until(const std::function<bool()>& done, double timeout_s) {
+    const double end = hpr::monotonic_s() + timeout_s;
+    while (hpr::monotonic_s() < end) {
+      sup->step(hpr::monotonic_s());
+      for (auto& e : sup->take_events()) events.push_back(e);
+      if (done()) return true;
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    return false;
+  }
+  [[nodiscard]] int count(Kind k) const {
+    return static_cast<int>(std::count_if(events.begin(), events.end(), [&](const SupervisorEvent& e) { return e.kind == k; }));
+  }
+  static inline int counter = 0;
+  std::string dir;
+  ProcessGroup launcher{"udpm://239.255.1.1:7999?ttl=0", "/nonexistent"};
+  std::unique_ptr<Supervisor> sup;
+  std::vector<SupervisorEvent> events;
+};
+
+bool alive(pid_t pid) { return pid > 0 && ::kill(pid, 0) == 0; }
+
+/// True while a process of process group `pgid` runs (zombies waiting for init do not count).
+bool group_alive(pid_t pgid) {
+  for (int i = 0; i < 200; ++i) {  // SIGKILL is delivered asynchronously: up to 1 s
+    bool any = false;
+    for (const auto& e : std::filesystem::directory_iterator("/proc")) {
+      std::ifstream in(e.path() / "stat");
+      std::string line;
+      if (!std::getline(in, line)) continue;
+      const auto close = line.rfind(')');
+      if (close == std::string::npos) continue;
+      std::istringstream rest(line.substr(close + 2));
+      char state = 0;
+      long ppid = 0, pgrp = 0;
+      rest >> state >> ppid >> pgrp;
+      if (pgrp == pgid && state != 'Z' && state != 'X') any = true;
+    }
+    if (!any) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  return true;
+}
+
+TEST(Supervisor, StartsInDependencyOrderOnceEachIsReady) {
+  ProcessSpec a = proc("a", "exec sleep 30"), b = proc("b", "exec sleep 30");
+  b.depends_on = {"a"};
+  Fixture f({a, b});
+  f.sup->up(hpr::monotonic_s());
+  EXPECT_EQ(f.st("a").state, ProcessState::kStarting);
+  EXPECT_EQ(f.st("b").state, ProcessState::kWaiting) << "b must wait for a's HEALTH";
+  EXPECT_TRUE(alive(f.st("a").pid));
+  f.run_until([] { return false; }, 0.1);
+  EXPECT_EQ(f.st("b").state, ProcessState::kWaiting);
+  f.sup->on_health("a", 1, 1000.0, 3, hpr::monotonic_s());
+  ASSERT_TRUE(f.run_until([&] { return f.st("b").state == ProcessState::kStarting; }, 2.0));
+  EXPECT_EQ(f.st("a").state, ProcessState::kReady);
+  EXPECT_DOUBLE_EQ(f.st("a").rate_hz, 1000.0);
+  EXPECT_EQ(f.st("a").deadline_misses, 3);
+  EXPECT_EQ(f.sup->state(), GroupState::kStarting);
+  f.sup->on_health("b", 1, 500.0, 0, hpr::monotonic_s());
+  ASSERT_TRUE(f.run_until([&] { return f.sup->state() == GroupState::kUp; }, 2.0));
+  EXPECT_EQ(f.count(Kind::kGroupUp), 1);
+  // Each start is recorded in the process's own log file.
+  EXPECT_TRUE(std::filesystem::exists(f.sup->log_file("a")));
+}
+
+TEST(Supervisor, RestartsOnFailureWithGrowingBackoffThenGivesUp) {
+  ProcessSpec p = proc("flaky", "exit 3");
+  p.ready_on = ReadyOn::kStart;
+  p.restart = RestartPolicy::kOnFailure;
+  p.backoff_s = 0.05;
+  p.backoff_max_s = 1.0;
+  p.max_restarts = 3;
+  Fixture f({p});
+  std::vector<double> starts;
+  f.sup->up(hpr::monotonic_s());
+  int seen_starts = 0;
+  ASSERT_TRUE(f.run_until([&] {
+    const int n = static_cast<int>(std::count_if(f.events.begin(), f.events.end(), [](const SupervisorEvent& e) { return e.text.rfind("started", 0) == 0; }));
+    for (; seen_starts < n; ++seen_starts) starts.push_back(hpr::monotonic_s());
+    return f.st("flaky").state == ProcessState::kFailed;
+  }, 10.0));
+  EXPECT_EQ(f.st("flaky").restarts, 3);
+  EXPECT_NE(f.st("flaky").detail.find("exited with status 3"), std::string::npos) << f.st("flaky").detail;
+  EXPECT_NE(f.st("flaky").detail.find("no restart left"), std::string::npos) << f.st("flaky").detail;
+  // Delays of at least 0.05, 0.1, 0.2 s between the starts (back-off doubles).
+  ASSERT_GE(starts.size(), 4U);
+  for (std::size_t k = 1; k < 4; ++k) EXPECT_GE(starts[k] - starts[k - 1], 0.05 * std::pow(2.0, static_cast<double>(k - 1)) - 1e-3) << "restart " << k;
+}
+
+TEST(Supervisor, CleanExitIsNotRestartedOnFailurePolicyButIsOnAlways) {
+  ProcessSpec once = proc("once", "exit 0"), always = proc("always", "exit 0");
+  once.ready_on = always.ready_on = ReadyOn::kStart;
+  once.restart = RestartPolicy::kOnFailure;
+  always.restart = RestartPolicy::kAlways;
+  always.backoff_s = 0.01;
+  always.max_restarts = 2;
+  Fixture f({once, always});
+  f.sup->up(hpr::monotonic_s());
+  ASSERT_TRUE(f.run_until([&] { return f.st("once").state == ProcessState::kExited && f.st("always").state == ProcessState::kExited; }, 10.0));
+  EXPECT_EQ(f.st("once").restarts, 0);
+  EXPECT_EQ(f.st("always").restarts, 2);
+}
+
+TEST(Supervisor, CriticalDeathIsReportedAtOnce) {
+  ProcessSpec c = proc("controller", "exec sleep 30"), n = proc("monitor", "exec sleep 30");
+  c.critical = true;
+  c.ready_on = n.ready_on = ReadyOn::kStart;
+  Fixture f({c, n});
+  f.sup->up(hpr::monotonic_s());
+  ASSERT_TRUE(f.run_until([&] { return f.sup->state() == GroupState::kUp; }, 2.0));
+  ::kill(f.st("monitor").pid, SIGKILL);
+  ASSERT_TRUE(f.run_until([&] { return f.st("monitor").state == ProcessState::kFailed; }, 2.0));
+  EXPECT_EQ(f.count(Kind::kCriticalDied), 0) << "a non-critical death is not a critical one";
+  ::kill(f.st("controller").pid, SIGKILL);
+  ASSERT_TRUE(f.run_until([&] { return f.count(Kind::kCriticalDied) == 1; }, 2.0));
+  const auto it = std::find_if(f.events.begin(), f.events.end(), [](const SupervisorEvent& e) { return e.kind == Kind::kCriticalDied; });
+  EXPECT_EQ(it->process, "controller");
+  EXPECT_NE(it->text.find("signal 9"), std::string::npos) << it->text;
+  EXPECT_EQ(f.sup->state(), GroupState::kDegraded);
+}
+
+TEST(Supervisor, NotReadyBeforeTheDeadlineFailsTheGroupAndStopsTheProcess) {
+  ProcessSpec p = proc("silent", "exec sleep 30");
+  p.ready_timeout_s = 0.2;
+  Fixture f({p});
+  f.sup->up(hpr::monotonic_s());
+  const pid_t pid = f.st("silent").pid;
+  ASSERT_TRUE(f.run_until([&] { return f.sup->state() == GroupState::kFailed && f.sup->all_ended(); }, 5.0));
+  EXPECT_EQ(f.st("silent").state, ProcessState::kFailed);
+  EXPECT_NE(f.st("silent").detail.find("no HEALTH from node 'silent'"), std::string::npos) << f.st("silent").detail;
+  EXPECT_EQ(f.count(Kind::kGroupFailed), 1);
+  EXPECT_FALSE(alive(pid));
+}
+
+TEST(Supervisor, DownStopsLastStartedFirstAndKillsWhatIgnoresTheSignal) {
+  ProcessSpec stubborn = proc("stubborn", "trap '' TERM; sleep 30 & wait; sleep 30");
+  stubborn.ready_on = ReadyOn::kStart;
+  stubborn.stop_timeout_s = 0.3;
+  ProcessSpec polite = proc("polite", "exec sleep 30");
+  polite.ready_on = ReadyOn::kStart;
+  polite.depends_on = {"stubborn"};
+  polite.stop_signal = SIGINT;
+  Fixture f({stubborn, polite});
+  f.sup->up(hpr::monotonic_s());
+  ASSERT_TRUE(f.run_until([&] { return f.sup->state() == GroupState::kUp; }, 2.0));
+  const pid_t p1 = f.st("stubborn").pid, p2 = f.st("polite").pid;
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));  // the shell has set its trap
+  f.sup->down(hpr::monotonic_s());
+  EXPECT_EQ(f.st("polite").state, ProcessState::kStopping);
+  EXPECT_EQ(f.st("stubborn").state, ProcessState::kReady) << "signalled only after what started after it has ended";
+  ASSERT_TRUE(f.run_until([&] { return f.sup->state() == GroupState::kStopped; }, 5.0));
+  EXPECT_EQ(f.st("polite").state, ProcessState::kStopped);
+  EXPECT_NE(f.st("polite").detail.find("signal 2"), std::string::npos) << "its own stop signal: " << f.st("polite").detail;
+  EXPECT_NE(f.st("stubborn").detail.find("SIGKILL after the grace period"), std::string::npos) << f.st("stubborn").detail;
+  // Nothing left: neither the processes nor what they started (their process groups).
+  EXPECT_FALSE(alive(p1));
+  EXPECT_FALSE(alive(p2));
+  EXPECT_FALSE(group_alive(p1)) << "the shell's child survived";
+  EXPECT_FALSE(group_alive(p2));
+}
+
+TEST(Supervisor, RestartCommandStartsANewProcess) {
+  ProcessSpec p = proc("node", "exec sleep 30");
+  p.ready_on = ReadyOn::kStart;
+  Fixture f({p});
+  f.sup->up(hpr::monotonic_s());
+  const pid_t first = f.st("node").pid;
+  ASSERT_TRUE(f.sup->restart("node", hpr::monotonic_s()));
+  EXPECT_FALSE(f.sup->restart("other", hpr::monotonic_s()));
+  ASSERT_TRUE(f.run_until([&] { return f.st("node").state == ProcessState::kReady && f.st("node").pid != first && f.st("node").pid > 0; }, 5.0));
+  EXPECT_EQ(f.st("node").restarts, 1);
+  EXPECT_FALSE(alive(first));
+}
+
+TEST(Supervisor, RunsOnlyItsHostsShareAndWaitsForRemoteDependencies) {
+  ProcessSpec remote = proc("hal", "exec sleep 30"), local = proc("wbc", "exec sleep 30");
+  remote.host = "robot";
+  local.host = "pc";
+  local.depends_on = {"hal"};
+  local.ready_on = ReadyOn::kStart;
+  Fixture f({remote, local}, "pc");
+  ASSERT_EQ(f.sup->processes().size(), 1U);
+  f.sup->up(hpr::monotonic_s());
+  f.run_until([] { return false; }, 0.05);
+  EXPECT_EQ(f.st("wbc").state, ProcessState::kWaiting);
+  f.sup->on_remote_ready("hal", true);
+  ASSERT_TRUE(f.run_until([&] { return f.sup->state() == GroupState::kUp; }, 2.0));
+}
+
+}  // namespace
