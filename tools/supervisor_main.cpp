@@ -667,7 +667,7 @@ int main(int argc, char** argv) {
     for (std::size_t i = 1; i < args.size(); ++i) {
       const std::string& a = args[i];
       const auto value = [&]() -> std::string {
-        if (i + 1 >= args.size()) throw std::invalid_argument(a + " needs a value");
+        if (i + 1 >= args.size()) throw std::logic_error(a + " needs a value");
         return args[++i];
       };
       if (a == "--groups") {
@@ -680,7 +680,7 @@ int main(int argc, char** argv) {
       } else if (a == "--var") {
         const std::string kv = value();
         const auto eq = kv.find('=');
-        if (eq == std::string::npos || eq == 0) throw std::invalid_argument("--var needs KEY=VALUE, got '" + kv + "'");
+        if (eq == std::string::npos || eq == 0) throw std::logic_error("--var needs KEY=VALUE, got '" + kv + "'");
         o.vars[kv.substr(0, eq)] = kv.substr(eq + 1);
       } else if (a == "--run-root") {
         o.run_root = value();
@@ -697,16 +697,16 @@ int main(int argc, char** argv) {
       } else if (a == "-n") {
         o.lines = std::stoi(value());
       } else if (!a.empty() && a[0] == '-') {
-        throw std::invalid_argument("unknown option " + a);
+        throw std::logic_error("unknown option " + a);
       } else if (o.target.empty()) {
         o.target = a;
       } else {
-        throw std::invalid_argument("unexpected argument '" + a + "'");
+        throw std::logic_error("unexpected argument '" + a + "'");
       }
     }
     if (o.groups_file.empty()) o.groups_file = default_groups_file();
     const bool needs_target = o.command == "up" || o.command == "logs" || o.command == "restart";
-    if (needs_target && o.target.empty()) throw std::invalid_argument(o.command + " needs a " + (o.command == "up" ? "GROUP" : "NAME"));
+    if (needs_target && o.target.empty()) throw std::logic_error(o.command + " needs a " + (o.command == "up" ? "GROUP" : "NAME"));
     if (o.command == "up") return cmd_up(o);
     if (o.command == "groups") return cmd_groups(o);
     std::signal(SIGINT, on_signal);
@@ -719,12 +719,18 @@ int main(int argc, char** argv) {
     if (o.command == "down") return cmd_down(o, url);
     if (o.command == "restart") return cmd_restart(o, url);
     if (o.command == "logs") return cmd_logs(o, url);
-    throw std::invalid_argument("unknown command '" + o.command + "'");
+    throw std::logic_error("unknown command '" + o.command + "'");
   } catch (const ConfigError& e) {
     std::cerr << "supervisor: " << e.what() << "\n";
     return 2;
-  } catch (const std::exception& e) {
+  } catch (const std::invalid_argument& e) {
+    std::cerr << "supervisor: " << e.what() << "\n";
+    return 2;
+  } catch (const std::logic_error& e) {  // bad use
     std::cerr << "supervisor: " << e.what() << "\n\n" << kUsage;
     return 2;
+  } catch (const std::exception& e) {
+    std::cerr << "supervisor: " << e.what() << "\n";
+    return 1;
   }
 }

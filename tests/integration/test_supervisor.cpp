@@ -1,0 +1,199 @@
+// The supervisor, recording and replay as a user runs them: `up sim` then `status` shows every
+// process running and ticking; killing a critical process makes the supervisor send OPERATOR
+// damp; tools/record writes into the run folder; `down` leaves no process behind; a recorded push
+// experiment replays exactly; two hosts (network namespaces) share one group and one status.
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <csignal>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "all_types.hpp"
+#include "lcm_listener.hpp"
+#include "process_group.hpp"
+#include "shell.hpp"
+
+namespace {
+
+using namespace std::chrono_literals;
+using nlohmann::json;
+using hpr::test::run_command;
+
+std::string supervisor() { return hpr::test::bin_dir() + "/supervisor"; }
+std::string groups_file() { return hpr::test::source_dir() + "/config/groups.yaml"; }
+
+bool alive(int pid) { return pid > 0 && ::kill(pid, 0) == 0; }
+
+/// `status --json` as a JSON object (null when it did not parse).
+json status(const std::string& url, const std::string& prefix = "") {
+  const auto r = run_command({supervisor(), "status", "--json", "--lcm-url", url, "--wait", "1.2"}, prefix);
+  try {
+    return json::parse(r.out);
+  } catch (const json::exception&) {
+    ADD_FAILURE() << "status did not print JSON:\n" << r.out;
+    return json();
+  }
+}
+
+TEST(Supervisor, UpSimStatusCriticalDeathRecordAndDownLeaveNothingBehind) {
+  const std::string url = hpr::test::unique_lcm_url();
+  const std::string runs = hpr::test::temp_dir("supervisor-runs");
+  hpr::test::LcmListener lcm(url);
+  ASSERT_TRUE(lcm.good());
+  auto ops = lcm.collect<humanoid::operator_t>("OPERATOR");
+
+  const auto up = run_command({supervisor(), "up", "sim", "--groups", groups_file(), "--lcm-url", url, "--run-root", runs});
+  ASSERT_EQ(up.exit_code, 0) << up.out;
+  EXPECT_NE(up.out.find("is up"), std::string::npos) << up.out;
+  std::this_thread::sleep_for(2s);  // HEALTH rates cover a whole report period
+
+  json st = status(url);
+  ASSERT_EQ(st["supervisors"].size(), 1U) << st.dump(2);
+  const json& sup = st["supervisors"][0];
+  EXPECT_EQ(sup["group"], "sim");
+  EXPECT_EQ(sup["state"], "up") << st.dump(2);
+  std::map<std::string, int> pids;
+  for (const auto& p : sup["processes"]) {
+    pids[p["name"]] = p["pid"];
+    EXPECT_EQ(p["state"], "running") << p.dump();
+    EXPECT_GT(p["rate_hz"].get<double>(), 100.0) << p["name"] << " is not ticking: " << p.dump();
+    EXPECT_TRUE(alive(p["pid"])) << p.dump();
+  }
+  for (const char* n : {"sim_bullet", "estimator", "wbc", "reference_gen", "motion_opt"}) EXPECT_EQ(pids.count(n), 1U) << n;
+  const std::string run_dir = sup["run_dir"];
+  for (const char* n : {"sim_bullet", "wbc", "supervisor"}) EXPECT_TRUE(std::filesystem::exists(run_dir + "/" + n + ".log")) << n;
+
+  // tools/record: a log named by date and group in the run folder.
+  hpr::test::ProcessGroup rec(url);
+  const pid_t recorder = rec.start(hpr::test::source_dir() + "/tools/record", {"--run-root", runs, "--lcm-url", url});
+  std::this_thread::sleep_for(1500ms);
+  rec.signal(recorder, SIGINT);
+  rec.wait(recorder, 5000ms);
+  std::vector<std::filesystem::path> logs;
+  for (const auto& e : std::filesystem::directory_iterator(run_dir)) {
+    if (e.path().extension() == ".lcm") logs.push_back(e.path());
+  }
+  ASSERT_EQ(logs.size(), 1U) << "tools/record wrote no log into " << run_dir;
+  EXPECT_NE(logs[0].filename().string().find("-sim.lcm"), std::string::npos) << logs[0];
+  EXPECT_GT(std::filesystem::file_size(logs[0]), 100000U) << "1.5 s of a 1 kHz stack is more than 100 kB";
+
+  // A critical process dies: OPERATOR damp from the supervisor.
+  ASSERT_TRUE(alive(pids["wbc"]));
+  ::kill(pids["wbc"], SIGKILL);
+  const bool damped = lcm.wait_for([&] {
+    for (const auto& o : *ops) {
+      if (o.command == humanoid::operator_t::COMMAND_DAMP && o.source.rfind("supervisor@", 0) == 0) return true;
+    }
+    return false;
+  }, 5s);
+  EXPECT_TRUE(damped) << "no OPERATOR damp after wbc was killed";
+  if (damped) {
+    EXPECT_NE(ops->back().reason.find("wbc"), std::string::npos) << ops->back().reason;
+  }
+  st = status(url);
+  ASSERT_EQ(st["supervisors"].size(), 1U);
+  EXPECT_EQ(st["supervisors"][0]["state"], "degraded");
+
+  // logs NAME prints the process's log.
+  const auto log = run_command({supervisor(), "logs", "sim_bullet", "--lcm-url", url, "--run-root", runs});
+  EXPECT_EQ(log.exit_code, 0);
+  EXPECT_NE(log.out.find("supervisor: start 1 of 'sim_bullet'"), std::string::npos) << log.out;
+
+  const int supervisor_pid = st["supervisors"][0]["pid"];
+  const auto down = run_command({supervisor(), "down", "--lcm-url", url});
+  EXPECT_EQ(down.exit_code, 0) << down.out;
+  EXPECT_NE(down.out.find("stopped"), std::string::npos) << down.out;
+  std::this_thread::sleep_for(300ms);
+  for (const auto& [name, pid] : pids) EXPECT_FALSE(alive(pid)) << name << " (pid " << pid << ") is still running after down";
+  EXPECT_FALSE(alive(supervisor_pid)) << "the supervisor is still running after down";
+  EXPECT_EQ(status(url)["supervisors"].size(), 0U);
+}
+
+TEST(Supervisor, ABadGroupIsRefusedWithTheFileKeyAndValue) {
+  const std::string dir = hpr::test::temp_dir("supervisor-bad");
+  const std::string file = dir + "/groups.yaml";
+  std::ofstream(file) << "groups:\n  g:\n    processes:\n      a: {command: estimator, restart: sometimes}\n";
+  const auto r = run_command({supervisor(), "up", "g", "--groups", file, "--run-root", dir});
+  EXPECT_EQ(r.exit_code, 2);
+  const auto unknown = run_command({supervisor(), "up", "nonexistent", "--groups", groups_file(), "--run-root", dir});
+  EXPECT_EQ(unknown.exit_code, 2);
+}
+
+TEST(Replay, RecordedPushExperimentReproducesExactlyAndADifferentGainDoesNot) {
+  const std::string dir = hpr::test::temp_dir("replay");
+  const std::string log = dir + "/push.lcm";
+  const auto trial = run_command({hpr::test::bin_dir() + "/push_trial", "--impulse", "12", "--after", "1", "--log", log, "--quiet"});
+  ASSERT_TRUE(trial.exit_code == 0 || trial.exit_code == 1) << trial.out;  // 1: "not recovered" (run too short to judge)
+  ASSERT_TRUE(std::filesystem::exists(log));
+  const std::string tool = hpr::test::source_dir() + "/tools/replay";
+  const auto same = run_command({tool, log, "--rerun", "estimator,wbc,reference_gen,motion_opt", "--set", "balance.support=double",
+                                 "--json", dir + "/same.json", "--work-dir", dir + "/same"});
+  EXPECT_EQ(same.exit_code, 0) << same.out;
+  const json s = json::parse(std::ifstream(dir + "/same.json"));
+  EXPECT_TRUE(s["match"].get<bool>()) << s.dump(2);
+  for (const char* c : {"ROBOT_STATE", "JOINT_COMMAND", "BALANCE_STATUS", "CAM_REFERENCE", "WHOLEBODY_COMMAND"}) {
+    EXPECT_GT(s["channels"][c]["compared"].get<int>(), 2500) << c;  // 3.3 s at 1 kHz
+    EXPECT_EQ(s["channels"][c]["different"].get<int>(), 0) << c;
+  }
+  // The comparison can fail: a 0.03 % change of one CoM stiffness shows on the wbc's outputs.
+  const auto other = run_command({tool, log, "--rerun", "wbc", "--set", "balance.support=double", "--set",
+                                  "wbc.com.stiffness=[1500, 1500, 3001]", "--json", dir + "/other.json", "--work-dir", dir + "/other"});
+  EXPECT_EQ(other.exit_code, 1) << other.out;
+  const json o = json::parse(std::ifstream(dir + "/other.json"));
+  EXPECT_FALSE(o["match"].get<bool>());
+  EXPECT_GT(o["channels"]["JOINT_COMMAND"]["different"].get<int>(), 1000) << o.dump(2);
+}
+
+TEST(Supervisor, TwoHostsRunOneGroupWithOneStatusAndStand) {
+  hpr::test::NetnsPair hosts;
+  if (!hosts.ok) GTEST_SKIP() << hosts.why;
+  const std::string url = "udpm://239.255.76.67:7667?ttl=1";  // leaves the host: each namespace is a host
+  const std::string dir = hpr::test::temp_dir("supervisor-hosts");
+  const std::string file = dir + "/groups.yaml";
+  const std::string cfg = hpr::test::source_dir() + "/config/toro.yaml";
+  std::ofstream(file) << "vars: {cfg: " << cfg << "}\n"
+                      << "groups:\n  split:\n    description: the simulated robot on one host, its controllers on another\n"
+                      << "    processes:\n"
+                      << "      sim_bullet: {command: sim_bullet, host: plant, args: [--config, '${cfg}', --set, sim.mode=lockstep]}\n"
+                      << "      estimator: {command: estimator, host: brain, args: [--config, '${cfg}'], critical: true}\n"
+                      << "      wbc: {command: wbc, host: brain, args: [--config, '${cfg}'], critical: true, depends_on: [estimator]}\n"
+                      << "      reference_gen: {command: reference_gen, host: brain, args: [--config, '${cfg}']}\n"
+                      << "      motion_opt: {command: motion_opt, host: brain, args: [--config, '${cfg}']}\n";
+  // This test listens from host "plant" (LCM opens its receive socket lazily, so the thread stays there).
+  ASSERT_TRUE(hosts.enter(hosts.a));
+  hpr::test::LcmListener lcm(url);
+  ASSERT_TRUE(lcm.good());
+  auto truth = lcm.collect<humanoid::sim_truth_t>("SIM_TRUTH");
+
+  const auto brain = run_command({supervisor(), "up", "split", "--groups", file, "--host", "brain", "--lcm-url", url, "--run-root", dir + "/brain"}, hosts.exec(hosts.b));
+  ASSERT_EQ(brain.exit_code, 0) << brain.out;
+  const auto plant = run_command({supervisor(), "up", "split", "--groups", file, "--host", "plant", "--lcm-url", url, "--run-root", dir + "/plant"}, hosts.exec(hosts.a));
+  ASSERT_EQ(plant.exit_code, 0) << plant.out;
+
+  // One status, asked on either host, shows both hosts' processes.
+  const json st = status(url, hosts.exec(hosts.a));
+  std::map<std::string, std::string> where;
+  for (const auto& s : st["supervisors"]) {
+    for (const auto& p : s["processes"]) where[p["name"]] = s["host"];
+  }
+  EXPECT_EQ(where["sim_bullet"], "plant") << st.dump(2);
+  for (const char* n : {"estimator", "wbc", "reference_gen", "motion_opt"}) EXPECT_EQ(where[n], "brain") << n << "\n" << st.dump(2);
+
+  // The robot stands 10 s (simulated) with its controllers on the other host.
+  const bool ran = lcm.wait_for([&] { return !truth->empty() && (truth->back().sim_time >= 10.0 || truth->back().fallen); }, 120s);
+  ASSERT_TRUE(ran) << "SIM_TRUTH did not reach 10 s: " << (truth->empty() ? 0.0 : truth->back().sim_time);
+  EXPECT_FALSE(truth->back().fallen);
+  EXPECT_GE(truth->back().sim_time, 10.0);
+
+  // down from one host stops both.
+  const auto down = run_command({supervisor(), "down", "--lcm-url", url}, hosts.exec(hosts.b));
+  EXPECT_EQ(down.exit_code, 0) << down.out;
+  EXPECT_NE(down.out.find("'plant': stopped"), std::string::npos) << down.out;
+  EXPECT_NE(down.out.find("'brain': stopped"), std::string::npos) << down.out;
+}
+
+}  // namespace

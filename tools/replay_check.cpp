@@ -1,0 +1,317 @@
+// replay_check: re-runs chosen nodes on the inputs recorded in an LCM log and compares their
+// outputs with the recorded ones, channel by channel.
+//
+// The nodes run on a private LCM URL. The log is played in its recorded order; every channel a
+// re-run node publishes is held back from the playback and, where the log has it, compared with what
+// the re-run node publishes for the same tick (wall-clock fields cleared). A recorded output
+// waits for the re-run's, so the playback is paced by the nodes (lockstep), and a lockstep log
+// must reproduce exactly.
+#include <humanoid/balance_status_t.hpp>
+#include <humanoid/cam_reference_t.hpp>
+#include <humanoid/joint_command_t.hpp>
+#include <humanoid/robot_state_t.hpp>
+#include <humanoid/wholebody_command_t.hpp>
+
+#include <deque>
+#include <filesystem>
+#include <fmt/format.h>
+#include <fstream>
+#include <functional>
+#include <iostream>
+#include <lcm/lcm-cpp.hpp>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "hpr/common/time.hpp"
+#include "hpr/launch/process_group.hpp"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr const char* kUsage = R"(replay_check: re-run nodes on a log's recorded inputs and compare their outputs
+
+usage: replay_check LOG --nodes NAME[,NAME...] [options]
+  --nodes LIST      nodes to re-run: estimator, wbc, reference_gen, motion_opt
+  --config FILE     the configuration the log was recorded with (default: config/toro.yaml)
+  --set key=value   an override the log was recorded with (repeatable; e.g. balance.support=double)
+  --timeout S       wall seconds to wait for one output before calling it missing (default 5)
+  --json FILE       the report as JSON
+  --work-dir DIR    the re-run nodes' logs (default: a temporary folder)
+Exit status: 0 when every compared output matches and none is missing, 1 otherwise, 2 on bad use.
+)";
+
+/// What a node publishes (the channels compared) — the contract of DESIGN.md section 2.
+const std::map<std::string, std::vector<std::string>> kOutputs = {
+    {"estimator", {"ROBOT_STATE"}},
+    {"wbc", {"JOINT_COMMAND", "BALANCE_STATUS"}},
+    {"reference_gen", {"CAM_REFERENCE"}},
+    {"motion_opt", {"WHOLEBODY_COMMAND"}},
+};
+/// Channels never played back (each process publishes its own).
+const std::set<std::string> kNotPlayed = {"HEALTH", "SUPERVISOR_STATUS", "SUPERVISOR_COMMAND"};
+
+/// Decodes, clears the wall-clock fields, re-encodes: two outputs are equal when these bytes are.
+using Canonical = std::function<std::vector<uint8_t>(const void*, int)>;
+
+template <class Msg>
+Canonical canonical(std::function<void(Msg&)> clear) {
+  return [clear](const void* data, int size) {
+    Msg m;
+    if (m.decode(data, 0, size) < 0) return std::vector<uint8_t>{};
+    clear(m);
+    std::vector<uint8_t> out(static_cast<std::size_t>(m.getEncodedSize()));
+    m.encode(out.data(), 0, static_cast<int>(out.size()));
+    return out;
+  };
+}
+
+const std::map<std::string, Canonical>& canonicals() {
+  static const std::map<std::string, Canonical> k = {
+      {"ROBOT_STATE", canonical<humanoid::robot_state_t>([](auto&) {})},  // utime is the sensor sample's robot clock
+      {"JOINT_COMMAND", canonical<humanoid::joint_command_t>([](auto& m) { m.utime = 0; })},
+      {"BALANCE_STATUS", canonical<humanoid::balance_status_t>([](auto& m) {
+         m.utime = 0;
+         m.qp_solve_time_us = 0;
+         m.compute_time_us = 0;
+       })},
+      {"CAM_REFERENCE", canonical<humanoid::cam_reference_t>([](auto& m) { m.utime = 0; })},
+      {"WHOLEBODY_COMMAND", canonical<humanoid::wholebody_command_t>([](auto& m) {
+         m.utime = 0;
+         m.qp_solve_time_us = 0;
+       })},
+  };
+  return k;
+}
+
+/// Every message of the stack starts with its int64 tick (after the 8-byte type hash).
+std::int64_t tick_of(const void* data, int size) {
+  if (size < 16) return -1;
+  const auto* b = static_cast<const uint8_t*>(data) + 8;
+  std::uint64_t v = 0;
+  for (int i = 0; i < 8; ++i) v = (v << 8) | b[i];
+  return static_cast<std::int64_t>(v);
+}
+
+struct Raw {
+  std::vector<uint8_t> data;
+  std::int64_t tick = -1;
+};
+
+class Outputs {
+ public:
+  Outputs(lcm::LCM& lcm, const std::vector<std::string>& channels) {
+    for (const auto& c : channels) lcm.subscribe(c, &Outputs::on, this);
+  }
+  std::map<std::string, std::deque<Raw>> queues;
+
+ private:
+  void on(const lcm::ReceiveBuffer* rb, const std::string& channel) {
+    Raw r;
+    r.data.assign(static_cast<const uint8_t*>(rb->data), static_cast<const uint8_t*>(rb->data) + rb->data_size);
+    r.tick = tick_of(rb->data, static_cast<int>(rb->data_size));
+    queues[channel].push_back(std::move(r));
+  }
+};
+
+class HealthSeen {
+ public:
+  explicit HealthSeen(lcm::LCM& lcm) { lcm.subscribe("HEALTH", &HealthSeen::on, this); }
+  std::set<std::string> nodes;
+
+ private:
+  void on(const lcm::ReceiveBuffer* rb, const std::string&) {
+    // node is the third field: tick, utime, then a string (int32 length incl. NUL, bytes).
+    const auto* b = static_cast<const uint8_t*>(rb->data);
+    if (rb->data_size < 8 + 16 + 4) return;
+    const std::uint32_t len = (std::uint32_t{b[24]} << 24) | (std::uint32_t{b[25]} << 16) | (std::uint32_t{b[26]} << 8) | b[27];
+    if (len == 0 || 28 + len > rb->data_size) return;
+    nodes.insert(std::string(reinterpret_cast<const char*>(b + 28), len - 1));
+  }
+};
+
+struct ChannelReport {
+  std::int64_t compared = 0, equal = 0, different = 0, missing = 0;
+  std::int64_t first_difference_tick = -1, first_missing_tick = -1;
+  std::size_t first_difference_byte = 0;
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::vector<std::string> args(argv + 1, argv + argc);
+  std::string log_path, config, json_path, work;
+  std::vector<std::string> nodes, sets;
+  double timeout = 5.0;
+  try {
+    for (std::size_t i = 0; i < args.size(); ++i) {
+      const std::string& a = args[i];
+      const auto value = [&]() -> std::string {
+        if (i + 1 >= args.size()) throw std::invalid_argument(a + " needs a value");
+        return args[++i];
+      };
+      if (a == "-h" || a == "--help") {
+        std::cout << kUsage;
+        return 0;
+      } else if (a == "--nodes") {
+        std::string list = value();
+        for (std::size_t s = 0; s <= list.size();) {
+          const std::size_t e = std::min(list.find(',', s), list.size());
+          if (e > s) nodes.push_back(list.substr(s, e - s));
+          s = e + 1;
+        }
+      } else if (a == "--config") {
+        config = value();
+      } else if (a == "--set") {
+        sets.push_back(value());
+      } else if (a == "--timeout") {
+        timeout = std::stod(value());
+      } else if (a == "--json") {
+        json_path = value();
+      } else if (a == "--work-dir") {
+        work = value();
+      } else if (!a.empty() && a[0] == '-') {
+        throw std::invalid_argument("unknown option " + a);
+      } else if (log_path.empty()) {
+        log_path = a;
+      } else {
+        throw std::invalid_argument("unexpected argument " + a);
+      }
+    }
+    if (log_path.empty()) throw std::invalid_argument("no LOG given");
+    if (nodes.empty()) throw std::invalid_argument("--nodes is required");
+    for (const auto& n : nodes) {
+      if (kOutputs.count(n) == 0) throw std::invalid_argument("unknown node '" + n + "' (estimator, wbc, reference_gen, motion_opt)");
+    }
+  } catch (const std::exception& e) {
+    std::cerr << "replay_check: " << e.what() << "\n\n" << kUsage;
+    return 2;
+  }
+  if (config.empty()) {
+    const fs::path exe = hpr::launch::executable_dir();
+    for (const fs::path& c : {exe / "../../config/toro.yaml", exe / "../share/hpr/config/toro.yaml"}) {
+      if (fs::exists(c)) config = fs::weakly_canonical(c).string();
+    }
+  }
+  if (!fs::exists(log_path)) {
+    std::cerr << "replay_check: no log file " << log_path << "\n";
+    return 2;
+  }
+  std::vector<std::string> outputs;
+  for (const auto& n : nodes) {
+    for (const auto& c : kOutputs.at(n)) outputs.push_back(c);
+  }
+  const std::set<std::string> output_set(outputs.begin(), outputs.end());
+  if (work.empty()) work = (fs::temp_directory_path() / fmt::format("hpr-replay-{}", ::getpid())).string();
+  fs::create_directories(work);
+
+  hpr::launch::ProcessGroup group;
+  lcm::LCM lcm(group.lcm_url());
+  if (!lcm.good()) {
+    std::cerr << "replay_check: cannot open LCM on " << group.lcm_url() << "\n";
+    return 1;
+  }
+  Outputs out(lcm, outputs);
+  HealthSeen health(lcm);
+  std::vector<std::string> node_args = {"--config", config};
+  for (const auto& s : sets) node_args.insert(node_args.end(), {"--set", s});
+  for (const auto& n : nodes) group.start(n, node_args, {}, work + "/" + n + ".log");
+  const double ready_by = hpr::monotonic_s() + 20.0;
+  while (hpr::monotonic_s() < ready_by && health.nodes.size() < nodes.size()) lcm.handleTimeout(50);
+  for (const auto& n : nodes) {
+    if (health.nodes.count(n) == 0) {
+      std::cerr << "replay_check: " << n << " did not start (no HEALTH within 20 s); see " << work << "/" << n << ".log\n";
+      return 1;
+    }
+  }
+  for (auto& [c, q] : out.queues) q.clear();  // nothing before the first input counts
+
+  lcm::LogFile log(log_path, "r");
+  if (!log.good()) {
+    std::cerr << "replay_check: cannot read " << log_path << "\n";
+    return 2;
+  }
+  std::map<std::string, ChannelReport> report;
+  std::int64_t played = 0, events = 0;
+  double next_progress = hpr::monotonic_s() + 2.0;
+  std::cerr << fmt::format("replay_check: re-running {} on {} (outputs compared: {})\n", fmt::join(nodes, ", "), log_path, fmt::join(outputs, ", "));
+  for (const lcm::LogEvent* ev = log.readNextEvent(); ev != nullptr; ev = log.readNextEvent()) {
+    ++events;
+    if (kNotPlayed.count(ev->channel) != 0) continue;
+    if (output_set.count(ev->channel) == 0) {
+      lcm.publish(ev->channel, ev->data, static_cast<unsigned>(ev->datalen));
+      ++played;
+      while (lcm.handleTimeout(0) > 0) {
+      }
+      continue;
+    }
+    // A recorded output: wait for the re-run's of the same tick.
+    ChannelReport& r = report[ev->channel];
+    const std::int64_t tick = tick_of(ev->data, ev->datalen);
+    auto& q = out.queues[ev->channel];
+    const double give_up = hpr::monotonic_s() + timeout;
+    bool found = false;
+    while (true) {
+      while (!q.empty() && q.front().tick < tick) q.pop_front();  // outputs the log lacks
+      if (!q.empty()) {
+        found = q.front().tick == tick;
+        break;
+      }
+      if (hpr::monotonic_s() > give_up) break;
+      lcm.handleTimeout(10);
+    }
+    if (!found) {
+      ++r.missing;
+      if (r.first_missing_tick < 0) r.first_missing_tick = tick;
+      continue;
+    }
+    const Raw got = std::move(q.front());
+    q.pop_front();
+    const auto& canon = canonicals().at(ev->channel);
+    const auto a = canon(ev->data, ev->datalen);
+    const auto b = canon(got.data.data(), static_cast<int>(got.data.size()));
+    ++r.compared;
+    if (!a.empty() && a == b) {
+      ++r.equal;
+    } else {
+      ++r.different;
+      if (r.first_difference_tick < 0) {
+        r.first_difference_tick = tick;
+        std::size_t k = 0;
+        while (k < a.size() && k < b.size() && a[k] == b[k]) ++k;
+        r.first_difference_byte = k;
+      }
+    }
+    if (hpr::monotonic_s() >= next_progress) {
+      std::cerr << fmt::format("  tick {}: {} events, {} played\n", tick, events, played);
+      next_progress = hpr::monotonic_s() + 2.0;
+    }
+  }
+  group.stop_all();
+
+  bool ok = true;
+  nlohmann::ordered_json j;
+  j["log"] = log_path;
+  j["nodes"] = nodes;
+  j["played"] = played;
+  std::cout << fmt::format("{:<20} {:>9} {:>9} {:>9} {:>8}  {}\n", "CHANNEL", "COMPARED", "EQUAL", "DIFFERENT", "MISSING", "FIRST DIFFERENCE");
+  for (const auto& c : outputs) {
+    const ChannelReport r = report[c];
+    const bool channel_ok = r.compared > 0 && r.different == 0 && r.missing == 0;
+    ok = ok && channel_ok;
+    std::string first = "-";
+    if (r.first_difference_tick >= 0) first = fmt::format("tick {} (byte {})", r.first_difference_tick, r.first_difference_byte);
+    if (r.first_missing_tick >= 0) first += fmt::format("; first missing at tick {}", r.first_missing_tick);
+    if (r.compared == 0 && r.missing == 0) first = "not in the log";
+    std::cout << fmt::format("{:<20} {:>9} {:>9} {:>9} {:>8}  {}\n", c, r.compared, r.equal, r.different, r.missing, first);
+    j["channels"][c] = {{"compared", r.compared}, {"equal", r.equal},       {"different", r.different},
+                        {"missing", r.missing},   {"first_difference_tick", r.first_difference_tick}, {"match", channel_ok}};
+  }
+  j["match"] = ok;
+  std::cout << (ok ? "replay matches the recording\n" : "replay DIFFERS from the recording\n");
+  if (!json_path.empty()) std::ofstream(json_path) << j.dump(2) << "\n";
+  return ok ? 0 : 1;
+}
