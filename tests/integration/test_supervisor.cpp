@@ -81,6 +81,29 @@ TEST(Supervisor, UpSimStatusCriticalDeathRecordAndDownLeaveNothingBehind) {
   EXPECT_NE(logs[0].filename().string().find("-sim.lcm"), std::string::npos) << logs[0];
   EXPECT_GT(std::filesystem::file_size(logs[0]), 100000U) << "1.5 s of a 1 kHz stack is more than 100 kB";
 
+  // lcm-spy: under Xvfb the window starts with every type of the stack found, and every live
+  // message decodes the way lcm-spy decodes it.
+  if (std::system("command -v xvfb-run > /dev/null 2>&1") == 0) {
+    const std::string spy_out = run_dir + "/lcm-spy.out";
+    hpr::test::ProcessGroup gui(url);
+    const pid_t spy = gui.start("/usr/bin/xvfb-run", {"-a", hpr::test::source_dir() + "/tools/lcm-spy", "--lcm-url", url}, {}, spy_out);
+    std::this_thread::sleep_for(6s);
+    EXPECT_TRUE(gui.running(spy)) << "lcm-spy ended:\n" << hpr::test::read_file(spy_out);
+    gui.stop_all();
+    const std::string text = hpr::test::read_file(spy_out);
+    EXPECT_NE(text.find("Found " + std::to_string(HPR_LCM_TYPE_COUNT) + " LCM types"), std::string::npos) << text;
+    EXPECT_EQ(text.find("Exception"), std::string::npos) << text;
+  } else {
+    ADD_FAILURE() << "xvfb-run is missing (tools/install-deps installs it): the lcm-spy window is not checked";
+  }
+  const auto spy = run_command({hpr::test::source_dir() + "/tools/lcm-spy", "--check", "3", "--lcm-url", url});
+  EXPECT_EQ(spy.exit_code, 0) << spy.out;
+  EXPECT_NE(spy.out.find("every message decoded"), std::string::npos) << spy.out;
+  for (const char* c : {"ROBOT_SENSORS", "ROBOT_STATE", "BALANCE_STATUS", "CAM_REFERENCE", "WHOLEBODY_COMMAND", "JOINT_COMMAND",
+                        "SIM_TRUTH", "HEALTH", "SUPERVISOR_STATUS"}) {
+    EXPECT_NE(spy.out.find(std::string("\n") + c + " "), std::string::npos) << c << " not seen by lcm-spy:\n" << spy.out;
+  }
+
   // A critical process dies: OPERATOR damp from the supervisor.
   ASSERT_TRUE(alive(pids["wbc"]));
   ::kill(pids["wbc"], SIGKILL);

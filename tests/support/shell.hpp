@@ -53,6 +53,18 @@ inline CommandResult run_command(const std::vector<std::string>& argv, const std
   return r;
 }
 
+/// The whole content of a text file ("" when it cannot be read).
+inline std::string read_file(const std::string& path) {
+  std::string out;
+  if (FILE* f = std::fopen(path.c_str(), "r")) {
+    std::array<char, 4096> buf{};
+    std::size_t n = 0;
+    while ((n = std::fread(buf.data(), 1, buf.size(), f)) > 0) out.append(buf.data(), n);
+    std::fclose(f);
+  }
+  return out;
+}
+
 /// Two network namespaces ("hosts") joined by a veth pair, each with multicast routed on the
 /// link, removed on destruction. Needs root and iproute2; `ok` false and `why` say otherwise.
 class NetnsPair {
