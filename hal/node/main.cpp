@@ -169,10 +169,12 @@ int run(const node::CommandLine& cl, const Config& cfg) {
       rt.spin_once(left);
     }
   }
+  std::int64_t missed = 0;
+  for (const auto& d : h.drives()) missed += d.missed;
   log::info("hal stopped after {} ticks: tick work median {:.1f} us, p99 {:.1f} us; period jitter p99 {:.1f} us, max {:.1f} us; "
-            "commands rejected {}, stale ticks {}, malformed frames {}",
+            "commands rejected {}, stale ticks {}, malformed frames {}; replies missed {} of {}",
             tick, work.median() * 1e6, work.percentile(0.99) * 1e6, jitter.percentile(0.99) * 1e6, jitter.max() * 1e6,
-            h.commands_rejected(), h.commands_stale(), h.frames_malformed());
+            h.commands_rejected(), h.commands_stale(), h.frames_malformed(), missed, tick * static_cast<std::int64_t>(h.drives().size()));
   return node::kExitOk;
 }
 

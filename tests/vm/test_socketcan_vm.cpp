@@ -1,0 +1,44 @@
+// SocketCAN for real, on a kernel that has CAN: tests/vm/can-vm boots Debian's kernel under qemu
+// with an initramfs of the host's packages and this build's hal and drive emulator, creates vcan
+// interfaces can0..can9, runs the drive emulator and the hal on them with the socketcan transport
+// and candump on can0. Skipped (with the reason) when qemu or the kernel image is missing.
+#include <gtest/gtest.h>
+
+#include <regex>
+
+#include "process_group.hpp"
+#include "shell.hpp"
+
+namespace {
+
+long number_after(const std::string& text, const std::string& marker) {
+  const auto p = text.find(marker);
+  if (p == std::string::npos) return -1;
+  return std::strtol(text.c_str() + p + marker.size(), nullptr, 10);
+}
+
+TEST(SocketCanVm, HalAndDriveEmulatorTalkOverVcanAndCandumpSeesTheFrames) {
+  const std::string work = hpr::test::temp_dir("can-vm");
+  const auto r = hpr::test::run_command({hpr::test::source_dir() + "/tests/vm/can-vm", hpr::test::bin_dir(), hpr::test::source_dir(), work, "4"});
+  if (r.exit_code == 77) GTEST_SKIP() << r.out;
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  const std::string& out = r.out;
+  ASSERT_NE(out.find("VM: done"), std::string::npos) << "the VM did not finish:\n" << out;
+  EXPECT_NE(out.find("VM: CAN ready"), std::string::npos) << out;
+  EXPECT_EQ(out.find("insmod"), std::string::npos) << "a CAN module did not load:\n" << out;
+  EXPECT_NE(out.find("can0 can1 can2"), std::string::npos) << out;
+  EXPECT_EQ(number_after(out, "VM: hal exit "), 0) << out;
+  // candump on can0 saw the hal's MIT-mode commands (ids 1-3) and every drive's reply (0x101-0x103).
+  const long commands = number_after(out, "VM: candump commands "), replies = number_after(out, "VM: candump replies ");
+  EXPECT_GT(commands, 100) << out;
+  EXPECT_GE(replies, commands * 9 / 10) << out;
+  // The hal on SocketCAN: replies decoded within the reply window, no malformed frame.
+  const std::regex stop("hal stopped after ([0-9]+) ticks.*malformed frames ([0-9]+); replies missed ([0-9]+) of ([0-9]+)");
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(out, m, stop)) << out;
+  EXPECT_GT(std::stol(m[1]), 100);
+  EXPECT_EQ(std::stol(m[2]), 0) << "malformed frames";
+  EXPECT_LT(std::stol(m[3]), std::stol(m[4]) / 10) << "more than 10 % of the replies missed:\n" << out;
+}
+
+}  // namespace
