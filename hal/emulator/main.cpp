@@ -81,6 +81,7 @@ int run(const node::CommandLine& cl, const Config& cfg) {
       buses[b]->flush();
     }
     rt.record_step(simulator.tick(), monotonic_s() - t0);
+    rt.spin_once(0.0);  // timers (HEALTH) run every period, with or without LCM traffic
     // The drives' own timeout, reported in HEALTH (the hal stopped talking to them).
     int timed_out = 0;
     for (std::size_t i = 0; i < config.drives.size(); ++i) timed_out += emu.motor_mode(i) && emu.timed_out(i, t0) ? 1 : 0;

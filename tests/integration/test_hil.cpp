@@ -6,11 +6,13 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <fstream>
 #include <csignal>
 
 #include "all_types.hpp"
 #include "lcm_listener.hpp"
 #include "process_group.hpp"
+#include "shell.hpp"
 
 namespace {
 
@@ -154,6 +156,52 @@ TEST(HardwareInTheLoop, BusOffOnOneBusDampsAllDrivesAndKilledHalLetsTheDrivesTim
         return false;
       },
       3s));
+}
+
+TEST(HardwareInTheLoop, SplitOverTwoHostsStandsTenSeconds) {
+  // The hil group with the drives' side (drive emulator + hal) on host "robot" and the control
+  // processes on host "pc": two network namespaces joined by a veth pair, one supervisor each.
+  hpr::test::NetnsPair hosts;
+  if (!hosts.ok) GTEST_SKIP() << hosts.why;
+  const std::string url = "udpm://239.255.76.67:7667?ttl=1";
+  const std::string dir = hpr::test::temp_dir("hil-hosts");
+  const std::string file = dir + "/groups.yaml";
+  const std::string cfg = hpr::test::source_dir() + "/config/toro.yaml";
+  std::ofstream(file) << "vars: {cfg: " << cfg << "}\n"
+                      << "defaults: {rt_priority: 70}\n"
+                      << "groups:\n  hil-split:\n    processes:\n"
+                      << "      drive_emulator: {command: drive_emulator, host: robot, args: [--config, '${cfg}'], rt_priority: 85}\n"
+                      << "      hal: {command: hal, host: robot, args: [--config, '${cfg}'], depends_on: [drive_emulator], rt_priority: 80}\n"
+                      << "      estimator: {command: estimator, host: pc, args: [--config, '${cfg}'], critical: true}\n"
+                      << "      wbc: {command: wbc, host: pc, args: [--config, '${cfg}'], critical: true}\n"
+                      << "      reference_gen: {command: reference_gen, host: pc, args: [--config, '${cfg}']}\n"
+                      << "      motion_opt: {command: motion_opt, host: pc, args: [--config, '${cfg}']}\n";
+  ASSERT_TRUE(hosts.enter(hosts.a));
+  LcmListener lcm(url);
+  ASSERT_TRUE(lcm.good());
+  auto truth = lcm.collect<humanoid::sim_truth_t>("SIM_TRUTH");
+  auto status = lcm.collect<humanoid::hal_status_t>("HAL_STATUS");
+  auto commands = lcm.collect<humanoid::joint_command_t>("JOINT_COMMAND");
+  const std::string sup = hpr::test::bin_dir() + "/supervisor";
+  const auto robot = hpr::test::run_command({sup, "up", "hil-split", "--groups", file, "--host", "robot", "--lcm-url", url, "--run-root", dir + "/robot"}, hosts.exec(hosts.a));
+  ASSERT_EQ(robot.exit_code, 0) << robot.out;
+  const auto pc = hpr::test::run_command({sup, "up", "hil-split", "--groups", file, "--host", "pc", "--lcm-url", url, "--run-root", dir + "/pc"}, hosts.exec(hosts.b));
+  ASSERT_EQ(pc.exit_code, 0) << pc.out;
+  ASSERT_TRUE(lcm.wait_for([&] { return commands->size() > 200; }, 30s)) << "no JOINT_COMMAND from the other host";
+  humanoid::operator_t op{};
+  op.source = "test";
+  op.command = humanoid::operator_t::COMMAND_ENABLE;
+  lcm.publish("OPERATOR", op);
+  const auto state = [&] { return status->empty() ? -1 : int{status->back().state}; };
+  ASSERT_TRUE(lcm.wait_for([&] { return state() == humanoid::hal_status_t::STATE_ENABLED; }, 5s));
+  const double t0 = truth->empty() ? 0.0 : truth->back().sim_time;
+  lcm.wait_for([&] { return !truth->empty() && (truth->back().sim_time >= t0 + 10.0 || truth->back().fallen); }, 60s);
+  ASSERT_FALSE(truth->empty());
+  EXPECT_FALSE(truth->back().fallen) << "fell at t = " << truth->back().sim_time;
+  EXPECT_GE(truth->back().sim_time, t0 + 10.0);
+  EXPECT_EQ(state(), int{humanoid::hal_status_t::STATE_ENABLED}) << status->back().state_reason;
+  const auto down = hpr::test::run_command({sup, "down", "--lcm-url", url}, hosts.exec(hosts.b));
+  EXPECT_EQ(down.exit_code, 0) << down.out;
 }
 
 }  // namespace
