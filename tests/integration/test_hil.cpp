@@ -33,15 +33,21 @@ struct Hil {
   std::string port = "hal.udp_base_port=" + std::to_string(30000 + 40 * (getpid() % 800));
   pid_t emulator = -1, hal = -1, wbc = -1;
 
+  static hpr::launch::StartOptions rt(int priority) {
+    hpr::launch::StartOptions o;
+    o.rt_priority = priority;
+    return o;
+  }
   explicit Hil(const std::vector<std::string>& emulator_sets = {}) {
     std::vector<std::string> emu_args = {"--config", cfg, "--set", port};
     for (const auto& s : emulator_sets) emu_args.insert(emu_args.end(), {"--set", s});
-    emulator = group.start("drive_emulator", emu_args);
-    hal = group.start("hal", {"--config", cfg, "--set", port});
-    group.start("estimator", {"--config", cfg});
-    wbc = group.start("wbc", {"--config", cfg});
-    group.start("reference_gen", {"--config", cfg});
-    group.start("motion_opt", {"--config", cfg});
+    // The priorities of the hil group in config/groups.yaml (where the system permits them).
+    emulator = group.start("drive_emulator", emu_args, rt(85));
+    hal = group.start("hal", {"--config", cfg, "--set", port}, rt(80));
+    group.start("estimator", {"--config", cfg}, rt(70));
+    wbc = group.start("wbc", {"--config", cfg}, rt(70));
+    group.start("reference_gen", {"--config", cfg}, rt(65));
+    group.start("motion_opt", {"--config", cfg}, rt(65));
   }
   [[nodiscard]] int hal_state() const { return status->empty() ? -1 : status->back().state; }
   /// Waits for commands to flow, then enables the hal.

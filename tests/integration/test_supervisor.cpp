@@ -57,12 +57,20 @@ TEST(Supervisor, UpSimStatusCriticalDeathRecordAndDownLeaveNothingBehind) {
   EXPECT_EQ(sup["group"], "sim");
   EXPECT_EQ(sup["state"], "up") << st.dump(2);
   std::map<std::string, int> pids;
+  std::map<std::string, double> rate;
   for (const auto& p : sup["processes"]) {
     pids[p["name"]] = p["pid"];
+    rate[p["name"]] = p["rate_hz"];
     EXPECT_EQ(p["state"], "running") << p.dump();
-    EXPECT_GT(p["rate_hz"].get<double>(), 100.0) << p["name"] << " is not ticking: " << p.dump();
     EXPECT_TRUE(alive(p["pid"])) << p.dump();
   }
+  // Ticking: the step rate of HEALTH's last 0.1 s window; a second look one second later in case a
+  // scheduling stall of this shared machine fell into the first window.
+  std::this_thread::sleep_for(1s);
+  for (const auto& s : status(url)["supervisors"]) {
+    for (const auto& p : s["processes"]) rate[p["name"]] = std::max(rate[p["name"]], p["rate_hz"].get<double>());
+  }
+  for (const auto& [name, hz] : rate) EXPECT_GT(hz, 100.0) << name << " is not ticking";
   for (const char* n : {"sim_bullet", "estimator", "wbc", "reference_gen", "motion_opt"}) EXPECT_EQ(pids.count(n), 1U) << n;
   const std::string run_dir = sup["run_dir"];
   for (const char* n : {"sim_bullet", "wbc", "supervisor"}) EXPECT_TRUE(std::filesystem::exists(run_dir + "/" + n + ".log")) << n;
