@@ -60,7 +60,7 @@ TEST(Transport, EveryTypeRoundTripsBetweenProcesses) {
     }, 5s));
     ++checked;
   }
-  EXPECT_EQ(checked, 11);
+  EXPECT_EQ(checked, HPR_LCM_TYPE_COUNT) << "every .lcm type of lcmtypes/ is in for_each_type (tests/support/all_types.hpp)";
 }
 
 TEST(Transport, GarbageIsCountedInHealthAndTheNodeKeepsRunning) {
