@@ -366,6 +366,23 @@ std::string make_run_dir(const Options& o, const launch::GroupSpec& g) {
   return fs::absolute(dir).lexically_normal().string();
 }
 
+/// The latest status of each (host, group) heard within `wait_s`.
+std::vector<Status> collect_status(lcm::LCM& lcm, double wait_s, const std::string& group_filter) {
+  std::map<std::pair<std::string, std::string>, Status> latest;
+  {
+    Subscription<Status> sub(lcm, "SUPERVISOR_STATUS", [&](const Status& s) {
+      if (!group_filter.empty() && s.group != group_filter) return;
+      latest[{s.host, s.group}] = s;
+    });
+    handle_for(lcm, wait_s);
+  }
+  std::vector<Status> out;
+  for (auto& [k, v] : latest) {
+    if (v.state != Status::STATE_STOPPED) out.push_back(v);
+  }
+  return out;
+}
+
 int cmd_up(const Options& o) {
   const launch::GroupsFile file = launch::GroupsFile::load(o.groups_file, o.vars);
   const launch::GroupSpec& group = file.group(o.target);
@@ -377,6 +394,22 @@ int cmd_up(const Options& o) {
     return 2;
   }
   const std::string url = resolve_url(o, &file);
+  {
+    // One supervisor per host and group on a URL: a second `up` would start every process twice.
+    lcm::LCM probe(url);
+    if (!probe.good()) {
+      std::cerr << "supervisor: cannot open LCM on " << url << " (is multicast routed? tools/install-deps sets up loopback)\n";
+      return 1;
+    }
+    for (const auto& s : collect_status(probe, 0.7, group.name)) {
+      if (s.host == o.host) {
+        std::cerr << fmt::format("supervisor: group '{}' is already {} on host '{}' (supervisor pid {}, run folder {}); "
+                                 "`supervisor down` first\n",
+                                 group.name, launch::to_string(static_cast<GroupState>(s.state)), s.host, s.pid, s.run_dir);
+        return 1;
+      }
+    }
+  }
   const std::string run_dir = make_run_dir(o, group);
   {
     std::error_code ec;
@@ -439,23 +472,6 @@ int cmd_up(const Options& o) {
   int st = 0;
   ::waitpid(pid, &st, 0);
   return 1;
-}
-
-/// The latest status of each (host, group) heard within `wait_s`.
-std::vector<Status> collect_status(lcm::LCM& lcm, double wait_s, const std::string& group_filter) {
-  std::map<std::pair<std::string, std::string>, Status> latest;
-  {
-    Subscription<Status> sub(lcm, "SUPERVISOR_STATUS", [&](const Status& s) {
-      if (!group_filter.empty() && s.group != group_filter) return;
-      latest[{s.host, s.group}] = s;
-    });
-    handle_for(lcm, wait_s);
-  }
-  std::vector<Status> out;
-  for (auto& [k, v] : latest) {
-    if (v.state != Status::STATE_STOPPED) out.push_back(v);
-  }
-  return out;
 }
 
 int cmd_status(const Options& o, const std::string& url) {
