@@ -1,17 +1,24 @@
 // replay_check: re-runs chosen nodes on the inputs recorded in an LCM log and compares their
 // outputs with the recorded ones, channel by channel.
 //
-// The nodes run on a private LCM URL. The log is played in its recorded order; every channel a
-// re-run node publishes is held back from the playback and, where the log has it, compared with what
-// the re-run node publishes for the same tick (wall-clock fields cleared). A recorded output
-// waits for the re-run's, so the playback is paced by the nodes (lockstep), and a lockstep log
-// must reproduce exactly.
+// The nodes run on a private LCM URL. Every channel a re-run node publishes is held back from the
+// playback and, where the log has it, compared with what the re-run node publishes for the same
+// tick (wall-clock fields cleared). A recorded output waits for the re-run's, so the playback is
+// paced by the nodes (lockstep), and a lockstep log must reproduce exactly.
+//
+// The log is played in data-flow order (by tick, then sensors, state, CAM reference, whole-body
+// command, joint command, balance status), which the recorded order of a loaded machine need not
+// be. A second recorded message for a tick already compared came from a wall-clock event of the
+// recorded run (a node reporting an input as stale while it waited); it is counted under REPEATS
+// and not compared.
 #include <humanoid/balance_status_t.hpp>
 #include <humanoid/cam_reference_t.hpp>
+#include <humanoid/health_t.hpp>
 #include <humanoid/joint_command_t.hpp>
 #include <humanoid/robot_state_t.hpp>
 #include <humanoid/wholebody_command_t.hpp>
 
+#include <algorithm>
 #include <deque>
 #include <filesystem>
 #include <fmt/format.h>
@@ -96,6 +103,51 @@ std::int64_t tick_of(const void* data, int size) {
   return static_cast<std::int64_t>(v);
 }
 
+/// Position of a channel in one tick's data flow (DESIGN.md sections 2 and 3): sensors, state,
+/// CAM reference (with the previous tick's balance status), whole-body command, joint command and
+/// balance status, then what the simulator reports. Channels outside the flow follow the tick.
+int flow_rank(const std::string& channel) {
+  static const std::map<std::string, int> k = {{"ROBOT_SENSORS", 0},     {"ROBOT_STATE", 1},   {"CAM_REFERENCE", 2},
+                                               {"WHOLEBODY_COMMAND", 3}, {"JOINT_COMMAND", 4}, {"BALANCE_STATUS", 5},
+                                               {"SIM_TRUTH", 6}};
+  const auto it = k.find(channel);
+  return it == k.end() ? 99 : it->second;
+}
+
+struct Event {
+  std::string channel;
+  std::vector<uint8_t> data;
+  std::int64_t tick = -1;
+  int rank = 99;
+};
+
+/// The log's messages in data-flow order: by tick, then by position in the tick's flow, else as
+/// recorded. The recorded order alone is not causal: on a loaded machine the logger receives
+/// messages from several processes out of order (a tick's ROBOT_STATE before its ROBOT_SENSORS).
+std::vector<Event> read_in_flow_order(lcm::LogFile& log) {
+  std::vector<Event> events;
+  std::int64_t current = 0;  // the tick of the flow so far, for channels outside it
+  for (const lcm::LogEvent* ev = log.readNextEvent(); ev != nullptr; ev = log.readNextEvent()) {
+    if (kNotPlayed.count(ev->channel) != 0) continue;
+    Event e;
+    e.channel = ev->channel;
+    const auto* d = static_cast<const uint8_t*>(ev->data);
+    e.data.assign(d, d + ev->datalen);
+    e.rank = flow_rank(e.channel);
+    if (e.rank < 99) {
+      e.tick = tick_of(ev->data, ev->datalen);
+      current = std::max(current, e.tick);
+    } else {
+      e.tick = current;
+    }
+    events.push_back(std::move(e));
+  }
+  std::stable_sort(events.begin(), events.end(), [](const Event& a, const Event& b) {
+    return a.tick != b.tick ? a.tick < b.tick : a.rank < b.rank;
+  });
+  return events;
+}
+
 struct Raw {
   std::vector<uint8_t> data;
   std::int64_t tick = -1;
@@ -123,19 +175,13 @@ class HealthSeen {
   std::set<std::string> nodes;
 
  private:
-  void on(const lcm::ReceiveBuffer* rb, const std::string&) {
-    // node is the third field: tick, utime, then a string (int32 length incl. NUL, bytes).
-    const auto* b = static_cast<const uint8_t*>(rb->data);
-    if (rb->data_size < 8 + 16 + 4) return;
-    const std::uint32_t len = (std::uint32_t{b[24]} << 24) | (std::uint32_t{b[25]} << 16) | (std::uint32_t{b[26]} << 8) | b[27];
-    if (len == 0 || 28 + len > rb->data_size) return;
-    nodes.insert(std::string(reinterpret_cast<const char*>(b + 28), len - 1));
-  }
+  void on(const lcm::ReceiveBuffer*, const std::string&, const humanoid::health_t* h) { nodes.insert(h->node); }
 };
 
 struct ChannelReport {
   std::int64_t compared = 0, equal = 0, different = 0, missing = 0;
-  std::int64_t first_difference_tick = -1, first_missing_tick = -1;
+  std::int64_t repeats = 0;  ///< recorded messages of a tick already compared (see below)
+  std::int64_t last_tick = -1, first_difference_tick = -1, first_missing_tick = -1;
   std::size_t first_difference_byte = 0;
 };
 
@@ -238,20 +284,26 @@ int main(int argc, char** argv) {
   std::int64_t played = 0, events = 0;
   double next_progress = hpr::monotonic_s() + 2.0;
   std::cerr << fmt::format("replay_check: re-running {} on {} (outputs compared: {})\n", fmt::join(nodes, ", "), log_path, fmt::join(outputs, ", "));
-  for (const lcm::LogEvent* ev = log.readNextEvent(); ev != nullptr; ev = log.readNextEvent()) {
+  for (const Event& ev : read_in_flow_order(log)) {
     ++events;
-    if (kNotPlayed.count(ev->channel) != 0) continue;
-    if (output_set.count(ev->channel) == 0) {
-      lcm.publish(ev->channel, ev->data, static_cast<unsigned>(ev->datalen));
+    if (output_set.count(ev.channel) == 0) {
+      lcm.publish(ev.channel, ev.data.data(), static_cast<unsigned>(ev.data.size()));
       ++played;
       while (lcm.handleTimeout(0) > 0) {
       }
       continue;
     }
     // A recorded output: wait for the re-run's of the same tick.
-    ChannelReport& r = report[ev->channel];
-    const std::int64_t tick = tick_of(ev->data, ev->datalen);
-    auto& q = out.queues[ev->channel];
+    ChannelReport& r = report[ev.channel];
+    const std::int64_t tick = ev.tick;
+    if (tick == r.last_tick) {
+      // A second message for a tick: published on a wall-clock event of the recorded run (the
+      // estimator's report of stale sensors while it waited), which no replay can reproduce.
+      ++r.repeats;
+      continue;
+    }
+    r.last_tick = tick;
+    auto& q = out.queues[ev.channel];
     const double give_up = hpr::monotonic_s() + timeout;
     bool found = false;
     while (true) {
@@ -270,8 +322,8 @@ int main(int argc, char** argv) {
     }
     const Raw got = std::move(q.front());
     q.pop_front();
-    const auto& canon = canonicals().at(ev->channel);
-    const auto a = canon(ev->data, ev->datalen);
+    const auto& canon = canonicals().at(ev.channel);
+    const auto a = canon(ev.data.data(), static_cast<int>(ev.data.size()));
     const auto b = canon(got.data.data(), static_cast<int>(got.data.size()));
     ++r.compared;
     if (!a.empty() && a == b) {
@@ -297,7 +349,8 @@ int main(int argc, char** argv) {
   j["log"] = log_path;
   j["nodes"] = nodes;
   j["played"] = played;
-  std::cout << fmt::format("{:<20} {:>9} {:>9} {:>9} {:>8}  {}\n", "CHANNEL", "COMPARED", "EQUAL", "DIFFERENT", "MISSING", "FIRST DIFFERENCE");
+  std::cout << fmt::format("{:<20} {:>9} {:>9} {:>9} {:>8} {:>8}  {}\n", "CHANNEL", "COMPARED", "EQUAL", "DIFFERENT", "MISSING", "REPEATS",
+                           "FIRST DIFFERENCE");
   for (const auto& c : outputs) {
     const ChannelReport r = report[c];
     const bool channel_ok = r.compared > 0 && r.different == 0 && r.missing == 0;
@@ -306,9 +359,9 @@ int main(int argc, char** argv) {
     if (r.first_difference_tick >= 0) first = fmt::format("tick {} (byte {})", r.first_difference_tick, r.first_difference_byte);
     if (r.first_missing_tick >= 0) first += fmt::format("; first missing at tick {}", r.first_missing_tick);
     if (r.compared == 0 && r.missing == 0) first = "not in the log";
-    std::cout << fmt::format("{:<20} {:>9} {:>9} {:>9} {:>8}  {}\n", c, r.compared, r.equal, r.different, r.missing, first);
+    std::cout << fmt::format("{:<20} {:>9} {:>9} {:>9} {:>8} {:>8}  {}\n", c, r.compared, r.equal, r.different, r.missing, r.repeats, first);
     j["channels"][c] = {{"compared", r.compared}, {"equal", r.equal},       {"different", r.different},
-                        {"missing", r.missing},   {"first_difference_tick", r.first_difference_tick}, {"match", channel_ok}};
+                        {"missing", r.missing},   {"repeats", r.repeats}, {"first_difference_tick", r.first_difference_tick}, {"match", channel_ok}};
   }
   j["match"] = ok;
   std::cout << (ok ? "replay matches the recording\n" : "replay DIFFERS from the recording\n");

@@ -164,6 +164,7 @@ void Supervisor::start(std::size_t i, double now) {
   slots_[i].health_seen_at = -1;
   slots_[i].killed = false;
   slots_[i].restart_after_stop = false;
+  slots_[i].failed_readiness = false;
   s.detail.clear();
   s.state = p.ready_on == ReadyOn::kStart ? ProcessState::kReady : ProcessState::kStarting;
   emit(SupervisorEvent::Kind::kInfo, p.name, "started, pid " + std::to_string(s.pid));
@@ -187,8 +188,7 @@ void Supervisor::handle_end(std::size_t i, const ProcessResult& r, double now) {
   s.health_state = -1;
   s.rate_hz = 0;
   if (s.state == ProcessState::kStopping) {
-    const bool failed = s.detail.rfind("not ready", 0) == 0;
-    if (failed) {
+    if (slot.failed_readiness) {
       s.state = ProcessState::kFailed;
     } else if (slot.restart_after_stop && !going_down_) {
       ++s.restarts;
@@ -261,6 +261,7 @@ void Supervisor::step(double now) {
             std::snprintf(buf, sizeof(buf), "not ready within %.1f s (no HEALTH from node '%s')", p.ready_timeout_s, p.health_node.c_str());
             s.detail = buf;
             emit(SupervisorEvent::Kind::kWarning, p.name, s.detail);
+            slots_[i].failed_readiness = true;
             begin_stop(i, now);
           }
           break;

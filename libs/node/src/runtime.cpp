@@ -170,12 +170,8 @@ void Runtime::spin_once(double timeout_s) {
   run_timers(now);
   check_triggers(now);
   const double wake = std::min(next_wakeup(now), now + std::max(0.0, timeout_s));
-  const double wait = std::max(0.0, wake - now);
-  timespec ts{};
-  ts.tv_sec = static_cast<time_t>(wait);
-  ts.tv_nsec = static_cast<long>((wait - static_cast<double>(ts.tv_sec)) * 1e9);
   pollfd fds[2] = {{lcm_->getFileno(), POLLIN, 0}, {g_signal_pipe[0], POLLIN, 0}};
-  const int n = ::ppoll(fds, g_signal_pipe[0] >= 0 ? 2 : 1, &ts, nullptr);
+  const int n = poll_for(std::span<pollfd>(fds, g_signal_pipe[0] >= 0 ? 2 : 1), wake - now);
   if (n > 0 && (fds[0].revents & POLLIN) != 0) {
     lcm_->handle();
     // Drain whatever else is already queued, without blocking.

@@ -183,7 +183,9 @@ TEST(Supervisor, NotReadyBeforeTheDeadlineFailsTheGroupAndStopsTheProcess) {
 }
 
 TEST(Supervisor, DownStopsLastStartedFirstAndKillsWhatIgnoresTheSignal) {
-  ProcessSpec stubborn = proc("stubborn", "trap '' TERM; sleep 30 & wait; sleep 30");
+  // A shell that ignores SIGTERM and waits on a child of its process group (the child inherits
+  // the ignored signal): only SIGKILL to the whole group ends both.
+  ProcessSpec stubborn = proc("stubborn", "trap '' TERM; sleep 30 & wait");
   stubborn.ready_on = ReadyOn::kStart;
   stubborn.stop_timeout_s = 0.3;
   ProcessSpec polite = proc("polite", "exec sleep 30");

@@ -91,6 +91,7 @@ class Supervisor {
   struct Slot {
     const ProcessSpec* spec = nullptr;
     bool restart_after_stop = false;
+    bool failed_readiness = false;  ///< stopped because it was not ready in time: failed once it ends
     double restart_at = 0, stop_deadline = 0, health_seen_at = -1;
     bool killed = false;
   };
