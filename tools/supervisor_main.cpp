@@ -268,16 +268,15 @@ int run_supervisor(const launch::GroupSpec& group, const Options& o, const std::
     }
   });
   bool down_requested = false;
-  Subscription<humanoid::supervisor_command_t> command_sub(lcm, "SUPERVISOR_COMMAND", [&](const humanoid::supervisor_command_t& cm) {
-    const auto* c = &cm;
-    if (!c->host.empty() && c->host != me) return;
-    if (!c->group.empty() && c->group != group.name) return;
-    if (c->command == humanoid::supervisor_command_t::COMMAND_DOWN) {
-      if (!down_requested) std::cout << fmt::format("[{}] down requested by {}", now_text(), c->source) << std::endl;
+  Subscription<humanoid::supervisor_command_t> command_sub(lcm, "SUPERVISOR_COMMAND", [&](const humanoid::supervisor_command_t& c) {
+    if (!c.host.empty() && c.host != me) return;
+    if (!c.group.empty() && c.group != group.name) return;
+    if (c.command == humanoid::supervisor_command_t::COMMAND_DOWN) {
+      if (!down_requested) std::cout << fmt::format("[{}] down requested by {}", now_text(), c.source) << std::endl;
       down_requested = true;
-    } else if (c->command == humanoid::supervisor_command_t::COMMAND_RESTART) {
-      if (sup.restart(c->process, monotonic_s())) {
-        std::cout << fmt::format("[{}] {}: restart requested by {}", now_text(), c->process, c->source) << std::endl;
+    } else if (c.command == humanoid::supervisor_command_t::COMMAND_RESTART) {
+      if (sup.restart(c.process, monotonic_s())) {
+        std::cout << fmt::format("[{}] {}: restart requested by {}", now_text(), c.process, c.source) << std::endl;
       }
     }
   });
@@ -536,16 +535,21 @@ int cmd_down(const Options& o, const std::string& url) {
     bool stopped = false;
   };
   std::map<std::pair<std::string, std::string>, Seen> seen;
-  Subscription<Status> sub(lcm, "SUPERVISOR_STATUS", [&](const Status& sm) {
-    const Status* s = &sm;
-    if (!o.group_filter.empty() && s->group != o.group_filter) return;
-    if (o.host_given && s->host != o.host) return;
-    auto& e = seen[{s->host, s->group}];
-    if (e.heard == 0 && s->state == Status::STATE_STOPPED) return;  // an old goodbye
-    e.last = *s;
+  Subscription<Status> sub(lcm, "SUPERVISOR_STATUS", [&](const Status& s) {
+    if (!o.group_filter.empty() && s.group != o.group_filter) return;
+    if (o.host_given && s.host != o.host) return;
+    auto& e = seen[{s.host, s.group}];
+    if (e.heard == 0 && s.state == Status::STATE_STOPPED) return;  // an old goodbye
+    e.last = s;
     e.heard = monotonic_s();
-    e.stopped = e.stopped || s->state == Status::STATE_STOPPED;
+    e.stopped = e.stopped || s.state == Status::STATE_STOPPED;
   });
+  // A supervisor is done when it said goodbye and its pid is gone (or 3 s passed: the pid may be
+  // another machine's), or when it has been silent for 2 s.
+  const auto finished = [](const Seen& e) {
+    const double silent = monotonic_s() - e.heard;
+    return e.stopped ? ::kill(e.last.pid, 0) != 0 || silent > 3.0 : silent > 2.0;
+  };
   const double start = monotonic_s();
   double last_send = -10;
   while (!g_stop) {
@@ -555,12 +559,8 @@ int cmd_down(const Options& o, const std::string& url) {
       last_send = now;
     }
     handle_for(lcm, 0.05);
-    bool all = now - start > 1.5;  // the time for every supervisor to be heard
-    for (auto& [k, e] : seen) {
-      const bool gone = e.stopped || monotonic_s() - e.heard > 2.0;
-      all = all && gone && (!e.stopped || ::kill(e.last.pid, 0) != 0 || monotonic_s() - e.heard > 3.0);
-    }
-    if (all) break;
+    const bool all_heard = now - start > 1.5;  // the time for every supervisor to answer
+    if (all_heard && std::all_of(seen.begin(), seen.end(), [&](const auto& kv) { return finished(kv.second); })) break;
     if (now - start > 120) {
       std::cerr << "supervisor: down timed out after 120 s\n";
       return 1;
