@@ -28,6 +28,7 @@
 #include <ctime>
 #include <deque>
 #include <filesystem>
+#include <fmt/chrono.h>
 #include <fmt/format.h>
 #include <fstream>
 #include <functional>
@@ -185,7 +186,8 @@ Status make_status(const launch::Supervisor& sup, std::int64_t seq, const std::s
     m.health_state.push_back(static_cast<int8_t>(p.health_state));
     m.rate_hz.push_back(p.rate_hz);
     m.deadline_misses.push_back(p.deadline_misses);
-    m.detail.push_back(p.detail);
+    // A running process's detail is what its HEALTH reports wrong; an ended one's how it ended.
+    m.detail.push_back(p.detail.empty() ? p.faults : p.faults.empty() ? p.detail : p.detail + "; " + p.faults);
   }
   m.num_processes = static_cast<int32_t>(m.name.size());
   return m;
@@ -257,7 +259,7 @@ int run_supervisor(const launch::GroupSpec& group, const Options& o, const std::
   bool changed = true;
 
   Subscription<humanoid::health_t> health_sub(lcm, "HEALTH", [&](const humanoid::health_t& h) {
-    sup.on_health(h.node, h.state, h.rate_hz, h.deadline_misses, monotonic_s());
+    sup.on_health(h.node, h.state, h.rate_hz, h.deadline_misses, h.faults, monotonic_s());
   });
 
   const std::string& me = o.host;
@@ -413,6 +415,12 @@ int cmd_up(const Options& o) {
   {
     std::error_code ec;
     fs::copy_file(o.groups_file, fs::path(run_dir) / "groups.yaml", ec);
+    // What tools/record and a reader of the folder need without parsing its name.
+    std::ofstream(fs::path(run_dir) / "run.yaml") << "# written by `supervisor up`\n"
+                                                  << "group: \"" << group.name << "\"\n"
+                                                  << "host: \"" << o.host << "\"\n"
+                                                  << "lcm_url: \"" << url << "\"\n"
+                                                  << "started: \"" << fmt::format("{:%F %T}", fmt::localtime(std::time(nullptr))) << "\"\n";
   }
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);

@@ -120,12 +120,15 @@ void Supervisor::on_remote_ready(const std::string& name, bool ready) {
   if (!ready && it != remote_ready_.end()) remote_ready_.erase(it);
 }
 
-void Supervisor::on_health(const std::string& node, int state, double rate_hz, std::int64_t deadline_misses, double now) {
+void Supervisor::on_health(const std::string& node, int state, double rate_hz, std::int64_t deadline_misses,
+                           const std::vector<std::string>& faults, double now) {
   for (std::size_t i = 0; i < status_.size(); ++i) {
     if (slots_[i].spec->health_node != node) continue;
     status_[i].health_state = state;
     status_[i].rate_hz = rate_hz;
     status_[i].deadline_misses = deadline_misses;
+    status_[i].faults.clear();
+    for (const auto& f : faults) status_[i].faults += (status_[i].faults.empty() ? "" : "; ") + f;
     slots_[i].health_seen_at = now;
   }
 }
@@ -161,6 +164,7 @@ void Supervisor::start(std::size_t i, double now) {
   s.started_at = now;
   s.health_state = -1;
   s.rate_hz = 0;
+  s.faults.clear();
   slots_[i].health_seen_at = -1;
   slots_[i].killed = false;
   slots_[i].restart_after_stop = false;
@@ -187,6 +191,7 @@ void Supervisor::handle_end(std::size_t i, const ProcessResult& r, double now) {
   s.pid = 0;
   s.health_state = -1;
   s.rate_hz = 0;
+  s.faults.clear();
   if (s.state == ProcessState::kStopping) {
     if (slot.failed_readiness) {
       s.state = ProcessState::kFailed;

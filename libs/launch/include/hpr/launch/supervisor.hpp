@@ -44,7 +44,8 @@ struct ProcessStatus {
   int health_state = -1;  ///< from HEALTH; -1 before the first
   double rate_hz = 0;
   std::int64_t deadline_misses = 0;
-  std::string detail;  ///< last exit, readiness or fault text
+  std::string detail;  ///< last exit, readiness or start failure
+  std::string faults;  ///< the node's current faults from its HEALTH, "; "-separated
 };
 
 struct SupervisorEvent {
@@ -71,8 +72,9 @@ class Supervisor {
   /// readiness deadlines, escalates stops to SIGKILL. Call every few milliseconds.
   void step(double now);
 
-  /// A HEALTH message from node `node` (state per health_t.STATE_*).
-  void on_health(const std::string& node, int state, double rate_hz, std::int64_t deadline_misses, double now);
+  /// A HEALTH message from node `node` (state per health_t.STATE_*, `faults` its current fault texts).
+  void on_health(const std::string& node, int state, double rate_hz, std::int64_t deadline_misses,
+                 const std::vector<std::string>& faults, double now);
   /// A process of this group that another host runs became ready (or stopped being ready).
   void on_remote_ready(const std::string& name, bool ready);
 
