@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "hpr/common/args.hpp"
 #include "hpr/experiments/trial.hpp"
 #include "hpr/launch/process_group.hpp"
 
@@ -41,16 +42,6 @@ void usage(std::FILE* out) {
 )");
 }
 
-std::vector<std::string> split(const std::string& s) {
-  std::vector<std::string> out;
-  std::stringstream ss(s);
-  std::string item;
-  while (std::getline(ss, item, ',')) {
-    if (!item.empty()) out.push_back(item);
-  }
-  return out;
-}
-
 struct Case {
   std::string support;
   Strategy strategy;
@@ -72,46 +63,41 @@ int main(int argc, char** argv) {
   double start = 15.0, max_impulse = 80.0, resolution = 0.5;
   std::string out_dir;
   try {
-    for (int i = 1; i < argc; ++i) {
-      const std::string a = argv[i];
-      auto value = [&]() -> std::string {
-        if (i + 1 >= argc) throw std::invalid_argument(a + " needs a value");
-        return argv[++i];
-      };
-      auto number = [&]() { return std::stod(value()); };
-      if (a == "-h" || a == "--help") {
+    hpr::ArgReader args(argc, argv);
+    while (args.next()) {
+      if (args.is("-h", "--help")) {
         usage(stdout);
         return 0;
-      } else if (a == "--robot") {
-        base.config = value();
-      } else if (a == "--supports") {
-        supports = split(value());
-      } else if (a == "--strategies") {
-        strategies = split(value());
-      } else if (a == "--directions") {
-        directions = std::stoi(value());
-      } else if (a == "--angles") {
-        for (const auto& s : split(value())) angles.push_back(std::stod(s));
-      } else if (a == "--peak") {
-        base.peak = number();
-      } else if (a == "--start") {
-        start = number();
-      } else if (a == "--max-impulse") {
-        max_impulse = number();
-      } else if (a == "--resolution") {
-        resolution = number();
-      } else if (a == "--jobs") {
-        jobs = std::max(1, std::stoi(value()));
-      } else if (a == "--alpha") {
-        base.alpha = number();
-      } else if (a == "--beta") {
-        base.beta = number();
-      } else if (a == "--set") {
-        base.overrides.push_back(value());
-      } else if (a == "--out") {
-        out_dir = value();
+      } else if (args.is("--robot")) {
+        base.config = args.value();
+      } else if (args.is("--supports")) {
+        supports = args.list();
+      } else if (args.is("--strategies")) {
+        strategies = args.list();
+      } else if (args.is("--directions")) {
+        directions = args.integer();
+      } else if (args.is("--angles")) {
+        for (const auto& s : args.list()) angles.push_back(hpr::parse_number(s, "--angles"));
+      } else if (args.is("--peak")) {
+        base.peak = args.number();
+      } else if (args.is("--start")) {
+        start = args.number();
+      } else if (args.is("--max-impulse")) {
+        max_impulse = args.number();
+      } else if (args.is("--resolution")) {
+        resolution = args.number();
+      } else if (args.is("--jobs")) {
+        jobs = std::max(1, args.integer());
+      } else if (args.is("--alpha")) {
+        base.alpha = args.number();
+      } else if (args.is("--beta")) {
+        base.beta = args.number();
+      } else if (args.is("--set")) {
+        base.overrides.push_back(args.value());
+      } else if (args.is("--out")) {
+        out_dir = args.value();
       } else {
-        throw std::invalid_argument("unknown option '" + a + "'");
+        args.unknown();
       }
     }
     base.config = find_config(base.config);

@@ -7,6 +7,7 @@
 #include <iostream>
 #include <string>
 
+#include "hpr/common/args.hpp"
 #include "hpr/common/config.hpp"
 #include "hpr/experiments/trial.hpp"
 
@@ -48,60 +49,49 @@ int main(int argc, char** argv) {
   std::string json_file;
   bool quiet = false;
   try {
-    for (int i = 1; i < argc; ++i) {
-      const std::string a = argv[i];
-      auto value = [&]() -> std::string {
-        if (i + 1 >= argc) throw std::invalid_argument(a + " needs a value");
-        return argv[++i];
-      };
-      auto number = [&]() {
-        const std::string v = value();
-        char* end = nullptr;
-        const double d = std::strtod(v.c_str(), &end);
-        if (end == v.c_str() || *end != '\0' || !std::isfinite(d)) throw std::invalid_argument(a + ": '" + v + "' is not a number");
-        return d;
-      };
-      if (a == "-h" || a == "--help") {
+    hpr::ArgReader args(argc, argv);
+    while (args.next()) {
+      if (args.is("-h", "--help")) {
         usage(stdout);
         return 0;
-      } else if (a == "--robot") {
-        spec.config = value();
-      } else if (a == "--support") {
-        spec.support = value();
-      } else if (a == "--strategy") {
-        spec.strategy = strategy_from_string(value());
-      } else if (a == "--direction") {
-        spec.direction_deg = number();
-      } else if (a == "--impulse") {
-        spec.impulse = number();
-      } else if (a == "--peak") {
-        spec.peak = number();
-      } else if (a == "--duration") {
-        spec.duration = number();
-      } else if (a == "--link") {
-        spec.link = value();
-      } else if (a == "--height") {
-        spec.height = number();
-      } else if (a == "--alpha") {
-        spec.alpha = number();
-      } else if (a == "--beta") {
-        spec.beta = number();
-      } else if (a == "--push-time") {
-        spec.push_time = number();
-      } else if (a == "--after") {
-        spec.after = number();
-      } else if (a == "--set") {
-        spec.overrides.push_back(value());
-      } else if (a == "--log") {
-        spec.log_file = value();
-      } else if (a == "--work-dir") {
-        spec.work_dir = value();
-      } else if (a == "--json") {
-        json_file = value();
-      } else if (a == "--quiet") {
+      } else if (args.is("--robot")) {
+        spec.config = args.value();
+      } else if (args.is("--support")) {
+        spec.support = args.value();
+      } else if (args.is("--strategy")) {
+        spec.strategy = strategy_from_string(args.value());
+      } else if (args.is("--direction")) {
+        spec.direction_deg = args.number();
+      } else if (args.is("--impulse")) {
+        spec.impulse = args.number();
+      } else if (args.is("--peak")) {
+        spec.peak = args.number();
+      } else if (args.is("--duration")) {
+        spec.duration = args.number();
+      } else if (args.is("--link")) {
+        spec.link = args.value();
+      } else if (args.is("--height")) {
+        spec.height = args.number();
+      } else if (args.is("--alpha")) {
+        spec.alpha = args.number();
+      } else if (args.is("--beta")) {
+        spec.beta = args.number();
+      } else if (args.is("--push-time")) {
+        spec.push_time = args.number();
+      } else if (args.is("--after")) {
+        spec.after = args.number();
+      } else if (args.is("--set")) {
+        spec.overrides.push_back(args.value());
+      } else if (args.is("--log")) {
+        spec.log_file = args.value();
+      } else if (args.is("--work-dir")) {
+        spec.work_dir = args.value();
+      } else if (args.is("--json")) {
+        json_file = args.value();
+      } else if (args.is("--quiet")) {
         quiet = true;
       } else {
-        throw std::invalid_argument("unknown option '" + a + "'");
+        args.unknown();
       }
     }
     if (spec.support != "double" && spec.support != "left" && spec.support != "right") {

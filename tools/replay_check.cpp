@@ -11,6 +11,10 @@
 // be. A second recorded message for a tick already compared came from a wall-clock event of the
 // recorded run (a node reporting an input as stale while it waited); it is counted under REPEATS
 // and not compared.
+//
+// A log that lacks a tick of a played input (the recorder lost messages while the machine held it
+// up) cannot reproduce past that tick: the check says which ticks are lacking, compares the
+// outputs before the first of them only, and ends with exit status 3.
 #include <humanoid/balance_status_t.hpp>
 #include <humanoid/cam_reference_t.hpp>
 #include <humanoid/health_t.hpp>
@@ -26,14 +30,18 @@
 #include <functional>
 #include <iostream>
 #include <lcm/lcm-cpp.hpp>
+#include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <string>
 #include <vector>
 
+#include "hpr/common/args.hpp"
 #include "hpr/common/time.hpp"
 #include "hpr/launch/process_group.hpp"
+#include "hpr/msg/ticks.hpp"
+#include "hpr/node/lcm_url.hpp"
 
 namespace fs = std::filesystem;
 
@@ -48,7 +56,8 @@ usage: replay_check LOG --nodes NAME[,NAME...] [options]
   --timeout S       wall seconds to wait for one output before calling it missing (default 5)
   --json FILE       the report as JSON
   --work-dir DIR    the re-run nodes' logs (default: a temporary folder)
-Exit status: 0 when every compared output matches and none is missing, 1 otherwise, 2 on bad use.
+Exit status: 0 when every compared output matches and none is missing, 1 otherwise, 2 on bad use,
+3 when the log lacks ticks of a played input (the outputs before the first gap are compared).
 )";
 
 /// What a node publishes (the channels compared) — the contract of DESIGN.md section 2.
@@ -94,31 +103,11 @@ const std::map<std::string, Canonical>& canonicals() {
   return k;
 }
 
-/// Every message of the stack starts with its int64 tick (after the 8-byte type hash).
-std::int64_t tick_of(const void* data, int size) {
-  if (size < 16) return -1;
-  const auto* b = static_cast<const uint8_t*>(data) + 8;
-  std::uint64_t v = 0;
-  for (int i = 0; i < 8; ++i) v = (v << 8) | b[i];
-  return static_cast<std::int64_t>(v);
-}
-
-/// Position of a channel in one tick's data flow (DESIGN.md sections 2 and 3): sensors, state,
-/// CAM reference (with the previous tick's balance status), whole-body command, joint command and
-/// balance status, then what the simulator reports. Channels outside the flow follow the tick.
-int flow_rank(const std::string& channel) {
-  static const std::map<std::string, int> k = {{"ROBOT_SENSORS", 0},     {"ROBOT_STATE", 1},   {"CAM_REFERENCE", 2},
-                                               {"WHOLEBODY_COMMAND", 3}, {"JOINT_COMMAND", 4}, {"BALANCE_STATUS", 5},
-                                               {"SIM_TRUTH", 6}};
-  const auto it = k.find(channel);
-  return it == k.end() ? 99 : it->second;
-}
-
 struct Event {
   std::string channel;
   std::vector<uint8_t> data;
   std::int64_t tick = -1;
-  int rank = 99;
+  int rank = hpr::msg::kNotInFlow;
 };
 
 /// The log's messages in data-flow order: by tick, then by position in the tick's flow, else as
@@ -133,9 +122,9 @@ std::vector<Event> read_in_flow_order(lcm::LogFile& log) {
     e.channel = ev->channel;
     const auto* d = static_cast<const uint8_t*>(ev->data);
     e.data.assign(d, d + ev->datalen);
-    e.rank = flow_rank(e.channel);
-    if (e.rank < 99) {
-      e.tick = tick_of(ev->data, ev->datalen);
+    e.rank = hpr::msg::flow_rank(e.channel);
+    if (e.rank != hpr::msg::kNotInFlow) {
+      e.tick = hpr::msg::tick_of(ev->data, ev->datalen);
       current = std::max(current, e.tick);
     } else {
       e.tick = current;
@@ -156,7 +145,8 @@ struct Raw {
 class Outputs {
  public:
   Outputs(lcm::LCM& lcm, const std::vector<std::string>& channels) {
-    for (const auto& c : channels) lcm.subscribe(c, &Outputs::on, this);
+    // Every output is compared: no message may be dropped while the playback publishes.
+    for (const auto& c : channels) lcm.subscribe(c, &Outputs::on, this)->setQueueCapacity(100000);
   }
   std::map<std::string, std::deque<Raw>> queues;
 
@@ -164,7 +154,7 @@ class Outputs {
   void on(const lcm::ReceiveBuffer* rb, const std::string& channel) {
     Raw r;
     r.data.assign(static_cast<const uint8_t*>(rb->data), static_cast<const uint8_t*>(rb->data) + rb->data_size);
-    r.tick = tick_of(rb->data, static_cast<int>(rb->data_size));
+    r.tick = hpr::msg::tick_of(rb->data, static_cast<int>(rb->data_size));
     queues[channel].push_back(std::move(r));
   }
 };
@@ -188,43 +178,31 @@ struct ChannelReport {
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::vector<std::string> args(argv + 1, argv + argc);
   std::string log_path, config, json_path, work;
   std::vector<std::string> nodes, sets;
   double timeout = 5.0;
   try {
-    for (std::size_t i = 0; i < args.size(); ++i) {
-      const std::string& a = args[i];
-      const auto value = [&]() -> std::string {
-        if (i + 1 >= args.size()) throw std::invalid_argument(a + " needs a value");
-        return args[++i];
-      };
-      if (a == "-h" || a == "--help") {
+    hpr::ArgReader args(argc, argv);
+    while (args.next()) {
+      if (args.is("-h", "--help")) {
         std::cout << kUsage;
         return 0;
-      } else if (a == "--nodes") {
-        std::string list = value();
-        for (std::size_t s = 0; s <= list.size();) {
-          const std::size_t e = std::min(list.find(',', s), list.size());
-          if (e > s) nodes.push_back(list.substr(s, e - s));
-          s = e + 1;
-        }
-      } else if (a == "--config") {
-        config = value();
-      } else if (a == "--set") {
-        sets.push_back(value());
-      } else if (a == "--timeout") {
-        timeout = std::stod(value());
-      } else if (a == "--json") {
-        json_path = value();
-      } else if (a == "--work-dir") {
-        work = value();
-      } else if (!a.empty() && a[0] == '-') {
-        throw std::invalid_argument("unknown option " + a);
-      } else if (log_path.empty()) {
-        log_path = a;
+      } else if (args.is("--nodes")) {
+        nodes = args.list();
+      } else if (args.is("--config")) {
+        config = args.value();
+      } else if (args.is("--set")) {
+        sets.push_back(args.value());
+      } else if (args.is("--timeout")) {
+        timeout = args.number();
+      } else if (args.is("--json")) {
+        json_path = args.value();
+      } else if (args.is("--work-dir")) {
+        work = args.value();
+      } else if (args.positional() && log_path.empty()) {
+        log_path = args.current();
       } else {
-        throw std::invalid_argument("unexpected argument " + a);
+        args.unknown();
       }
     }
     if (log_path.empty()) throw std::invalid_argument("no LOG given");
@@ -255,7 +233,7 @@ int main(int argc, char** argv) {
   fs::create_directories(work);
 
   hpr::launch::ProcessGroup group;
-  lcm::LCM lcm(group.lcm_url());
+  lcm::LCM lcm(hpr::node::with_receive_buffer(group.lcm_url()));
   if (!lcm.good()) {
     std::cerr << "replay_check: cannot open LCM on " << group.lcm_url() << "\n";
     return 1;
@@ -284,7 +262,26 @@ int main(int argc, char** argv) {
   std::int64_t played = 0, events = 0;
   double next_progress = hpr::monotonic_s() + 2.0;
   std::cerr << fmt::format("replay_check: re-running {} on {} (outputs compared: {})\n", fmt::join(nodes, ", "), log_path, fmt::join(outputs, ", "));
-  for (const Event& ev : read_in_flow_order(log)) {
+  const std::vector<Event> flow = read_in_flow_order(log);
+  // Played inputs the log lacks for a tick: nothing from that tick on can reproduce.
+  std::set<std::string> played_channels;
+  for (const Event& ev : flow) {
+    if (output_set.count(ev.channel) == 0) played_channels.insert(ev.channel);
+  }
+  hpr::msg::TickCoverage coverage;
+  for (const Event& ev : flow) {
+    if (played_channels.count(ev.channel) != 0) coverage.add(ev.channel, ev.tick);
+  }
+  const auto lacking = coverage.lacking();
+  std::int64_t first_gap = std::numeric_limits<std::int64_t>::max();
+  for (const auto& [channel, ticks] : lacking) {
+    std::cout << fmt::format("the log lacks {} of {} tick{} ({}): the recorder lost them\n", channel, ticks.size(),
+                             ticks.size() == 1 ? "" : "s", hpr::msg::tick_ranges(ticks));
+    first_gap = std::min(first_gap, ticks.front());
+  }
+  if (!lacking.empty()) std::cout << fmt::format("comparing the outputs before tick {} only\n", first_gap);
+  for (const Event& ev : flow) {
+    if (ev.tick >= first_gap) break;
     ++events;
     if (output_set.count(ev.channel) == 0) {
       lcm.publish(ev.channel, ev.data.data(), static_cast<unsigned>(ev.data.size()));
@@ -364,7 +361,12 @@ int main(int argc, char** argv) {
                         {"missing", r.missing},   {"repeats", r.repeats}, {"first_difference_tick", r.first_difference_tick}, {"match", channel_ok}};
   }
   j["match"] = ok;
-  std::cout << (ok ? "replay matches the recording\n" : "replay DIFFERS from the recording\n");
+  j["complete"] = lacking.empty();
+  for (const auto& [channel, ticks] : lacking) j["lacking"][channel] = ticks;
+  if (!lacking.empty()) j["compared_before_tick"] = first_gap;
+  std::cout << (ok ? "replay matches the recording" : "replay DIFFERS from the recording")
+            << (lacking.empty() ? "\n" : fmt::format(" before tick {}; the log lacks inputs from there on\n", first_gap));
   if (!json_path.empty()) std::ofstream(json_path) << j.dump(2) << "\n";
-  return ok ? 0 : 1;
+  if (!ok) return 1;
+  return lacking.empty() ? 0 : 3;
 }

@@ -42,6 +42,7 @@
 #include <thread>
 #include <vector>
 
+#include "hpr/common/args.hpp"
 #include "hpr/common/config.hpp"
 #include "hpr/common/time.hpp"
 #include "hpr/launch/groups.hpp"
@@ -688,44 +689,39 @@ int main(int argc, char** argv) {
   o.host = machine_host();
   o.run_root = std::getenv("HPR_RUN_ROOT") != nullptr ? std::getenv("HPR_RUN_ROOT") : "output/runs";
   try {
-    for (std::size_t i = 1; i < args.size(); ++i) {
-      const std::string& a = args[i];
-      const auto value = [&]() -> std::string {
-        if (i + 1 >= args.size()) throw std::logic_error(a + " needs a value");
-        return args[++i];
-      };
-      if (a == "--groups") {
-        o.groups_file = value();
-      } else if (a == "--host") {
-        o.host = value();
+    hpr::ArgReader a(args);
+    a.next();  // the command
+    while (a.next()) {
+      if (a.is("--groups")) {
+        o.groups_file = a.value();
+      } else if (a.is("--host")) {
+        o.host = a.value();
         o.host_given = true;
-      } else if (a == "--group") {
-        o.group_filter = value();
-      } else if (a == "--var") {
-        const std::string kv = value();
+      } else if (a.is("--group")) {
+        o.group_filter = a.value();
+      } else if (a.is("--var")) {
+        const std::string kv = a.value();
         const auto eq = kv.find('=');
         if (eq == std::string::npos || eq == 0) throw std::logic_error("--var needs KEY=VALUE, got '" + kv + "'");
         o.vars[kv.substr(0, eq)] = kv.substr(eq + 1);
-      } else if (a == "--run-root") {
-        o.run_root = value();
-      } else if (a == "--lcm-url") {
-        o.lcm_url = value();
-      } else if (a == "--foreground") {
+      } else if (a.is("--run-root")) {
+        o.run_root = a.value();
+      } else if (a.is("--lcm-url")) {
+        o.lcm_url = a.value();
+      } else if (a.is("--foreground")) {
         o.foreground = true;
-      } else if (a == "--json") {
+      } else if (a.is("--json")) {
         o.json = true;
-      } else if (a == "--wait") {
-        o.wait_s = std::stod(value());
-      } else if (a == "-f" || a == "--follow") {
+      } else if (a.is("--wait")) {
+        o.wait_s = a.number();
+      } else if (a.is("-f", "--follow")) {
         o.follow = true;
-      } else if (a == "-n") {
-        o.lines = std::stoi(value());
-      } else if (!a.empty() && a[0] == '-') {
-        throw std::logic_error("unknown option " + a);
-      } else if (o.target.empty()) {
-        o.target = a;
+      } else if (a.is("-n")) {
+        o.lines = a.integer();
+      } else if (a.positional() && o.target.empty()) {
+        o.target = a.current();
       } else {
-        throw std::logic_error("unexpected argument '" + a + "'");
+        a.unknown();
       }
     }
     if (o.groups_file.empty()) o.groups_file = default_groups_file();

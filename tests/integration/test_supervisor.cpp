@@ -10,6 +10,7 @@
 #include <csignal>
 #include <filesystem>
 #include <fstream>
+#include <lcm/lcm-cpp.hpp>
 #include <nlohmann/json.hpp>
 #include <thread>
 
@@ -166,6 +167,7 @@ TEST(Replay, RecordedPushExperimentReproducesExactlyAndADifferentGainDoesNot) {
                                  "--json", dir + "/same.json", "--work-dir", dir + "/same"});
   EXPECT_EQ(same.exit_code, 0) << same.out;
   const json s = json::parse(std::ifstream(dir + "/same.json"));
+  EXPECT_TRUE(s["complete"].get<bool>()) << "the recorder lost messages: " << s["lacking"].dump();
   EXPECT_TRUE(s["match"].get<bool>()) << s.dump(2);
   for (const char* c : {"ROBOT_STATE", "JOINT_COMMAND", "BALANCE_STATUS", "CAM_REFERENCE", "WHOLEBODY_COMMAND"}) {
     EXPECT_GT(s["channels"][c]["compared"].get<int>(), 2500) << c;  // 3.3 s at 1 kHz
@@ -178,6 +180,30 @@ TEST(Replay, RecordedPushExperimentReproducesExactlyAndADifferentGainDoesNot) {
   const json o = json::parse(std::ifstream(dir + "/other.json"));
   EXPECT_FALSE(o["match"].get<bool>());
   EXPECT_GT(o["channels"]["JOINT_COMMAND"]["different"].get<int>(), 1000) << o.dump(2);
+
+  // A log that lost one ROBOT_SENSORS message: the check names the tick, compares what comes
+  // before it (which matches) and says the log is incomplete.
+  const std::string holed = dir + "/holed.lcm";
+  {
+    lcm::LogFile in(log, "r"), out(holed, "w");
+    ASSERT_TRUE(in.good() && out.good());
+    int sensors = 0;
+    for (const lcm::LogEvent* ev = in.readNextEvent(); ev != nullptr; ev = in.readNextEvent()) {
+      if (std::string(ev->channel) == "ROBOT_SENSORS" && ++sensors == 1501) continue;
+      out.writeEvent(const_cast<lcm::LogEvent*>(ev));
+    }
+  }
+  const auto gap = run_command({tool, holed, "--rerun", "estimator", "--set", "balance.support=double", "--json", dir + "/holed.json",
+                                "--work-dir", dir + "/holed"});
+  EXPECT_EQ(gap.exit_code, 3) << gap.out;
+  const json h = json::parse(std::ifstream(dir + "/holed.json"));
+  EXPECT_FALSE(h["complete"].get<bool>());
+  ASSERT_EQ(h["lacking"]["ROBOT_SENSORS"].size(), 1U) << h.dump(2);
+  const std::int64_t hole = h["lacking"]["ROBOT_SENSORS"][0];
+  EXPECT_EQ(h["compared_before_tick"].get<std::int64_t>(), hole);
+  EXPECT_TRUE(h["match"].get<bool>()) << h.dump(2);
+  EXPECT_GT(h["channels"]["ROBOT_STATE"]["compared"].get<std::int64_t>(), hole - 5);
+  EXPECT_NE(gap.out.find("the log lacks ROBOT_SENSORS of 1 tick (" + std::to_string(hole) + ")"), std::string::npos) << gap.out;
 }
 
 TEST(Supervisor, TwoHostsRunOneGroupWithOneStatusAndStand) {

@@ -9,11 +9,13 @@
 #include <string>
 #include <vector>
 
+#include "hpr/node/lcm_url.hpp"
+
 namespace hpr::test {
 
 class LcmListener {
  public:
-  explicit LcmListener(const std::string& url) : lcm_(url) {}
+  explicit LcmListener(const std::string& url) : lcm_(hpr::node::with_receive_buffer(url)) {}
   [[nodiscard]] bool good() const { return lcm_.good(); }
   lcm::LCM& lcm() { return lcm_; }
 
@@ -23,7 +25,9 @@ class LcmListener {
     auto out = std::make_shared<std::vector<Msg>>();
     auto* handler = new Handler<Msg>{out};
     handlers_.emplace_back(handler, [](void* p) { delete static_cast<Handler<Msg>*>(p); });
-    lcm_.subscribe(channel, &Handler<Msg>::on, handler);
+    // A test counts messages: none may be dropped while it waits elsewhere (LCM's default queue
+    // holds 30).
+    lcm_.subscribe(channel, &Handler<Msg>::on, handler)->setQueueCapacity(100000);
     return out;
   }
 

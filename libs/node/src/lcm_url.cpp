@@ -55,9 +55,14 @@ void check_multicast_route(const std::string& url) {
   }
 }
 
+std::string with_receive_buffer(const std::string& url, int bytes) {
+  if (url.rfind("udpm://", 0) != 0 || url.find("recv_buf_size=") != std::string::npos) return url;
+  return url + (url.find('?') == std::string::npos ? "?" : "&") + "recv_buf_size=" + std::to_string(bytes);
+}
+
 std::unique_ptr<lcm::LCM> open_lcm(const std::string& url) {
   check_multicast_route(url);
-  auto lcm = std::make_unique<lcm::LCM>(url);
+  auto lcm = std::make_unique<lcm::LCM>(with_receive_buffer(url));
   if (!lcm->good()) {
     throw LcmError(fmt::format("LCM could not be opened on '{}'. If this is a multicast problem, fix (as root): {}",
                                url, kMulticastFixCommand));

@@ -16,6 +16,7 @@
 #include "hpr/common/config.hpp"
 #include "hpr/launch/process_group.hpp"
 #include "hpr/model/algorithms.hpp"
+#include "hpr/node/lcm_url.hpp"
 
 namespace hpr::experiments {
 
@@ -63,9 +64,10 @@ namespace {
 class Listener {
  public:
   Listener(lcm::LCM& lcm, TrialEvaluator& eval) : eval_(eval) {
-    lcm.subscribe("SIM_TRUTH", &Listener::truth, this);
-    lcm.subscribe("ROBOT_SENSORS", &Listener::sensors, this);
-    lcm.subscribe("WHOLEBODY_COMMAND", &Listener::wholebody, this);
+    // The evaluation sees every tick (LCM's default queue of 30 messages drops under load).
+    lcm.subscribe("SIM_TRUTH", &Listener::truth, this)->setQueueCapacity(100000);
+    lcm.subscribe("ROBOT_SENSORS", &Listener::sensors, this)->setQueueCapacity(100000);
+    lcm.subscribe("WHOLEBODY_COMMAND", &Listener::wholebody, this)->setQueueCapacity(100000);
     lcm.subscribe("HEALTH", &Listener::health, this);
   }
   void truth(const lcm::ReceiveBuffer*, const std::string&, const humanoid::sim_truth_t* m) { eval_.on_truth(*m); }
@@ -142,13 +144,15 @@ TrialResult run_trial(const TrialSpec& spec, const std::function<void(const std:
   };
 
   launch::ProcessGroup group;
-  lcm::LCM lcm(group.lcm_url());
+  lcm::LCM lcm(node::with_receive_buffer(group.lcm_url()));
   if (!lcm.good()) throw std::runtime_error("cannot open LCM on " + group.lcm_url() + " (is multicast routed on lo?)");
   TrialEvaluator eval(robot, spec.support, t_push, t_end);
   Listener listener(lcm, eval);
   if (!spec.log_file.empty()) {
     fs::create_directories(fs::absolute(spec.log_file).parent_path());
-    group.start("/usr/bin/lcm-logger", {"-f", "-q", "--lcm-url=" + group.lcm_url(), spec.log_file}, {}, work + "/lcm-logger.log");
+    // The recorder is not part of the lockstep chain, which runs at full speed: lcm_recorder queues
+    // what it has not written yet rather than dropping it.
+    group.start("lcm_recorder", {spec.log_file, "--force", "--quiet", "--lcm-url", group.lcm_url()}, {}, work + "/lcm_recorder.log");
   }
   std::vector<std::string> nodes = {"estimator", "wbc"};
   group.start("estimator", with({}), {}, work + "/estimator.log");

@@ -33,7 +33,18 @@ inline constexpr const char* kMulticastFixCommand =
 /// Non-udpm URLs (memq://, file://) are accepted as they are.
 void check_multicast_route(const std::string& url);
 
-/// check_multicast_route, then creates the LCM instance; throws LcmError on any failure.
+/// The socket receive buffer a subscriber asks for [bytes]: ~0.25 s of the whole stack at 1 kHz, so
+/// that a process the scheduler holds up for a moment loses no message (the kernel caps it at
+/// net.core.rmem_max, which tools/install-deps raises to 64 MB).
+inline constexpr int kReceiveBufferBytes = 4 << 20;
+/// The socket receive buffer of a recorder [bytes]: seconds of the whole stack's traffic.
+inline constexpr int kRecorderBufferBytes = 64 << 20;
+
+/// A udpm URL with `recv_buf_size=bytes` added unless it sets one; other URLs unchanged.
+std::string with_receive_buffer(const std::string& url, int bytes = kReceiveBufferBytes);
+
+/// check_multicast_route, then creates the LCM instance (with_receive_buffer applied); throws
+/// LcmError on any failure.
 std::unique_ptr<lcm::LCM> open_lcm(const std::string& url);
 
 }  // namespace hpr::node

@@ -45,7 +45,7 @@ struct TrialSpec {
   double push_time = 0.0;             ///< [s] simulation time of the push (0: when the support is settled)
   double after = 5.0;                 ///< [s] simulated after the push ends
   std::vector<std::string> overrides; ///< more --set key=value for every process
-  std::string log_file;               ///< LCM log of the run (lcm-logger), empty: none
+  std::string log_file;               ///< LCM log of the run (lcm_recorder), empty: none
   std::string work_dir;               ///< folder for the processes' output (default: a temporary one)
   double timeout = 600.0;             ///< [s] wall clock for the whole run
   bool stop_when_decided = false;     ///< end the run as soon as it cannot count as recovered (sweeps)

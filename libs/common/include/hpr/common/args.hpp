@@ -1,0 +1,58 @@
+#pragma once
+/// \file A tool's command line, one argument at a time, with strict values:
+///
+///   ArgReader args(argc, argv);
+///   while (args.next()) {
+///     if (args.is("--impulse")) impulse = args.number();
+///     else if (args.is("--set")) overrides.push_back(args.value());
+///     else if (args.positional()) log = args.current();
+///     else args.unknown();
+///   }
+///
+/// Every error is a std::invalid_argument that names the option and the value.
+
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace hpr {
+
+class ArgReader {
+ public:
+  /// The arguments argv[first..argc).
+  ArgReader(int argc, char** argv, int first = 1);
+  explicit ArgReader(std::vector<std::string> args);
+
+  /// Advances to the next argument; false after the last.
+  bool next();
+  [[nodiscard]] const std::string& current() const { return args_[i_]; }
+  [[nodiscard]] bool is(std::string_view option) const { return current() == option; }
+  [[nodiscard]] bool is(std::string_view option, std::string_view alias) const { return is(option) || is(alias); }
+  /// The current argument is not an option (does not start with '-', or is "-" itself).
+  [[nodiscard]] bool positional() const;
+
+  /// The current option's value (the next argument).
+  std::string value();
+  /// The value as a finite number: "1.5", "-3", "2e-3"; "12abc", "", "nan" are refused.
+  double number();
+  /// The value as an integer: "8", "-2"; "8.5", "8x" are refused.
+  int integer();
+  /// The value as a comma-separated list ("a,b,,c" gives a, b, c).
+  std::vector<std::string> list();
+
+  /// Throws "unknown option X" for an option, "unexpected argument X" for anything else.
+  [[noreturn]] void unknown() const;
+
+ private:
+  std::vector<std::string> args_;
+  std::size_t i_ = static_cast<std::size_t>(-1);
+};
+
+/// `text` as a finite number, else std::invalid_argument "<what>: '<text>' is not a finite number".
+double parse_number(const std::string& text, const std::string& what);
+/// `text` as an int, else std::invalid_argument "<what>: '<text>' is not an integer".
+int parse_integer(const std::string& text, const std::string& what);
+/// Splits "a,b,,c" at commas into a, b, c.
+std::vector<std::string> split_list(const std::string& text, char separator = ',');
+
+}  // namespace hpr

@@ -1,0 +1,71 @@
+#pragma once
+// In-process closed loop: the Bullet simulator and the controllers' libraries stepping in one
+// process, without LCM, for closed-loop tests and the per-component benchmarks. The data flow per
+// tick is the stack's: sensors → estimator → (reference_gen with the previous tick's balance status
+// → motion_opt) → wbc → joint command → simulator. The processes themselves (the same libraries
+// behind LCM nodes) are exercised by push_trial and the integration tests.
+#include <Eigen/Core>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "hpr/balance/task_reference.hpp"
+#include "hpr/common/config.hpp"
+#include "hpr/estimator/estimator.hpp"
+#include "hpr/model/robot.hpp"
+#include "hpr/model/urdf.hpp"
+#include "hpr/motion_opt/optimizer.hpp"
+#include "hpr/reference_gen/generator.hpp"
+#include "hpr/sim/simulator.hpp"
+#include "hpr/wbc/controller.hpp"
+
+namespace hpr::closed_loop {
+
+struct ClosedLoopOptions {
+  bool cam = false;                ///< reference_gen + motion_opt in the loop (else the ankle strategy)
+  bool estimator_in_loop = false;  ///< the controllers see the estimator's state (else the simulator's truth)
+  bool run_estimator = false;      ///< run the estimator alongside even when it is not in the loop
+};
+
+/// Compute time of each component in the last step [us] (0 for a component not in the loop).
+struct StepTimes {
+  double estimator_us = 0;
+  double reference_gen_us = 0;
+  double motion_opt_us = 0;
+  double wbc_us = 0;
+};
+
+/// The simulated robot and its controllers, stepped one control period at a time. The members are
+/// public: a test reads the simulator's truth, the estimator's state or the wbc's status directly.
+struct ClosedLoop {
+  /// `config_file`: a robot configuration (config/<robot>.yaml) with `overrides` ("key.path=value").
+  explicit ClosedLoop(const std::string& config_file, const std::vector<std::string>& overrides = {},
+                      ClosedLoopOptions options = {});
+
+  /// One control period.
+  void step();
+  /// Runs for `seconds`, calling `each` after every step; stops early when the robot fell.
+  void run(double seconds, const std::function<void()>& each = {});
+  /// Pushes the base link with a half-sine of peak force `peak` [N] along `direction` for
+  /// `impulse` [N s] (duration T = π I / (2 F)), starting at simulated time `start` [s].
+  void push_base(double impulse, double peak, const Eigen::Vector3d& direction, double start);
+
+  ClosedLoopOptions opt;
+  Config cfg;
+  model::RobotSpec spec;
+  model::RobotDescription desc;
+  sim::Simulator sim;
+  wbc::WholeBodyController wbc;
+  balance::PostureReference reference;
+  std::optional<estimator::Estimator> estimator;
+  std::optional<reference_gen::ReferenceGenerator> generator;
+  std::optional<motion_opt::MotionOptimizer> optimizer;
+  reference_gen::BalanceInput balance;  ///< the wbc's status of the previous tick, as on BALANCE_STATUS
+  bool have_balance = false;
+  double posture_error = 0.0;
+  int motion_opt_iterations = 0;  ///< working-set changes of the last motion_opt QP
+  StepTimes times;
+};
+
+}  // namespace hpr::closed_loop

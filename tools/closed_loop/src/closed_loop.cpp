@@ -1,0 +1,102 @@
+#include "hpr/closed_loop/closed_loop.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+namespace hpr::closed_loop {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double us_since(Clock::time_point t0) { return std::chrono::duration<double, std::micro>(Clock::now() - t0).count(); }
+
+}  // namespace
+
+ClosedLoop::ClosedLoop(const std::string& config_file, const std::vector<std::string>& overrides, ClosedLoopOptions options)
+    : opt(options),
+      cfg(Config::load(config_file, overrides)),
+      spec(model::RobotSpec::load(cfg.section("robot"))),
+      desc(model::load_urdf(cfg.section("robot").file_path("urdf"))),
+      sim(spec, desc, sim::SimConfig::load(cfg.section("sim"))),
+      wbc(spec, wbc::WbcConfig::load(cfg.section("wbc"), spec)),
+      reference(spec, balance::PostureReferenceConfig::load(cfg.section("balance"))) {
+  if (opt.estimator_in_loop || opt.run_estimator) {
+    estimator.emplace(spec, estimator::EstimatorConfig::load(cfg.section("estimator")));
+    estimator->update(sim.sensors());
+  }
+  if (opt.cam) {
+    generator.emplace(reference_gen::GeneratorConfig::load(cfg.section("reference_gen")));
+    optimizer.emplace(spec, motion_opt::MotionOptConfig::load(cfg.section("motion_opt"), spec));
+  }
+  reference.start(opt.estimator_in_loop ? estimator->state().q : sim.truth().q, sim.time());
+}
+
+void ClosedLoop::step() {
+  const double dt = sim.config().dt;
+  wbc::RobotState st;
+  if (opt.estimator_in_loop) {
+    st.q = estimator->state().q;
+    st.v = estimator->state().v;
+  } else {
+    st.q = sim.truth().q;
+    st.v = sim.truth().v;
+  }
+  st.time = sim.time();
+  st.tick = sim.tick();
+  const balance::TaskReference& r = reference.update(sim.time());
+  const balance::TaskReference* cmd = &r;
+  if (opt.cam) {
+    auto t0 = Clock::now();
+    const auto& o = generator->step(sim.time(), dt, balance, have_balance, posture_error);
+    times.reference_gen_us = us_since(t0);
+    const bool generating = std::any_of(o.phase.begin(), o.phase.end(), [](reference_gen::Phase p) {
+      return p == reference_gen::Phase::kGenerate || p == reference_gen::Phase::kReduce;
+    });
+    t0 = Clock::now();
+    const auto& m = optimizer->step(st.q, st.v, r, o.l_ref_W, true, dt, generating);
+    times.motion_opt_us = us_since(t0);
+    posture_error = m.posture_error;
+    motion_opt_iterations = m.qp_iterations;
+    cmd = &m.command;
+  }
+  const auto t0 = Clock::now();
+  const auto& command = wbc.step(st, *cmd);
+  times.wbc_us = us_since(t0);
+  sim.set_command(command);
+  const auto& bs = wbc.status();
+  balance.time = sim.time();
+  balance.tau_ankle_V = bs.tau_ankle_V;
+  balance.tau_min_V = bs.tau_min_V;
+  balance.tau_max_V = bs.tau_max_V;
+  balance.yaw_WV = bs.yaw_WV;
+  have_balance = true;
+  sim.step();
+  if (estimator) {
+    const auto t1 = Clock::now();
+    estimator->update(sim.sensors());
+    times.estimator_us = us_since(t1);
+  }
+}
+
+void ClosedLoop::run(double seconds, const std::function<void()>& each) {
+  const auto steps = static_cast<long>(std::lround(seconds / sim.config().dt));
+  for (long k = 0; k < steps; ++k) {
+    step();
+    if (each) each();
+    if (sim.truth().fallen) return;
+  }
+}
+
+void ClosedLoop::push_base(double impulse, double peak, const Eigen::Vector3d& direction, double start) {
+  sim::Push p;
+  p.id = 1;
+  p.link = spec.model.body_name[0];
+  p.force_W = peak * direction.normalized();
+  p.duration = impulse / peak * M_PI / 2.0;
+  p.start = start;
+  sim.add_push(p);
+}
+
+}  // namespace hpr::closed_loop
