@@ -25,8 +25,11 @@
 namespace {
 
 constexpr const char* kUsage = R"(usage: lcm_recorder FILE [options]
+       lcm_recorder --check FILE
 
 Records every LCM message (or those of --channel) into FILE until SIGINT or SIGTERM.
+--check reads a log (any LCM log) and reports its messages per channel and the ticks its
+data-flow channels lack.
   --lcm-url URL     LCM URL (default: $LCM_DEFAULT_URL, else LCM's default)
   --channel REGEX   channels to record (default .*)
   --queue N         messages held while the file is written (default 200000)
@@ -67,6 +70,41 @@ class Recorder {
   lcm::LogFile& log_;
 };
 
+/// Messages and bytes per channel, then the ticks each data-flow channel lacks. Returns 3 when a
+/// channel lacks ticks, else 0.
+int report(const std::map<std::string, ChannelCount>& counts, const hpr::msg::TickCoverage& coverage) {
+  for (const auto& [c, n] : counts) {
+    std::fprintf(stderr, "  %-20s %9lld messages %9.1f kB\n", c.c_str(), static_cast<long long>(n.messages), static_cast<double>(n.bytes) / 1e3);
+  }
+  const auto lacking = coverage.lacking();
+  for (const auto& [c, ticks] : lacking) {
+    std::fprintf(stderr, "lcm_recorder: %s: no message for %zu tick%s (%s), lost here or never published\n", c.c_str(), ticks.size(),
+                 ticks.size() == 1 ? "" : "s", hpr::msg::tick_ranges(ticks).c_str());
+  }
+  if (lacking.empty()) std::fprintf(stderr, "lcm_recorder: every tick of the data-flow channels present\n");
+  return lacking.empty() ? 0 : 3;
+}
+
+int check_log(const std::string& file) {
+  lcm::LogFile log(file, "r");
+  if (!log.good()) {
+    std::fprintf(stderr, "lcm_recorder: cannot read %s\n", file.c_str());
+    return 1;
+  }
+  std::map<std::string, ChannelCount> counts;
+  hpr::msg::TickCoverage coverage;
+  std::int64_t messages = 0;
+  for (const lcm::LogEvent* ev = log.readNextEvent(); ev != nullptr; ev = log.readNextEvent()) {
+    ChannelCount& c = counts[ev->channel];
+    ++c.messages;
+    c.bytes += ev->datalen;
+    ++messages;
+    coverage.add(ev->channel, hpr::msg::tick_of(ev->data, ev->datalen));
+  }
+  std::fprintf(stderr, "lcm_recorder: %s: %lld messages\n", file.c_str(), static_cast<long long>(messages));
+  return report(counts, coverage);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -86,6 +124,8 @@ int main(int argc, char** argv) {
       } else if (args.is("--queue")) {
         queue = args.integer();
         if (queue < 1) throw std::invalid_argument("--queue: at least 1 message");
+      } else if (args.is("--check")) {
+        return check_log(args.value());
       } else if (args.is("--force", "-f")) {
         force = true;
       } else if (args.is("--quiet", "-q")) {
@@ -138,21 +178,12 @@ int main(int argc, char** argv) {
   while (lcm.handleTimeout(0) > 0) {
   }
   std::fflush(log.getFilePtr());
-  const auto lacking = rec.coverage.lacking();
-  if (!quiet) {
-    std::fprintf(stderr, "%slcm_recorder: %lld messages (%.1f MB) in %.1f s into %s\n", rec.messages > 0 ? "\n" : "",
-                 static_cast<long long>(rec.messages), static_cast<double>(rec.bytes) / 1e6, hpr::monotonic_s() - t0, file.c_str());
-    for (const auto& [c, n] : rec.counts) {
-      std::fprintf(stderr, "  %-20s %9lld messages %9.1f kB\n", c.c_str(), static_cast<long long>(n.messages), static_cast<double>(n.bytes) / 1e3);
-    }
-  }
-  for (const auto& [c, ticks] : lacking) {
-    std::fprintf(stderr, "lcm_recorder: %s: no message for %zu tick%s (%s), lost here or never published\n", c.c_str(), ticks.size(),
-                 ticks.size() == 1 ? "" : "s", hpr::msg::tick_ranges(ticks).c_str());
-  }
+  std::fprintf(stderr, "%slcm_recorder: %lld messages (%.1f MB) in %.1f s into %s\n", !quiet && rec.messages > 0 ? "\n" : "",
+               static_cast<long long>(rec.messages), static_cast<double>(rec.bytes) / 1e6, hpr::monotonic_s() - t0, file.c_str());
+  const int status = report(rec.counts, rec.coverage);
   if (rec.write_errors > 0) {
     std::fprintf(stderr, "lcm_recorder: %lld messages could not be written to %s\n", static_cast<long long>(rec.write_errors), file.c_str());
     return 1;
   }
-  return lacking.empty() ? 0 : 3;
+  return status;
 }

@@ -167,7 +167,8 @@ TEST(HardwareInTheLoop, BusOffOnOneBusDampsAllDrivesAndKilledHalLetsTheDrivesTim
 
 TEST(HardwareInTheLoop, RealTimeSimGroupIsUpAndStandsTenSeconds) {
   // `tools/supervisor up sim` as the README gives it: Bullet at 1 kHz wall-clock time. On a machine
-  // that keeps the 1 kHz deadlines every node reports ok and the robot stands.
+  // that keeps the 1 kHz deadlines every node reports ok, the robot stands and lcm-spy decodes
+  // every channel live.
   const std::string url = hpr::test::unique_lcm_url();
   const std::string dir = hpr::test::temp_dir("sim-realtime");
   const std::string sup = hpr::test::bin_dir() + "/supervisor";
@@ -188,6 +189,12 @@ TEST(HardwareInTheLoop, RealTimeSimGroupIsUpAndStandsTenSeconds) {
   std::string details;
   for (int i = 0; i < st.num_processes; ++i) details += st.name[i] + ": " + st.detail[i] + "\n";
   EXPECT_EQ(int{st.state}, int{humanoid::supervisor_status_t::STATE_UP}) << details;
+  // lcm-spy decodes every live message of the running group, every channel of the stack present.
+  const auto spy = hpr::test::run_command({hpr::test::source_dir() + "/tools/lcm-spy", "--check", "3", "--lcm-url", url});
+  EXPECT_EQ(spy.exit_code, 0) << spy.out;
+  for (const char* c : {"ROBOT_SENSORS", "ROBOT_STATE", "BALANCE_STATUS", "CAM_REFERENCE", "WHOLEBODY_COMMAND", "JOINT_COMMAND", "SIM_TRUTH", "HEALTH"}) {
+    EXPECT_NE(spy.out.find(std::string("\n") + c + " "), std::string::npos) << c << " not seen by lcm-spy:\n" << spy.out;
+  }
   const auto down = hpr::test::run_command({sup, "down", "--lcm-url", url});
   EXPECT_EQ(down.exit_code, 0) << down.out;
 }

@@ -97,11 +97,17 @@ TEST(Supervisor, UpStatusCriticalDeathRecordAndDownLeaveNothingBehind) {
     const std::string spy_out = run_dir + "/lcm-spy.out";
     hpr::test::ProcessGroup gui(url);
     const pid_t spy = gui.start("/usr/bin/xvfb-run", {"-a", hpr::test::source_dir() + "/tools/lcm-spy", "--lcm-url", url}, {}, spy_out);
-    std::this_thread::sleep_for(6s);
+    // The window is up once it has listed the types (a cold JVM may take a while): wait for that,
+    // then for a few seconds of live traffic.
+    const std::string found = "Found " + std::to_string(HPR_LCM_TYPE_COUNT) + " LCM types";
+    for (int i = 0; i < 300 && gui.running(spy) && hpr::test::read_file(spy_out).find(found) == std::string::npos; ++i) {
+      std::this_thread::sleep_for(100ms);
+    }
+    std::this_thread::sleep_for(3s);
     EXPECT_TRUE(gui.running(spy)) << "lcm-spy ended:\n" << hpr::test::read_file(spy_out);
     gui.stop_all();
     const std::string text = hpr::test::read_file(spy_out);
-    EXPECT_NE(text.find("Found " + std::to_string(HPR_LCM_TYPE_COUNT) + " LCM types"), std::string::npos) << text;
+    EXPECT_NE(text.find(found), std::string::npos) << text;
     EXPECT_EQ(text.find("Exception"), std::string::npos) << text;
   } else {
     ADD_FAILURE() << "xvfb-run is missing (tools/install-deps installs it): the lcm-spy window is not checked";
