@@ -41,7 +41,35 @@ Exit status: 0 recorded, 1 error, 2 bad use, 3 recorded but ticks of data-flow c
 volatile std::sig_atomic_t g_stop = 0;
 void on_signal(int) { g_stop = 1; }
 
-struct ChannelCount {
+/// What a log holds: messages and bytes per channel, and which ticks each data-flow channel has.
+struct Tally {
+  struct Count {
+    std::int64_t messages = 0, bytes = 0;
+  };
+  void add(const std::string& channel, const void* data, int size) {
+    Count& c = counts[channel];
+    ++c.messages;
+    c.bytes += size;
+    ++messages;
+    bytes += size;
+    coverage.add(channel, hpr::msg::tick_of(data, size));
+  }
+  /// Prints the counts, then the ticks each data-flow channel lacks. Returns 3 when a channel
+  /// lacks ticks, else 0.
+  [[nodiscard]] int report() const {
+    for (const auto& [c, n] : counts) {
+      std::fprintf(stderr, "  %-20s %9lld messages %9.1f kB\n", c.c_str(), static_cast<long long>(n.messages), static_cast<double>(n.bytes) / 1e3);
+    }
+    const auto lacking = coverage.lacking();
+    for (const auto& [c, ticks] : lacking) {
+      std::fprintf(stderr, "lcm_recorder: %s: no message for %zu tick%s (%s), lost here or never published\n", c.c_str(), ticks.size(),
+                   ticks.size() == 1 ? "" : "s", hpr::msg::tick_ranges(ticks).c_str());
+    }
+    if (lacking.empty()) std::fprintf(stderr, "lcm_recorder: every tick of the data-flow channels present\n");
+    return lacking.empty() ? 0 : 3;
+  }
+  std::map<std::string, Count> counts;
+  hpr::msg::TickCoverage coverage;
   std::int64_t messages = 0, bytes = 0;
 };
 
@@ -55,35 +83,14 @@ class Recorder {
     ev.datalen = static_cast<int32_t>(rb->data_size);
     ev.data = rb->data;
     if (log_.writeEvent(&ev) != 0) ++write_errors;
-    ChannelCount& c = counts[channel];
-    ++c.messages;
-    c.bytes += rb->data_size;
-    ++messages;
-    bytes += rb->data_size;
-    coverage.add(channel, hpr::msg::tick_of(rb->data, static_cast<int>(rb->data_size)));
+    tally.add(channel, rb->data, ev.datalen);
   }
-  std::map<std::string, ChannelCount> counts;
-  hpr::msg::TickCoverage coverage;
-  std::int64_t messages = 0, bytes = 0, write_errors = 0;
+  Tally tally;
+  std::int64_t write_errors = 0;
 
  private:
   lcm::LogFile& log_;
 };
-
-/// Messages and bytes per channel, then the ticks each data-flow channel lacks. Returns 3 when a
-/// channel lacks ticks, else 0.
-int report(const std::map<std::string, ChannelCount>& counts, const hpr::msg::TickCoverage& coverage) {
-  for (const auto& [c, n] : counts) {
-    std::fprintf(stderr, "  %-20s %9lld messages %9.1f kB\n", c.c_str(), static_cast<long long>(n.messages), static_cast<double>(n.bytes) / 1e3);
-  }
-  const auto lacking = coverage.lacking();
-  for (const auto& [c, ticks] : lacking) {
-    std::fprintf(stderr, "lcm_recorder: %s: no message for %zu tick%s (%s), lost here or never published\n", c.c_str(), ticks.size(),
-                 ticks.size() == 1 ? "" : "s", hpr::msg::tick_ranges(ticks).c_str());
-  }
-  if (lacking.empty()) std::fprintf(stderr, "lcm_recorder: every tick of the data-flow channels present\n");
-  return lacking.empty() ? 0 : 3;
-}
 
 int check_log(const std::string& file) {
   lcm::LogFile log(file, "r");
@@ -91,18 +98,10 @@ int check_log(const std::string& file) {
     std::fprintf(stderr, "lcm_recorder: cannot read %s\n", file.c_str());
     return 1;
   }
-  std::map<std::string, ChannelCount> counts;
-  hpr::msg::TickCoverage coverage;
-  std::int64_t messages = 0;
-  for (const lcm::LogEvent* ev = log.readNextEvent(); ev != nullptr; ev = log.readNextEvent()) {
-    ChannelCount& c = counts[ev->channel];
-    ++c.messages;
-    c.bytes += ev->datalen;
-    ++messages;
-    coverage.add(ev->channel, hpr::msg::tick_of(ev->data, ev->datalen));
-  }
-  std::fprintf(stderr, "lcm_recorder: %s: %lld messages\n", file.c_str(), static_cast<long long>(messages));
-  return report(counts, coverage);
+  Tally tally;
+  for (const lcm::LogEvent* ev = log.readNextEvent(); ev != nullptr; ev = log.readNextEvent()) tally.add(ev->channel, ev->data, ev->datalen);
+  std::fprintf(stderr, "lcm_recorder: %s: %lld messages\n", file.c_str(), static_cast<long long>(tally.messages));
+  return tally.report();
 }
 
 }  // namespace
@@ -170,7 +169,7 @@ int main(int argc, char** argv) {
     }
     if (!quiet && hpr::monotonic_s() >= next_progress) {
       std::fprintf(stderr, "\rlcm_recorder: %.0f s, %lld messages, %.1f MB", hpr::monotonic_s() - t0,
-                   static_cast<long long>(rec.messages), static_cast<double>(rec.bytes) / 1e6);
+                   static_cast<long long>(rec.tally.messages), static_cast<double>(rec.tally.bytes) / 1e6);
       next_progress += 2.0;
     }
   }
@@ -178,9 +177,9 @@ int main(int argc, char** argv) {
   while (lcm.handleTimeout(0) > 0) {
   }
   std::fflush(log.getFilePtr());
-  std::fprintf(stderr, "%slcm_recorder: %lld messages (%.1f MB) in %.1f s into %s\n", !quiet && rec.messages > 0 ? "\n" : "",
-               static_cast<long long>(rec.messages), static_cast<double>(rec.bytes) / 1e6, hpr::monotonic_s() - t0, file.c_str());
-  const int status = report(rec.counts, rec.coverage);
+  std::fprintf(stderr, "%slcm_recorder: %lld messages (%.1f MB) in %.1f s into %s\n", !quiet && rec.tally.messages > 0 ? "\n" : "",
+               static_cast<long long>(rec.tally.messages), static_cast<double>(rec.tally.bytes) / 1e6, hpr::monotonic_s() - t0, file.c_str());
+  const int status = rec.tally.report();
   if (rec.write_errors > 0) {
     std::fprintf(stderr, "lcm_recorder: %lld messages could not be written to %s\n", static_cast<long long>(rec.write_errors), file.c_str());
     return 1;

@@ -146,7 +146,7 @@ class Outputs {
  public:
   Outputs(lcm::LCM& lcm, const std::vector<std::string>& channels) {
     // Every output is compared: no message may be dropped while the playback publishes.
-    for (const auto& c : channels) lcm.subscribe(c, &Outputs::on, this)->setQueueCapacity(100000);
+    for (const auto& c : channels) lcm.subscribe(c, &Outputs::on, this)->setQueueCapacity(hpr::node::kCountingQueueCapacity);
   }
   std::map<std::string, std::deque<Raw>> queues;
 
@@ -264,13 +264,9 @@ int main(int argc, char** argv) {
   std::cerr << fmt::format("replay_check: re-running {} on {} (outputs compared: {})\n", fmt::join(nodes, ", "), log_path, fmt::join(outputs, ", "));
   const std::vector<Event> flow = read_in_flow_order(log);
   // Played inputs the log lacks for a tick: nothing from that tick on can reproduce.
-  std::set<std::string> played_channels;
-  for (const Event& ev : flow) {
-    if (output_set.count(ev.channel) == 0) played_channels.insert(ev.channel);
-  }
   hpr::msg::TickCoverage coverage;
   for (const Event& ev : flow) {
-    if (played_channels.count(ev.channel) != 0) coverage.add(ev.channel, ev.tick);
+    if (output_set.count(ev.channel) == 0) coverage.add(ev.channel, ev.tick);
   }
   const auto lacking = coverage.lacking();
   std::int64_t first_gap = std::numeric_limits<std::int64_t>::max();

@@ -702,7 +702,7 @@ int main(int argc, char** argv) {
       } else if (a.is("--var")) {
         const std::string kv = a.value();
         const auto eq = kv.find('=');
-        if (eq == std::string::npos || eq == 0) throw std::logic_error("--var needs KEY=VALUE, got '" + kv + "'");
+        if (eq == std::string::npos || eq == 0) throw UsageError("--var needs KEY=VALUE, got '" + kv + "'");
         o.vars[kv.substr(0, eq)] = kv.substr(eq + 1);
       } else if (a.is("--run-root")) {
         o.run_root = a.value();
@@ -726,7 +726,7 @@ int main(int argc, char** argv) {
     }
     if (o.groups_file.empty()) o.groups_file = default_groups_file();
     const bool needs_target = o.command == "up" || o.command == "logs" || o.command == "restart";
-    if (needs_target && o.target.empty()) throw std::logic_error(o.command + " needs a " + (o.command == "up" ? "GROUP" : "NAME"));
+    if (needs_target && o.target.empty()) throw UsageError(o.command + " needs a " + (o.command == "up" ? "GROUP" : "NAME"));
     if (o.command == "up") return cmd_up(o);
     if (o.command == "groups") return cmd_groups(o);
     std::signal(SIGINT, on_signal);
@@ -739,15 +739,15 @@ int main(int argc, char** argv) {
     if (o.command == "down") return cmd_down(o, url);
     if (o.command == "restart") return cmd_restart(o, url);
     if (o.command == "logs") return cmd_logs(o, url);
-    throw std::logic_error("unknown command '" + o.command + "'");
+    throw UsageError("unknown command '" + o.command + "'");
   } catch (const ConfigError& e) {
     std::cerr << "supervisor: " << e.what() << "\n";
     return 2;
+  } catch (const UsageError& e) {
+    std::cerr << "supervisor: " << e.what() << "\n\n" << kUsage;
+    return 2;
   } catch (const std::invalid_argument& e) {
     std::cerr << "supervisor: " << e.what() << "\n";
-    return 2;
-  } catch (const std::logic_error& e) {  // bad use
-    std::cerr << "supervisor: " << e.what() << "\n\n" << kUsage;
     return 2;
   } catch (const std::exception& e) {
     std::cerr << "supervisor: " << e.what() << "\n";

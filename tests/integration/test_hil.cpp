@@ -213,10 +213,7 @@ TEST(HardwareInTheLoop, SplitOverTwoHostsStandsTenSeconds) {
                       << "groups:\n  hil-split:\n    processes:\n"
                       << "      drive_emulator: {command: drive_emulator, host: robot, args: [--config, '${cfg}'], rt_priority: 85}\n"
                       << "      hal: {command: hal, host: robot, args: [--config, '${cfg}'], depends_on: [drive_emulator], rt_priority: 80}\n"
-                      << "      estimator: {command: estimator, host: pc, args: [--config, '${cfg}'], critical: true}\n"
-                      << "      wbc: {command: wbc, host: pc, args: [--config, '${cfg}'], critical: true}\n"
-                      << "      reference_gen: {command: reference_gen, host: pc, args: [--config, '${cfg}']}\n"
-                      << "      motion_opt: {command: motion_opt, host: pc, args: [--config, '${cfg}']}\n";
+                      << hpr::test::control_processes_yaml("pc");
   ASSERT_TRUE(hosts.enter(hosts.a));
   LcmListener lcm(url);
   ASSERT_TRUE(lcm.good());

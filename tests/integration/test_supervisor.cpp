@@ -223,10 +223,7 @@ TEST(Supervisor, TwoHostsRunOneGroupWithOneStatusAndStand) {
                       << "groups:\n  split:\n    description: the simulated robot on one host, its controllers on another\n"
                       << "    processes:\n"
                       << "      sim_bullet: {command: sim_bullet, host: plant, args: [--config, '${cfg}', --set, sim.mode=lockstep]}\n"
-                      << "      estimator: {command: estimator, host: brain, args: [--config, '${cfg}'], critical: true}\n"
-                      << "      wbc: {command: wbc, host: brain, args: [--config, '${cfg}'], critical: true, depends_on: [estimator]}\n"
-                      << "      reference_gen: {command: reference_gen, host: brain, args: [--config, '${cfg}']}\n"
-                      << "      motion_opt: {command: motion_opt, host: brain, args: [--config, '${cfg}']}\n";
+                      << hpr::test::control_processes_yaml("brain");
   // This test listens from host "plant" (LCM opens its receive socket lazily, so the thread stays there).
   ASSERT_TRUE(hosts.enter(hosts.a));
   hpr::test::LcmListener lcm(url);

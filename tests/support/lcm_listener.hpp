@@ -25,9 +25,8 @@ class LcmListener {
     auto out = std::make_shared<std::vector<Msg>>();
     auto* handler = new Handler<Msg>{out};
     handlers_.emplace_back(handler, [](void* p) { delete static_cast<Handler<Msg>*>(p); });
-    // A test counts messages: none may be dropped while it waits elsewhere (LCM's default queue
-    // holds 30).
-    lcm_.subscribe(channel, &Handler<Msg>::on, handler)->setQueueCapacity(100000);
+    // A test counts messages: none may be dropped while it waits elsewhere.
+    lcm_.subscribe(channel, &Handler<Msg>::on, handler)->setQueueCapacity(hpr::node::kCountingQueueCapacity);
     return out;
   }
 

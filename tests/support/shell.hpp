@@ -130,4 +130,14 @@ class NetnsPair {
   int home_ = -1;
 };
 
+/// The control processes (estimator and wbc critical) as lines of a groups file's `processes:`,
+/// placed on `host`, each with `--config ${cfg}`.
+inline std::string control_processes_yaml(const std::string& host) {
+  const std::string on = "host: " + host + ", args: [--config, '${cfg}']";
+  return "      estimator: {command: estimator, " + on + ", critical: true}\n" +
+         "      wbc: {command: wbc, " + on + ", critical: true, depends_on: [estimator]}\n" +
+         "      reference_gen: {command: reference_gen, " + on + "}\n" +
+         "      motion_opt: {command: motion_opt, " + on + "}\n";
+}
+
 }  // namespace hpr::test

@@ -23,7 +23,7 @@ bool ArgReader::positional() const { return current().empty() || current()[0] !=
 
 std::string ArgReader::value() {
   const std::string option = current();
-  if (i_ + 1 >= args_.size()) throw std::invalid_argument(option + " needs a value");
+  if (i_ + 1 >= args_.size()) throw UsageError(option + " needs a value");
   return args_[++i_];
 }
 
@@ -40,8 +40,8 @@ int ArgReader::integer() {
 std::vector<std::string> ArgReader::list() { return split_list(value()); }
 
 void ArgReader::unknown() const {
-  if (positional()) throw std::invalid_argument("unexpected argument '" + current() + "'");
-  throw std::invalid_argument("unknown option " + current());
+  if (positional()) throw UsageError("unexpected argument '" + current() + "'");
+  throw UsageError("unknown option " + current());
 }
 
 double parse_number(const std::string& text, const std::string& what) {
@@ -49,7 +49,7 @@ double parse_number(const std::string& text, const std::string& what) {
   errno = 0;
   const double d = std::strtod(text.c_str(), &end);
   if (text.empty() || end != text.c_str() + text.size() || errno == ERANGE || !std::isfinite(d)) {
-    throw std::invalid_argument(what + ": '" + text + "' is not a finite number");
+    throw UsageError(what + ": '" + text + "' is not a finite number");
   }
   return d;
 }
@@ -60,7 +60,7 @@ int parse_integer(const std::string& text, const std::string& what) {
   const long n = std::strtol(text.c_str(), &end, 10);
   if (text.empty() || end != text.c_str() + text.size() || errno == ERANGE || n < std::numeric_limits<int>::min() ||
       n > std::numeric_limits<int>::max()) {
-    throw std::invalid_argument(what + ": '" + text + "' is not an integer");
+    throw UsageError(what + ": '" + text + "' is not an integer");
   }
   return static_cast<int>(n);
 }

@@ -192,25 +192,25 @@ TEST(Supervisor, NotReadyBeforeTheDeadlineFailsTheGroupAndStopsTheProcess) {
 TEST(Supervisor, DownStopsLastStartedFirstAndKillsWhatIgnoresTheSignal) {
   // A shell that ignores SIGTERM and waits on a child of its process group (the child inherits
   // the ignored signal): only SIGKILL to the whole group ends both.
-  ProcessSpec stubborn = proc("stubborn", "trap '' TERM; sleep 30 & wait");
-  stubborn.ready_on = ReadyOn::kStart;
-  stubborn.stop_timeout_s = 0.3;
+  ProcessSpec deaf = proc("deaf", "trap '' TERM; sleep 30 & wait");
+  deaf.ready_on = ReadyOn::kStart;
+  deaf.stop_timeout_s = 0.3;
   ProcessSpec polite = proc("polite", "exec sleep 30");
   polite.ready_on = ReadyOn::kStart;
-  polite.depends_on = {"stubborn"};
+  polite.depends_on = {"deaf"};
   polite.stop_signal = SIGINT;
-  Fixture f({stubborn, polite});
+  Fixture f({deaf, polite});
   f.sup->up(hpr::monotonic_s());
   ASSERT_TRUE(f.run_until([&] { return f.sup->state() == GroupState::kUp; }, 2.0));
-  const pid_t p1 = f.st("stubborn").pid, p2 = f.st("polite").pid;
+  const pid_t p1 = f.st("deaf").pid, p2 = f.st("polite").pid;
   std::this_thread::sleep_for(std::chrono::milliseconds(100));  // the shell has set its trap
   f.sup->down(hpr::monotonic_s());
   EXPECT_EQ(f.st("polite").state, ProcessState::kStopping);
-  EXPECT_EQ(f.st("stubborn").state, ProcessState::kReady) << "signalled only after what started after it has ended";
+  EXPECT_EQ(f.st("deaf").state, ProcessState::kReady) << "signalled only after what started after it has ended";
   ASSERT_TRUE(f.run_until([&] { return f.sup->state() == GroupState::kStopped; }, 5.0));
   EXPECT_EQ(f.st("polite").state, ProcessState::kStopped);
   EXPECT_NE(f.st("polite").detail.find("signal 2"), std::string::npos) << "its own stop signal: " << f.st("polite").detail;
-  EXPECT_NE(f.st("stubborn").detail.find("SIGKILL after the grace period"), std::string::npos) << f.st("stubborn").detail;
+  EXPECT_NE(f.st("deaf").detail.find("SIGKILL after the grace period"), std::string::npos) << f.st("deaf").detail;
   // Nothing left: neither the processes nor what they started (their process groups).
   EXPECT_FALSE(alive(p1));
   EXPECT_FALSE(alive(p2));

@@ -64,10 +64,10 @@ namespace {
 class Listener {
  public:
   Listener(lcm::LCM& lcm, TrialEvaluator& eval) : eval_(eval) {
-    // The evaluation sees every tick (LCM's default queue of 30 messages drops under load).
-    lcm.subscribe("SIM_TRUTH", &Listener::truth, this)->setQueueCapacity(100000);
-    lcm.subscribe("ROBOT_SENSORS", &Listener::sensors, this)->setQueueCapacity(100000);
-    lcm.subscribe("WHOLEBODY_COMMAND", &Listener::wholebody, this)->setQueueCapacity(100000);
+    // The evaluation sees every tick.
+    lcm.subscribe("SIM_TRUTH", &Listener::truth, this)->setQueueCapacity(node::kCountingQueueCapacity);
+    lcm.subscribe("ROBOT_SENSORS", &Listener::sensors, this)->setQueueCapacity(node::kCountingQueueCapacity);
+    lcm.subscribe("WHOLEBODY_COMMAND", &Listener::wholebody, this)->setQueueCapacity(node::kCountingQueueCapacity);
     lcm.subscribe("HEALTH", &Listener::health, this);
   }
   void truth(const lcm::ReceiveBuffer*, const std::string&, const humanoid::sim_truth_t* m) { eval_.on_truth(*m); }

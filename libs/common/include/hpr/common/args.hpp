@@ -9,13 +9,20 @@
 ///     else args.unknown();
 ///   }
 ///
-/// Every error is a std::invalid_argument that names the option and the value.
+/// Every error is a UsageError (a std::invalid_argument) that names the option and the value.
 
+#include <stdexcept>
 #include <string>
 #include <string_view>
 #include <vector>
 
 namespace hpr {
+
+/// A malformed command line: the tool prints it with its usage.
+class UsageError : public std::invalid_argument {
+ public:
+  using std::invalid_argument::invalid_argument;
+};
 
 class ArgReader {
  public:
@@ -48,9 +55,9 @@ class ArgReader {
   std::size_t i_ = static_cast<std::size_t>(-1);
 };
 
-/// `text` as a finite number, else std::invalid_argument "<what>: '<text>' is not a finite number".
+/// `text` as a finite number, else UsageError "<what>: '<text>' is not a finite number".
 double parse_number(const std::string& text, const std::string& what);
-/// `text` as an int, else std::invalid_argument "<what>: '<text>' is not an integer".
+/// `text` as an int, else UsageError "<what>: '<text>' is not an integer".
 int parse_integer(const std::string& text, const std::string& what);
 /// Splits "a,b,,c" at commas into a, b, c.
 std::vector<std::string> split_list(const std::string& text, char separator = ',');

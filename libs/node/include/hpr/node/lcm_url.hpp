@@ -40,6 +40,11 @@ inline constexpr int kReceiveBufferBytes = 4 << 20;
 /// The socket receive buffer of a recorder [bytes]: seconds of the whole stack's traffic.
 inline constexpr int kRecorderBufferBytes = 64 << 20;
 
+/// The subscription queue of a listener that must see every message (a recorder, a test, an
+/// evaluation) [messages]. LCM's default of 30 drops messages when the listener is held up for a
+/// few milliseconds; a control node keeps the default (it wants the latest message, not a backlog).
+inline constexpr int kCountingQueueCapacity = 100000;
+
 /// A udpm URL with `recv_buf_size=bytes` added unless it sets one; other URLs unchanged.
 std::string with_receive_buffer(const std::string& url, int bytes = kReceiveBufferBytes);
 
