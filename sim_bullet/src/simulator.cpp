@@ -203,6 +203,9 @@ struct Simulator::Impl {
   std::array<int, 2> foot_body{};
   std::array<Vector6d, 2> contact_impulse_O{};  // Σ (F, p × F) h over the control period, world origin
   std::vector<btVector3> omega, vel;            // Bullet link velocities (local frames)
+  // compute_truth's per-body workspace (sized once: no allocation in a step).
+  std::vector<Vector3d> c_W, v_W, omega_W;
+  std::vector<Matrix3d> R_W;
   btAlignedObjectArray<btQuaternion> world_to_local;
   btAlignedObjectArray<btVector3> local_origin;
 
@@ -565,8 +568,15 @@ void Simulator::compute_truth() {
   mb->compTreeLinkVelocities(I.omega.data(), I.vel.data());
   double mass = 0;
   Vector3d mc = Vector3d::Zero(), p = Vector3d::Zero();
-  std::vector<Vector3d> c(static_cast<size_t>(m.nb)), v(static_cast<size_t>(m.nb)), w(static_cast<size_t>(m.nb));
-  std::vector<Matrix3d> R(static_cast<size_t>(m.nb));
+  const auto nb = static_cast<size_t>(m.nb);
+  I.c_W.resize(nb);
+  I.v_W.resize(nb);
+  I.omega_W.resize(nb);
+  I.R_W.resize(nb);
+  std::vector<Vector3d>& c = I.c_W;
+  std::vector<Vector3d>& v = I.v_W;
+  std::vector<Vector3d>& w = I.omega_W;
+  std::vector<Matrix3d>& R = I.R_W;
   for (int b = 0; b < m.nb; ++b) {
     const SE3 X = I.link_frame(b);
     const auto bu = static_cast<size_t>(b);

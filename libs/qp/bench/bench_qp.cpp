@@ -8,7 +8,7 @@
 //                           normal force, while the desired CoM torque sways so that the CoP runs to
 //                           the sole edges and unloads a foot (constraints switch on and off).
 // BM_QpCold12x30            the same sequence solved cold.
-// Each benchmark iteration solves the whole sequence; every problem is copied into the solver's
+// Each benchmark iteration solves the whole sequence (alternately forward and backward); every problem is copied into the solver's
 // input buffers just before its solve (untimed), as a controller assembles its data every tick.
 // Counters: median_us and p99_us per solve, working-set changes per solve, solves not optimal.
 #include <benchmark/benchmark.h>
@@ -34,8 +34,12 @@ void run_sequence(benchmark::State& st, const std::vector<hpr::qp::testing::Prob
   times.reserve(seq.size() * 64);
   int changes = 0, non_optimal = 0;
   hpr::qp::testing::Problem p = p0;  // the controller's buffers, refilled every tick
+  bool forward = true;
   for (auto _ : st) {
-    for (const auto& next : seq) {
+    // The sequence runs forward, then backward, and so on: no jump from its last problem back to
+    // its first, which no control loop would see either.
+    for (size_t k = 0; k < seq.size(); ++k) {
+      const auto& next = seq[forward ? k : seq.size() - 1 - k];
       // Like a control loop, the data of the tick is assembled just before the solve (untimed).
       p.H = next.H;
       p.g = next.g;
@@ -53,6 +57,7 @@ void run_sequence(benchmark::State& st, const std::vector<hpr::qp::testing::Prob
       changes += solver.working_set_changes();
       non_optimal += s != Status::kOptimal ? 1 : 0;
     }
+    forward = !forward;
   }
   st.counters["median_us"] = hpr::percentile(times, 0.5);
   st.counters["p99_us"] = hpr::percentile(times, 0.99);

@@ -474,30 +474,16 @@ Status Solver::solve(bool hot, const ConstMatrix& H, const ConstVector& g, const
     finish(v);
     return v;
   }
-  // One pass over H and A: copy, detect an unchanged H (its factorisation is kept), check finiteness
-  // (a sum is finite exactly when every term is, short of an overflow that is no valid input either)
-  // and symmetry.
-  bool same_H = H_factorized_;
-  double sum = 0.0, hscale = 1.0;
-  for (int j = 0; j < n_; ++j) {
-    const double* col = H.data() + j * H.outerStride();
-    double* dst = &H_(0, j);
-    for (int i = 0; i < n_; ++i) {
-      same_H = same_H && dst[i] == col[i];
-      dst[i] = col[i];
-      sum += col[i];
-    }
-    hscale = std::max(hscale, std::abs(col[j]));
-  }
+  // Copy H and A, detect an unchanged H (its factorisation is kept) and check finiteness: a sum is
+  // finite exactly when every term is, short of an overflow that is no valid input either. Eigen's
+  // sum runs on several SIMD accumulators; a scalar running sum would be one long dependency chain.
+  const bool same_H = H_factorized_ && H_ == H;
+  H_ = H;
+  double sum = H_.sum();
+  const double hscale = std::max(1.0, H_.diagonal().cwiseAbs().maxCoeff());
   if (m_ > 0) {
-    for (int j = 0; j < n_; ++j) {
-      const double* col = A.data() + j * A.outerStride();
-      double* dst = &A_(0, j);
-      for (int i = 0; i < m_; ++i) {
-        dst[i] = col[i];
-        sum += col[i];
-      }
-    }
+    A_ = A;
+    sum += A_.sum();
   }
   bool symmetric = true;
   for (int j = 0; j < n_; ++j) {
@@ -721,34 +707,38 @@ bool Solver::try_working_set(const std::vector<Entry>& W) {
     gf_(a) = any_bound ? g_(ia) + grad_(ia) : g_(ia);
     for (int b = a; b < nf; ++b) Hf_(b, a) = H_(free_[static_cast<size_t>(b)], ia);
   }
-  // Cholesky of H_FF (lower triangle, column by column); rinv_ holds 1 / L_jj.
+  // Cholesky of H_FF, left-looking so that every inner loop runs down a contiguous column (the
+  // lower triangle of Hf_ is column-major): L(j:, j) = (H(j:, j) − Σ_k L(j, k) L(j:, k)) / L_jj.
+  // rinv_ holds 1 / L_jj.
   const double scale = std::max(1.0, H_.diagonal().cwiseAbs().maxCoeff());
   for (int j = 0; j < nf; ++j) {
-    double djj = Hf_(j, j);
-    for (int k = 0; k < j; ++k) djj -= Hf_(j, k) * Hf_(j, k);
-    if (!(djj > 1e-14 * scale)) return false;
-    djj = std::sqrt(djj);
-    Hf_(j, j) = djj;
-    const double inv = 1.0 / djj;
-    rinv_(j) = inv;
-    for (int i = j + 1; i < nf; ++i) {
-      double acc = Hf_(i, j);
-      for (int k = 0; k < j; ++k) acc -= Hf_(i, k) * Hf_(j, k);
-      Hf_(i, j) = acc * inv;
+    double* __restrict cj = &Hf_(0, j);
+    for (int k = 0; k < j; ++k) {
+      const double* __restrict ck = &Hf_(0, k);
+      const double ljk = ck[j];
+      for (int i = j; i < nf; ++i) cj[i] -= ljk * ck[i];
     }
+    if (!(cj[j] > 1e-14 * scale)) return false;
+    const double djj = std::sqrt(cj[j]);
+    const double inv = 1.0 / djj;
+    cj[j] = djj;
+    rinv_(j) = inv;
+    for (int i = j + 1; i < nf; ++i) cj[i] *= inv;
   }
-  auto lsolve = [&](double* v) {  // v <- L⁻¹ v
+  auto lsolve = [&](double* __restrict v) {  // v <- L⁻¹ v, column by column
     for (int i = 0; i < nf; ++i) {
-      double acc = v[i];
-      for (int k = 0; k < i; ++k) acc -= Hf_(i, k) * v[k];
-      v[i] = acc * rinv_(i);
+      const double vi = v[i] * rinv_(i);
+      v[i] = vi;
+      const double* __restrict ci = &Hf_(0, i);
+      for (int k = i + 1; k < nf; ++k) v[k] -= vi * ci[k];
     }
   };
-  auto ltsolve = [&](double* v) {  // v <- L⁻ᵀ v
+  auto ltsolve = [&](double* v) {  // v <- L⁻ᵀ v, a dot product down each column
     for (int i = nf - 1; i >= 0; --i) {
-      double acc = v[i];
-      for (int k = i + 1; k < nf; ++k) acc -= Hf_(k, i) * v[k];
-      v[i] = acc * rinv_(i);
+      const int tail = nf - 1 - i;
+      const double acc = tail > 0 ? Eigen::Map<const Vector>(&Hf_(i + 1, i), tail).dot(Eigen::Map<const Vector>(v + i + 1, tail))
+                                  : 0.0;
+      v[i] = (v[i] - acc) * rinv_(i);
     }
   };
   // x0_F = −H_FF⁻¹ g_F'.
