@@ -26,20 +26,19 @@ namespace fs = std::filesystem;
 void usage(std::FILE* out) {
   std::fprintf(out, R"(usage: push_sweep [options]
 
-  --robot NAME|FILE       configuration (default toro)
   --supports LIST         comma-separated: double,left,right (default double)
   --strategies LIST       comma-separated: cam,ankle (default cam,ankle)
   --directions N          N directions evenly spaced from 0 deg (default 8)
   --angles LIST           explicit directions in degrees (instead of --directions)
-  --peak N                peak force of the half-sine [N] (default 65)
   --start NS              first impulse tried [N s] (default 15)
   --max-impulse NS        largest impulse tried [N s] (default 80)
   --resolution NS         bisection resolution [N s] (default 0.5)
   --jobs J                trials run at the same time (default 1)
-  --alpha A, --beta B     reference generator overrides
-  --set KEY=VALUE         configuration override (repeatable)
   --out DIR               where sweep.json and sweep.png go (default sweep-<date>)
+
+The push and the robot (every trial):
 )");
+  std::fputs(kPushOptionsUsage, out);
 }
 
 struct Case {
@@ -68,8 +67,6 @@ int main(int argc, char** argv) {
       if (args.is("-h", "--help")) {
         usage(stdout);
         return 0;
-      } else if (args.is("--robot")) {
-        base.config = args.value();
       } else if (args.is("--supports")) {
         supports = args.list();
       } else if (args.is("--strategies")) {
@@ -78,8 +75,6 @@ int main(int argc, char** argv) {
         directions = args.integer();
       } else if (args.is("--angles")) {
         for (const auto& s : args.list()) angles.push_back(hpr::parse_number(s, "--angles"));
-      } else if (args.is("--peak")) {
-        base.peak = args.number();
       } else if (args.is("--start")) {
         start = args.number();
       } else if (args.is("--max-impulse")) {
@@ -88,15 +83,9 @@ int main(int argc, char** argv) {
         resolution = args.number();
       } else if (args.is("--jobs")) {
         jobs = std::max(1, args.integer());
-      } else if (args.is("--alpha")) {
-        base.alpha = args.number();
-      } else if (args.is("--beta")) {
-        base.beta = args.number();
-      } else if (args.is("--set")) {
-        base.overrides.push_back(args.value());
       } else if (args.is("--out")) {
         out_dir = args.value();
-      } else {
+      } else if (!read_push_option(args, base)) {
         args.unknown();
       }
     }

@@ -20,24 +20,17 @@ One push experiment: sim_bullet, estimator, wbc and (strategy cam) reference_gen
 lockstep on a private LCM URL. Prints a JSON object: recovered, fallen, applied impulse, maximum foot
 tilt, maximum sole slip, peak CAM per axis, minimum CoP margin, time to return to the posture.
 
-  --robot NAME|FILE     configuration (default toro; NAME looks in the config folder)
   --support S           double | left | right (default double)
   --strategy S          cam | ankle (ankle: the wbc holds the posture, no CAM reference) (default cam)
   --direction DEG       push direction: 0 = pushed forward from behind, 90 = towards +y, 180 = from the front
   --impulse NS          impulse of the half-sine push [N s] (default 18)
-  --peak N              peak force [N] (default 65)
   --duration S          push duration [s] (default: from impulse and peak, I = 2 F T / pi)
-  --link LINK           link pushed (default: the base link)
-  --height M            height of the push point above the ground in the standing posture [m]
-  --alpha A, --beta B   reference generator parameters (23), (27) for every axis
-  --push-time S         simulation time of the push (default: 1 s after the support is settled)
-  --after S             simulated time after the push ends (default 5)
-  --set KEY=VALUE       configuration override for every process (repeatable)
   --log FILE            record the LCM log of the run
   --work-dir DIR        keep the processes' output there
   --json FILE           also write the JSON object to FILE
   --quiet               no progress on stderr
 )");
+  std::fputs(hpr::experiments::kPushOptionsUsage, out);
 }
 
 }  // namespace
@@ -54,8 +47,6 @@ int main(int argc, char** argv) {
       if (args.is("-h", "--help")) {
         usage(stdout);
         return 0;
-      } else if (args.is("--robot")) {
-        spec.config = args.value();
       } else if (args.is("--support")) {
         spec.support = args.value();
       } else if (args.is("--strategy")) {
@@ -64,24 +55,8 @@ int main(int argc, char** argv) {
         spec.direction_deg = args.number();
       } else if (args.is("--impulse")) {
         spec.impulse = args.number();
-      } else if (args.is("--peak")) {
-        spec.peak = args.number();
       } else if (args.is("--duration")) {
         spec.duration = args.number();
-      } else if (args.is("--link")) {
-        spec.link = args.value();
-      } else if (args.is("--height")) {
-        spec.height = args.number();
-      } else if (args.is("--alpha")) {
-        spec.alpha = args.number();
-      } else if (args.is("--beta")) {
-        spec.beta = args.number();
-      } else if (args.is("--push-time")) {
-        spec.push_time = args.number();
-      } else if (args.is("--after")) {
-        spec.after = args.number();
-      } else if (args.is("--set")) {
-        spec.overrides.push_back(args.value());
       } else if (args.is("--log")) {
         spec.log_file = args.value();
       } else if (args.is("--work-dir")) {
@@ -90,7 +65,7 @@ int main(int argc, char** argv) {
         json_file = args.value();
       } else if (args.is("--quiet")) {
         quiet = true;
-      } else {
+      } else if (!read_push_option(args, spec)) {
         args.unknown();
       }
     }

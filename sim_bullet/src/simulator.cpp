@@ -203,7 +203,7 @@ struct Simulator::Impl {
   std::array<int, 2> foot_body{};
   std::array<Vector6d, 2> contact_impulse_O{};  // Σ (F, p × F) h over the control period, world origin
   std::vector<btVector3> omega, vel;            // Bullet link velocities (local frames)
-  // compute_truth's per-body workspace (sized once: no allocation in a step).
+  // compute_truth's per-body workspace, sized with omega and vel (no allocation in a step).
   std::vector<Vector3d> c_W, v_W, omega_W;
   std::vector<Matrix3d> R_W;
   btAlignedObjectArray<btQuaternion> world_to_local;
@@ -355,6 +355,10 @@ Simulator::Simulator(const model::RobotSpec& robot, const model::RobotDescriptio
 
   I.omega.resize(static_cast<size_t>(m.nb));
   I.vel.resize(static_cast<size_t>(m.nb));
+  I.c_W.resize(static_cast<size_t>(m.nb));
+  I.v_W.resize(static_cast<size_t>(m.nb));
+  I.omega_W.resize(static_cast<size_t>(m.nb));
+  I.R_W.resize(static_cast<size_t>(m.nb));
   applied_ = VectorXd::Zero(m.nj);
   sensors_.resize(m.nj);
   reset();
@@ -568,11 +572,6 @@ void Simulator::compute_truth() {
   mb->compTreeLinkVelocities(I.omega.data(), I.vel.data());
   double mass = 0;
   Vector3d mc = Vector3d::Zero(), p = Vector3d::Zero();
-  const auto nb = static_cast<size_t>(m.nb);
-  I.c_W.resize(nb);
-  I.v_W.resize(nb);
-  I.omega_W.resize(nb);
-  I.R_W.resize(nb);
   std::vector<Vector3d>& c = I.c_W;
   std::vector<Vector3d>& v = I.v_W;
   std::vector<Vector3d>& w = I.omega_W;

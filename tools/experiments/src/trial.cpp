@@ -13,6 +13,7 @@
 #include <lcm/lcm-cpp.hpp>
 #include <set>
 
+#include "hpr/common/args.hpp"
 #include "hpr/common/config.hpp"
 #include "hpr/launch/process_group.hpp"
 #include "hpr/model/algorithms.hpp"
@@ -222,6 +223,42 @@ TrialResult run_trial(const TrialSpec& spec, const std::function<void(const std:
   r.wall_time = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
   if (spec.work_dir.empty()) fs::remove_all(work);
   return r;
+}
+
+const char* const kPushOptionsUsage =
+    R"(  --robot NAME|FILE     configuration (default toro; NAME looks in the config folder)
+  --peak N              peak force of the half-sine push [N] (default 65)
+  --link LINK           link pushed (default: the base link)
+  --height M            height of the push point above the ground in the standing posture [m]
+  --alpha A, --beta B   reference generator parameters (23), (27) for every axis
+  --push-time S         simulation time of the push (default: 1 s after the support is settled)
+  --after S             simulated time after the push ends (default 5)
+  --set KEY=VALUE       configuration override for every process (repeatable)
+)";
+
+bool read_push_option(ArgReader& args, TrialSpec& spec) {
+  if (args.is("--robot")) {
+    spec.config = args.value();
+  } else if (args.is("--peak")) {
+    spec.peak = args.number();
+  } else if (args.is("--link")) {
+    spec.link = args.value();
+  } else if (args.is("--height")) {
+    spec.height = args.number();
+  } else if (args.is("--alpha")) {
+    spec.alpha = args.number();
+  } else if (args.is("--beta")) {
+    spec.beta = args.number();
+  } else if (args.is("--push-time")) {
+    spec.push_time = args.number();
+  } else if (args.is("--after")) {
+    spec.after = args.number();
+  } else if (args.is("--set")) {
+    spec.overrides.push_back(args.value());
+  } else {
+    return false;
+  }
+  return true;
 }
 
 }  // namespace hpr::experiments

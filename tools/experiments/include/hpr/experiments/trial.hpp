@@ -20,6 +20,10 @@
 
 #include "hpr/model/robot.hpp"
 
+namespace hpr {
+class ArgReader;
+}
+
 namespace hpr::experiments {
 
 enum class Strategy { kCam, kAnkle };
@@ -118,5 +122,12 @@ class TrialEvaluator {
 /// Runs the experiment: starts the processes on a private LCM URL, logs when asked, evaluates,
 /// stops everything. `progress` receives a line per simulated second (may be empty).
 TrialResult run_trial(const TrialSpec& spec, const std::function<void(const std::string&)>& progress = {});
+
+/// The options that shape the push and the robot, shared by push_trial and push_sweep: --robot,
+/// --peak, --link, --height, --alpha, --beta, --push-time, --after, --set. Reads the current one
+/// into `spec` and returns true, or returns false when the current argument is none of them.
+bool read_push_option(ArgReader& args, TrialSpec& spec);
+/// Their lines for a usage text.
+extern const char* const kPushOptionsUsage;
 
 }  // namespace hpr::experiments
