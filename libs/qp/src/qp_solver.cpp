@@ -485,10 +485,11 @@ Status Solver::solve(bool hot, const ConstMatrix& H, const ConstVector& g, const
     A_ = A;
     sum += A_.sum();
   }
-  bool symmetric = true;
+  double asymmetry = 0.0;
   for (int j = 0; j < n_; ++j) {
-    for (int i = 0; i < j; ++i) symmetric = symmetric && std::abs(H_(i, j) - H_(j, i)) <= 1e-12 * hscale;
+    for (int i = 0; i < j; ++i) asymmetry = std::max(asymmetry, std::abs(H_(i, j) - H_(j, i)));
   }
+  const bool symmetric = asymmetry <= 1e-12 * hscale;
   if (!std::isfinite(sum) || !symmetric) {
     H_factorized_ = false;
     const Status bad = !std::isfinite(sum) ? Status::kNonFinite : Status::kNotPositiveDefinite;
@@ -702,10 +703,15 @@ bool Solver::try_working_set(const std::vector<Entry>& W) {
   if (any_bound) {
     grad_.noalias() = H_ * xb_;
   }
-  for (int a = 0; a < nf; ++a) {
-    const int ia = free_[static_cast<size_t>(a)];
-    gf_(a) = any_bound ? g_(ia) + grad_(ia) : g_(ia);
-    for (int b = a; b < nf; ++b) Hf_(b, a) = H_(free_[static_cast<size_t>(b)], ia);
+  if (nf == n_) {  // no bound in W: H_FF = H (one vectorised copy)
+    Hf_ = H_;
+    gf_ = g_;
+  } else {
+    for (int a = 0; a < nf; ++a) {
+      const int ia = free_[static_cast<size_t>(a)];
+      gf_(a) = any_bound ? g_(ia) + grad_(ia) : g_(ia);
+      for (int b = a; b < nf; ++b) Hf_(b, a) = H_(free_[static_cast<size_t>(b)], ia);
+    }
   }
   // Cholesky of H_FF, left-looking so that every inner loop runs down a contiguous column (the
   // lower triangle of Hf_ is column-major): L(j:, j) = (H(j:, j) − Σ_k L(j, k) L(j:, k)) / L_jj.
@@ -713,7 +719,14 @@ bool Solver::try_working_set(const std::vector<Entry>& W) {
   const double scale = std::max(1.0, H_.diagonal().cwiseAbs().maxCoeff());
   for (int j = 0; j < nf; ++j) {
     double* __restrict cj = &Hf_(0, j);
-    for (int k = 0; k < j; ++k) {
+    int k = 0;
+    for (; k + 1 < j; k += 2) {  // two earlier columns per sweep: half the loads and stores of column j
+      const double* __restrict ck = &Hf_(0, k);
+      const double* __restrict ck1 = &Hf_(0, k + 1);
+      const double ljk = ck[j], ljk1 = ck1[j];
+      for (int i = j; i < nf; ++i) cj[i] -= ljk * ck[i] + ljk1 * ck1[i];
+    }
+    if (k < j) {
       const double* __restrict ck = &Hf_(0, k);
       const double ljk = ck[j];
       for (int i = j; i < nf; ++i) cj[i] -= ljk * ck[i];
@@ -725,20 +738,38 @@ bool Solver::try_working_set(const std::vector<Entry>& W) {
     rinv_(j) = inv;
     for (int i = j + 1; i < nf; ++i) cj[i] *= inv;
   }
-  auto lsolve = [&](double* __restrict v) {  // v <- L⁻¹ v, column by column
-    for (int i = 0; i < nf; ++i) {
-      const double vi = v[i] * rinv_(i);
-      v[i] = vi;
+  auto lsolve = [&](double* __restrict v) {  // v <- L⁻¹ v, two columns of L per sweep
+    int i = 0;
+    for (; i + 1 < nf; i += 2) {
       const double* __restrict ci = &Hf_(0, i);
-      for (int k = i + 1; k < nf; ++k) v[k] -= vi * ci[k];
+      const double* __restrict ci1 = &Hf_(0, i + 1);
+      const double vi = v[i] * rinv_(i);
+      const double vi1 = (v[i + 1] - vi * ci[i + 1]) * rinv_(i + 1);
+      v[i] = vi;
+      v[i + 1] = vi1;
+      for (int k = i + 2; k < nf; ++k) v[k] -= vi * ci[k] + vi1 * ci1[k];
     }
+    if (i < nf) v[i] *= rinv_(i);
   };
-  auto ltsolve = [&](double* v) {  // v <- L⁻ᵀ v, a dot product down each column
-    for (int i = nf - 1; i >= 0; --i) {
-      const int tail = nf - 1 - i;
-      const double acc = tail > 0 ? Eigen::Map<const Vector>(&Hf_(i + 1, i), tail).dot(Eigen::Map<const Vector>(v + i + 1, tail))
-                                  : 0.0;
-      v[i] = (v[i] - acc) * rinv_(i);
+  auto ltsolve = [&](double* __restrict v) {  // v <- L⁻ᵀ v, two columns of L per sweep (dots down them)
+    int i = nf - 1;
+    for (; i >= 1; i -= 2) {
+      const double* __restrict ci = &Hf_(0, i);
+      const double* __restrict ci1 = &Hf_(0, i - 1);
+      double acc = 0.0, acc1 = 0.0;
+      for (int k = i + 1; k < nf; ++k) {
+        acc += ci[k] * v[k];
+        acc1 += ci1[k] * v[k];
+      }
+      const double vi = (v[i] - acc) * rinv_(i);
+      v[i] = vi;
+      v[i - 1] = (v[i - 1] - acc1 - ci1[i] * vi) * rinv_(i - 1);
+    }
+    if (i == 0) {
+      const double* __restrict c0 = &Hf_(0, 0);
+      double acc = 0.0;
+      for (int k = 1; k < nf; ++k) acc += c0[k] * v[k];
+      v[0] = (v[0] - acc) * rinv_(0);
     }
   };
   // x0_F = −H_FF⁻¹ g_F'.
@@ -798,11 +829,8 @@ bool Solver::try_working_set(const std::vector<Entry>& W) {
       uf_(i) = acc / S_(i, i);
     }
     // x_F = x0_F + L⁻ᵀ Y u.
-    for (int a = 0; a < nf; ++a) {
-      double acc = 0.0;
-      for (int r = 0; r < qg; ++r) acc += Y_(a, r) * uf_(r);
-      tmp_(a) = acc;
-    }
+    tmp_.head(nf).setZero();
+    for (int r = 0; r < qg; ++r) tmp_.head(nf) += uf_(r) * Y_.col(r).head(nf);
     ltsolve(tmp_.data());
     xf_.head(nf) += tmp_.head(nf);
   }
