@@ -15,6 +15,7 @@
 #include <cstdio>
 #include <lcm/lcm-cpp.hpp>
 #include <map>
+#include <memory>
 #include <string>
 
 #include "hpr/common/args.hpp"
@@ -150,11 +151,14 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "lcm_recorder: cannot write %s\n", file.c_str());
     return 1;
   }
-  lcm::LCM lcm(url);
-  if (!lcm.good()) {
-    std::fprintf(stderr, "lcm_recorder: cannot open LCM on %s (is multicast routed? tools/install-deps sets it up)\n", url.c_str());
+  std::unique_ptr<lcm::LCM> lcm_handle;
+  try {
+    lcm_handle = hpr::node::open_lcm(url);
+  } catch (const hpr::node::LcmError& e) {
+    std::fprintf(stderr, "lcm_recorder: %s\n", e.what());
     return 1;
   }
+  lcm::LCM& lcm = *lcm_handle;
   Recorder rec(log);
   lcm.subscribe(channel, &Recorder::on, &rec)->setQueueCapacity(queue);
   std::signal(SIGINT, on_signal);
@@ -164,6 +168,7 @@ int main(int argc, char** argv) {
   double next_progress = t0 + 2.0;
   while (g_stop == 0) {
     if (lcm.handleTimeout(100) < 0) {
+      if (g_stop != 0) break;  // the stop signal interrupted the wait
       std::fprintf(stderr, "lcm_recorder: LCM failed while receiving\n");
       break;
     }

@@ -12,7 +12,6 @@
 #include <future>
 #include <mutex>
 #include <nlohmann/json.hpp>
-#include <sstream>
 
 #include "hpr/common/args.hpp"
 #include "hpr/experiments/trial.hpp"
@@ -73,6 +72,7 @@ int main(int argc, char** argv) {
         strategies = args.list();
       } else if (args.is("--directions")) {
         directions = args.integer();
+        if (directions < 1) throw hpr::UsageError("--directions: at least 1");
       } else if (args.is("--angles")) {
         for (const auto& s : args.list()) angles.push_back(hpr::parse_number(s, "--angles"));
       } else if (args.is("--start")) {

@@ -32,6 +32,7 @@
 #include <lcm/lcm-cpp.hpp>
 #include <limits>
 #include <map>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <string>
@@ -233,11 +234,14 @@ int main(int argc, char** argv) {
   fs::create_directories(work);
 
   hpr::launch::ProcessGroup group;
-  lcm::LCM lcm(hpr::node::with_receive_buffer(group.lcm_url()));
-  if (!lcm.good()) {
-    std::cerr << "replay_check: cannot open LCM on " << group.lcm_url() << "\n";
+  std::unique_ptr<lcm::LCM> lcm_handle;
+  try {
+    lcm_handle = hpr::node::open_lcm(group.lcm_url());
+  } catch (const hpr::node::LcmError& e) {
+    std::cerr << "replay_check: " << e.what() << "\n";
     return 1;
   }
+  lcm::LCM& lcm = *lcm_handle;
   Outputs out(lcm, outputs);
   HealthSeen health(lcm);
   std::vector<std::string> node_args = {"--config", config};

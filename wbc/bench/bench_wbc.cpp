@@ -5,15 +5,16 @@
 //
 //   bench_wbc [robot] [seconds]        prints median, p99 and max of the controller step [us]
 #include <cstdio>
-#include <cstdlib>
 #include <vector>
 
 #include "hpr/closed_loop/closed_loop.hpp"
 #include "hpr/common/stats.hpp"
 
 int main(int argc, char** argv) {
-  const std::string robot = argc > 1 ? argv[1] : "toro";
-  const double seconds = argc > 2 ? std::atof(argv[2]) : 10.0;
+  const auto args = hpr::closed_loop::read_bench_args(argc, argv, "bench_wbc");
+  if (!args) return 2;
+  const std::string& robot = args->robot;
+  const double seconds = args->seconds;
   hpr::closed_loop::ClosedLoop loop(std::string(HPR_SOURCE_DIR) + "/config/" + robot + ".yaml");
   loop.push_base(15.0, 65.0, Eigen::Vector3d::UnitX(), 3.0);
   std::vector<double> us;

@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
+
+#include "hpr/common/args.hpp"
 
 namespace hpr::closed_loop {
 
@@ -97,6 +100,19 @@ void ClosedLoop::push_base(double impulse, double peak, const Eigen::Vector3d& d
   p.duration = impulse / peak * M_PI / 2.0;
   p.start = start;
   sim.add_push(p);
+}
+
+std::optional<BenchArgs> read_bench_args(int argc, char** argv, const char* name) {
+  BenchArgs a;
+  try {
+    if (argc > 1) a.robot = argv[1];
+    if (argc > 2) a.seconds = parse_number(argv[2], "seconds");
+    if (argc > 3 || !(a.seconds > 0)) throw UsageError(std::string("usage: ") + name + " [robot] [seconds > 0]");
+  } catch (const UsageError& e) {
+    std::fprintf(stderr, "%s: %s\n", name, e.what());
+    return std::nullopt;
+  }
+  return a;
 }
 
 }  // namespace hpr::closed_loop

@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <fstream>
 #include <lcm/lcm-cpp.hpp>
+#include <memory>
 #include <set>
 
 #include "hpr/common/args.hpp"
@@ -145,8 +146,8 @@ TrialResult run_trial(const TrialSpec& spec, const std::function<void(const std:
   };
 
   launch::ProcessGroup group;
-  lcm::LCM lcm(node::with_receive_buffer(group.lcm_url()));
-  if (!lcm.good()) throw std::runtime_error("cannot open LCM on " + group.lcm_url() + " (is multicast routed on lo?)");
+  const std::unique_ptr<lcm::LCM> lcm_handle = node::open_lcm(group.lcm_url());
+  lcm::LCM& lcm = *lcm_handle;
   TrialEvaluator eval(robot, spec.support, t_push, t_end);
   Listener listener(lcm, eval);
   if (!spec.log_file.empty()) {

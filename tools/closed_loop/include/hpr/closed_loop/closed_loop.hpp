@@ -68,4 +68,13 @@ struct ClosedLoop {
   StepTimes times;
 };
 
+/// The command line of the per-component benchmarks that run this loop: `NAME [robot] [seconds]`
+/// (defaults toro, 10 s).
+struct BenchArgs {
+  std::string robot = "toro";
+  double seconds = 10.0;
+};
+/// Reads argv; on bad use prints why (prefixed by `name`) and returns nothing.
+std::optional<BenchArgs> read_bench_args(int argc, char** argv, const char* name);
+
 }  // namespace hpr::closed_loop
