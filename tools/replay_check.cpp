@@ -69,7 +69,7 @@ const std::map<std::string, std::vector<std::string>> kOutputs = {
     {"motion_opt", {"WHOLEBODY_COMMAND"}},
 };
 /// Channels never played back (each process publishes its own).
-const std::set<std::string> kNotPlayed = {"HEALTH", "SUPERVISOR_STATUS", "SUPERVISOR_COMMAND"};
+const std::set<std::string> kNotPlayed = {"HEALTH", "PARAMS", "SUPERVISOR_STATUS", "SUPERVISOR_COMMAND"};
 
 /// Decodes, clears the wall-clock fields, re-encodes: two outputs are equal when these bytes are.
 using Canonical = std::function<std::vector<uint8_t>(const void*, int)>;

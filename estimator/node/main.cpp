@@ -15,6 +15,27 @@
 #include "hpr/node/command_line.hpp"
 #include "hpr/node/runtime.hpp"
 
+namespace {
+
+/// The contact hysteresis (on above off, as on load) and the CoP edge margin.
+void add_parameters(hpr::node::ParameterSet& params, hpr::estimator::EstimatorConfig& c) {
+  params.add({"contact_on", "N", 0.0, 1e4, [&c] { return c.contact_on; },
+              [&c](double v) {
+                if (v < c.contact_off) return fmt::format("below contact_off ({} N)", c.contact_off);
+                c.contact_on = v;
+                return std::string();
+              }});
+  params.add({"contact_off", "N", 0.0, 1e4, [&c] { return c.contact_off; },
+              [&c](double v) {
+                if (v > c.contact_on) return fmt::format("above contact_on ({} N)", c.contact_on);
+                c.contact_off = v;
+                return std::string();
+              }});
+  params.add("cop_edge_margin", c.cop_edge_margin, 0.0, 0.5, "m");
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
   using namespace hpr;
   return node::run_main(
@@ -31,6 +52,7 @@ int main(int argc, char** argv) {
         sample.resize(robot.model.nj);
         auto& sensors = rt.subscribe<humanoid::robot_sensors_t>(
             "ROBOT_SENSORS", [&](const humanoid::robot_sensors_t& m) { return msg::from_message(m, names, sample); });
+        add_parameters(rt.parameters(), est.tunable_config());
         auto out = rt.advertise<humanoid::robot_state_t>("ROBOT_STATE");
         humanoid::robot_state_t state_msg{};
         bool stale = false;

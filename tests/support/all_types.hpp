@@ -8,6 +8,7 @@
 #include <humanoid/health_t.hpp>
 #include <humanoid/joint_command_t.hpp>
 #include <humanoid/operator_t.hpp>
+#include <humanoid/params_t.hpp>
 #include <humanoid/push_t.hpp>
 #include <humanoid/robot_sensors_t.hpp>
 #include <humanoid/robot_state_t.hpp>
@@ -35,6 +36,7 @@ void for_each_type(F&& f) {
   f.template operator()<humanoid::health_t>("HEALTH");
   f.template operator()<humanoid::operator_t>("OPERATOR");
   f.template operator()<humanoid::hal_status_t>("HAL_STATUS");
+  f.template operator()<humanoid::params_t>("PARAMS");
   f.template operator()<humanoid::supervisor_status_t>("SUPERVISOR_STATUS");
   f.template operator()<humanoid::supervisor_command_t>("SUPERVISOR_COMMAND");
 }
@@ -140,6 +142,11 @@ class Filler {
   void fill(humanoid::operator_t& m) {
     m.tick = i64(); m.utime = i64(); m.source = s(); m.command = i8(); m.support = i8(); m.reason = s();
     m.num_params = 3; m.param_name = names(3); m.param_value = vec(3);
+  }
+  void fill(humanoid::params_t& m) {
+    m.tick = i64(); m.utime = i64(); m.node = s(); m.version = i64(); m.request_utime = i64(); m.request_source = s();
+    m.accepted = b(); m.result = s(); m.num_params = 5; m.name = names(5); m.value = vec(5); m.min_value = vec(5);
+    m.max_value = vec(5); m.unit = names(5);
   }
   void fill(humanoid::hal_status_t& m) {
     m.tick = i64(); m.utime = i64(); m.state = i8(); m.state_reason = s(); m.num_drives = joints_;

@@ -1,5 +1,6 @@
 #include "wbc_node.hpp"
 
+#include <array>
 #include <cmath>
 
 #include "hpr/common/log.hpp"
@@ -15,6 +16,34 @@ WbcNodeOptions WbcNodeOptions::load(const Config& c) {
   o.state_timeout = c.real_or("state_timeout", o.state_timeout, 0.0, 60.0);
   o.bad_state_ticks = static_cast<int>(c.integer_or("bad_state_ticks", o.bad_state_ticks, 1, 100000));
   return o;
+}
+
+/// The CoM and base impedance (6), the extra joint damping and μ; ranges as the configuration accepts.
+void WbcNode::add_parameters() {
+  node::ParameterSet& params = rt_.parameters();
+  WbcConfig& c = wbc_.tunable_config();
+  static constexpr std::array<const char*, 3> kAxes{"x", "y", "z"};
+  struct Gain {
+    const char* key;
+    Eigen::Vector3d* value;
+    double max_value;
+    const char* unit;
+  };
+  const std::array<Gain, 4> gains{{{"com.stiffness", &c.K_com, 1e6, "N/m"},
+                                   {"com.damping", &c.D_com, 1e5, "N s/m"},
+                                   {"base.stiffness", &c.K_base, 1e5, "N m/rad"},
+                                   {"base.damping", &c.D_base, 1e4, "N m s/rad"}}};
+  for (const Gain& g : gains) {
+    for (int k = 0; k < 3; ++k) {
+      params.add(std::string(g.key) + "." + kAxes[static_cast<size_t>(k)], (*g.value)(k), 0.0, g.max_value, g.unit);
+    }
+  }
+  params.add("joint_damping", c.joint_damping, 0.0, 100.0, "N m s/rad");
+  params.add({"contact.friction", "", 0.05, 2.0, [this] { return wbc_.config().contact.friction; },
+              [this](double mu) {
+                wbc_.set_contact_friction(mu);
+                return std::string();
+              }});
 }
 
 WbcNode::WbcNode(node::Runtime& rt, const model::RobotSpec& robot, WholeBodyController& wbc,
@@ -40,6 +69,7 @@ WbcNode::WbcNode(node::Runtime& rt, const model::RobotSpec& robot, WholeBodyCont
       reference_.request_support(s, state_.time);
     }
   });
+  add_parameters();
   std::vector<node::Sync> sync;
   if (options_.use_sim_truth) {
     log::warn("state from SIM_TRUTH: for tests only, a real robot has no such channel");

@@ -37,6 +37,7 @@ class WbcNode {
  private:
   void step(std::int64_t tick, const EstimatedState& state, bool wholebody_fresh);
   void publish_damp(std::int64_t tick, const std::string& why);
+  void add_parameters();
 
   node::Runtime& rt_;
   const model::RobotSpec& robot_;

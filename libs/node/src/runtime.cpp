@@ -11,6 +11,8 @@
 #include <csignal>
 #include <cstring>
 #include <humanoid/health_t.hpp>
+#include <humanoid/operator_t.hpp>
+#include <humanoid/params_t.hpp>
 
 #include "hpr/node/command_line.hpp"
 #include "hpr/node/lcm_url.hpp"
@@ -143,6 +145,10 @@ void Runtime::record_step(std::int64_t tick, double seconds) {
 }
 
 void Runtime::run_timers(double now) {
+  if (parameters_ && !parameters_announced_) {
+    parameters_announced_ = true;
+    publish_parameters(nullptr);
+  }
   for (auto& t : timers_) {
     if (now >= t.next) {
       t.next += t.period;
@@ -258,6 +264,66 @@ void Runtime::publish_health() {
   if (h.encode(health_buffer_.data(), 0, n) >= 0) {
     lcm_->publish(channel("HEALTH"), health_buffer_.data(), static_cast<unsigned>(n));
   }
+}
+
+ParameterSet& Runtime::parameters() {
+  if (parameters_) return *parameters_;
+  parameters_ = std::make_unique<ParameterSet>(name_);
+  subscribe<humanoid::operator_t>("OPERATOR", {}, [this](const humanoid::operator_t& m) {
+    const bool set = m.command == humanoid::operator_t::COMMAND_SET_PARAMS;
+    if (!set && m.command != humanoid::operator_t::COMMAND_GET_PARAMS) return;
+    // Senders repeat a request (UDP may drop one); each is handled once.
+    const std::string id = m.source + "@" + std::to_string(m.utime);
+    if (id == last_request_) return;
+    ParameterRequest request;
+    request.utime = m.utime;
+    request.source = m.source;
+    if (set) {
+      const ParameterSetResult r = parameters_->apply(m.param_name, m.param_value);
+      if (!r.addressed) return;
+      last_request_ = id;
+      request.accepted = r.applied;
+      request.result = r.text;
+      if (r.applied) {
+        log::info("parameters set by {}: {}", m.source, r.text);
+      } else {
+        log::warn("parameters from {} refused, {}", m.source, r.text);
+      }
+    } else {
+      const bool mine = m.param_name.empty() ||
+                        std::find(m.param_name.begin(), m.param_name.end(), name_) != m.param_name.end();
+      if (!mine) return;
+      last_request_ = id;
+      request.accepted = true;
+      request.result = "current values";
+    }
+    publish_parameters(&request);
+  });
+  return *parameters_;
+}
+
+void Runtime::publish_parameters(const ParameterRequest* request) {
+  if (!parameters_) return;
+  humanoid::params_t p;
+  p.tick = last_tick_;
+  p.utime = wall_us();
+  p.node = name_;
+  p.version = parameters_->version();
+  p.request_utime = request != nullptr ? request->utime : 0;
+  p.request_source = request != nullptr ? request->source : "";
+  p.accepted = request == nullptr || request->accepted;
+  p.result = request != nullptr ? request->result : "started";
+  for (const auto& q : parameters_->parameters()) {
+    p.name.push_back(q.key);
+    p.value.push_back(q.get());
+    p.min_value.push_back(q.min_value);
+    p.max_value.push_back(q.max_value);
+    p.unit.push_back(q.unit);
+  }
+  p.num_params = static_cast<int32_t>(p.name.size());
+  const int n = p.getEncodedSize();
+  std::vector<std::uint8_t> buffer(static_cast<std::size_t>(n));
+  if (p.encode(buffer.data(), 0, n) >= 0) lcm_->publish(channel("PARAMS"), buffer.data(), static_cast<unsigned>(n));
 }
 
 RuntimeOptions runtime_options(const Config& cfg, double deadline_s) {

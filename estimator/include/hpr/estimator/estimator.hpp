@@ -108,6 +108,9 @@ class Estimator {
   [[nodiscard]] const EstimatedState& state() const { return state_; }
   [[nodiscard]] bool initialised() const { return initialised_; }
   [[nodiscard]] const EstimatorConfig& config() const { return config_; }
+  /// The contact thresholds and the CoP edge margin, changeable between updates (each update reads
+  /// them afresh); the filters' noise models are not.
+  [[nodiscard]] EstimatorConfig& tunable_config() { return config_; }
   /// Estimated gyro bias [rad/s], IMU frame.
   [[nodiscard]] const Eigen::Vector3d& gyro_bias() const { return b_; }
   /// Why the last sample was refused ("" when it was not).

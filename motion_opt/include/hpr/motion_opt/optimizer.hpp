@@ -93,6 +93,9 @@ class MotionOptimizer {
   [[nodiscard]] const MotionOptOutput& output() const { return out_; }
   [[nodiscard]] const model::TaskSpace& task_space() const { return task_; }
   [[nodiscard]] const MotionOptConfig& config() const { return config_; }
+  /// The weights and gains, changeable between steps (every step reads them afresh). The adjusted
+  /// sets and limits are not: they size the QP.
+  [[nodiscard]] MotionOptConfig& tunable_config() { return config_; }
   /// Offsets δ of every coordinate.
   [[nodiscard]] const Eigen::VectorXd& offsets() const { return delta_; }
   /// Sets the offsets (a deflected posture, for tests and tools).

@@ -69,6 +69,7 @@ class AxisGenerator {
   /// Start time of phases 1..3 (index 0..2), -1 when not reached since the last idle.
   [[nodiscard]] const std::array<double, 3>& phase_start() const { return t_start_; }
   AxisParams& params() { return params_; }
+  [[nodiscard]] const AxisParams& params() const { return params_; }
 
  private:
   void begin_reduction(double t, const GeneratorConfig& cfg);
@@ -109,6 +110,10 @@ class ReferenceGenerator {
   [[nodiscard]] const CamReference& output() const { return out_; }
   [[nodiscard]] const AxisGenerator& axis(int i) const { return axes_[static_cast<size_t>(i)]; }
   [[nodiscard]] const GeneratorConfig& config() const { return config_; }
+  /// Changes α, β of one axis while running: α acts from the next step, β from the next phase 2.
+  void set_axis_params(int i, AxisParams p);
+  /// The phase-3 posture tolerance [rad], from the next step.
+  void set_posture_tolerance(double tolerance) { config_.posture_tolerance = tolerance; }
 
  private:
   GeneratorConfig config_;

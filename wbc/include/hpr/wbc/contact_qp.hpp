@@ -57,6 +57,8 @@ class ContactQp {
   /// True when wrenches() holds a feasible distribution from this solve.
   [[nodiscard]] bool valid() const { return valid_; }
   [[nodiscard]] const ContactParams& params() const { return params_; }
+  /// μ of the friction cone, from the next solve.
+  void set_friction(double mu) { params_.friction = mu; }
 
   /// The 16 constraint rows of one foot in the form lb ≤ C w_i ≤ ub (world-axes wrench at the sole).
   static void foot_constraints(const Contact& c, const ContactParams& p, Eigen::Ref<Eigen::MatrixXd> C,

@@ -82,6 +82,14 @@ class WholeBodyController {
   [[nodiscard]] const BalanceStatus& status() const { return status_; }
   [[nodiscard]] const JointCommand& command() const { return command_; }
   [[nodiscard]] const WbcConfig& config() const { return config_; }
+  /// The impedance gains and the extra joint damping, changeable between steps (every step reads
+  /// them afresh). The free-joint gains are not: they are capped for the drive period on load.
+  [[nodiscard]] WbcConfig& tunable_config() { return config_; }
+  /// μ of the contact wrench distribution, from the next step.
+  void set_contact_friction(double mu) {
+    config_.contact.friction = mu;
+    qp_.set_friction(mu);
+  }
   [[nodiscard]] const model::RobotSpec& robot() const { return *robot_; }
 
   // Intermediate quantities of the last step (for tests, logs and tools).

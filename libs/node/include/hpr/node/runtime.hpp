@@ -10,6 +10,8 @@
 ///  - SIGINT and SIGTERM end run() (and spin_until()) promptly; the process then exits 0.
 ///  - HEALTH goes out at about 10 Hz: node, last tick, step-time median/p99/max, deadline misses,
 ///    decode errors, stale inputs and the current faults.
+///  - A node with live parameters (parameters()) applies OPERATOR sets addressed to it between two
+///    steps and answers each set, and each OPERATOR get, on PARAMS.
 
 #include <lcm/lcm-cpp.hpp>
 
@@ -24,6 +26,7 @@
 #include "hpr/common/log.hpp"
 #include "hpr/common/stats.hpp"
 #include "hpr/common/time.hpp"
+#include "hpr/node/parameters.hpp"
 
 namespace hpr::node {
 
@@ -140,6 +143,14 @@ struct RuntimeOptions {
   double deadline_s = 1e-3;     ///< a step longer than this counts as a deadline miss
 };
 
+/// An OPERATOR request answered on PARAMS.
+struct ParameterRequest {
+  std::int64_t utime = 0;
+  std::string source;
+  bool accepted = false;
+  std::string result;
+};
+
 class Runtime {
  public:
   using StepFn = std::function<void(const TickInfo&)>;
@@ -197,6 +208,12 @@ class Runtime {
   [[nodiscard]] bool has_fault(const std::string& key) const { return faults_.count(key) != 0; }
   void publish_health();
 
+  /// The node's live parameters. The first call subscribes to OPERATOR (sets and gets addressed to
+  /// this node) and advertises PARAMS, published once the loop runs and in answer to each request.
+  ParameterSet& parameters();
+  /// Publishes PARAMS: the current values, and the answer to the request `request` (may be null).
+  void publish_parameters(const ParameterRequest* request);
+
   [[nodiscard]] std::int64_t decode_errors() const;
   [[nodiscard]] const RollingStats& cycle_stats() const { return cycle_; }
   [[nodiscard]] std::int64_t deadline_misses() const { return deadline_misses_; }
@@ -240,7 +257,11 @@ class Runtime {
   };
   std::map<std::string, Fault> faults_;
   std::vector<std::uint8_t> health_buffer_;
+  std::unique_ptr<ParameterSet> parameters_;
+  bool parameters_announced_ = false;
+  std::string last_request_;  // source and utime of the last OPERATOR request handled (copies repeat it)
 };
+
 
 /// Exit codes shared by every process.
 enum ExitCode : int { kExitOk = 0, kExitFailure = 1, kExitConfig = 2, kExitLcm = 3 };
