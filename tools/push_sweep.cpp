@@ -4,6 +4,7 @@
 // CAM against ankle).
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstdio>
@@ -35,6 +36,10 @@ void usage(std::FILE* out) {
   --jobs J                trials run at the same time (default 1)
   --out DIR               where sweep.json and sweep.png go (default sweep-<date>)
 
+A trial that ends before it can tell (the stack failed, or a loaded machine held it past its time
+limit) is run again, up to 3 times; one that stays inconclusive counts as not recovered, is marked
+in the table and the JSON, and the exit status is 3 (0 otherwise, 2 for bad arguments).
+
 The push and the robot (every trial):
 )");
   std::fputs(kPushOptionsUsage, out);
@@ -46,8 +51,15 @@ struct Case {
   double direction;
   double max_recovered = 0.0;
   bool reached_max = false;
-  std::vector<std::pair<double, bool>> trials;
+  bool inconclusive = false;  ///< a trial stayed inconclusive: the largest impulse may be too low
+  struct Trial {
+    double impulse;
+    bool recovered, inconclusive;
+  };
+  std::vector<Trial> trials;
 };
+
+constexpr int kAttempts = 3;
 
 }  // namespace
 
@@ -113,7 +125,7 @@ int main(int argc, char** argv) {
   std::vector<Case> cases;
   for (const auto& s : supports) {
     for (const auto& st : strategies) {
-      for (double d : angles) cases.push_back({s, strategy_from_string(st), d, 0.0, false, {}});
+      for (double d : angles) cases.push_back({s, strategy_from_string(st), d, 0.0, false, false, {}});
     }
   }
   std::mutex print_mutex;
@@ -126,16 +138,30 @@ int main(int argc, char** argv) {
       spec.strategy = c.strategy;
       spec.direction_deg = c.direction;
       spec.impulse = impulse;
-      bool ok = false;
+      bool ok = false, inconclusive = true;
       std::string why;
-      try {
-        const TrialResult r = run_trial(spec);
-        ok = r.recovered;
-        why = r.failure;
-      } catch (const std::exception& e) {
-        why = e.what();
+      // A run that ended before it could tell (a stack that failed, a machine that held it up past
+      // the time limit) says nothing about the robot: it is run again, up to kAttempts times.
+      for (int attempt = 1; attempt <= kAttempts && inconclusive; ++attempt) {
+        try {
+          const TrialResult r = run_trial(spec);
+          ok = r.recovered;
+          inconclusive = r.inconclusive;
+          why = r.failure;
+        } catch (const std::exception& e) {
+          why = e.what();
+        }
+        if (inconclusive && attempt < kAttempts) {
+          std::lock_guard<std::mutex> lock(print_mutex);
+          std::fprintf(stderr, "  %s %s %.1f deg %.2f N s: inconclusive (%s), running it again\n", c.support.c_str(),
+                       to_string(c.strategy), c.direction, impulse, why.c_str());
+        }
       }
-      c.trials.emplace_back(impulse, ok);
+      if (inconclusive) {
+        c.inconclusive = true;
+        why = "inconclusive, counted as not recovered: " + why;
+      }
+      c.trials.push_back({impulse, ok, inconclusive});
       const int n = ++trials_done;
       const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       std::lock_guard<std::mutex> lock(print_mutex);
@@ -210,17 +236,21 @@ int main(int argc, char** argv) {
     r["direction_deg"] = c.direction;
     r["max_recovered_Ns"] = c.max_recovered;
     r["reached_max"] = c.reached_max;
+    r["inconclusive"] = c.inconclusive;
     r["trials"] = nlohmann::ordered_json::array();
-    for (const auto& [imp, ok] : c.trials) r["trials"].push_back({{"impulse_Ns", imp}, {"recovered", ok}});
+    for (const auto& t : c.trials) {
+      r["trials"].push_back({{"impulse_Ns", t.impulse}, {"recovered", t.recovered}, {"inconclusive", t.inconclusive}});
+    }
     j["results"].push_back(r);
   }
   const std::string json_path = out_dir + "/sweep.json";
   std::ofstream(json_path) << j.dump(2) << "\n";
   std::printf("%-7s %-6s %9s %14s\n", "support", "strat.", "direction", "max impulse");
   for (const auto& c : cases) {
-    std::printf("%-7s %-6s %7.0f deg %10.2f N s%s\n", c.support.c_str(), to_string(c.strategy), c.direction, c.max_recovered,
-                c.reached_max ? "+" : "");
+    std::printf("%-7s %-6s %7.0f deg %10.2f N s%s%s\n", c.support.c_str(), to_string(c.strategy), c.direction, c.max_recovered,
+                c.reached_max ? "+" : "", c.inconclusive ? "  (a trial stayed inconclusive: may be low)" : "");
   }
+  const bool any_inconclusive = std::any_of(cases.begin(), cases.end(), [](const Case& c) { return c.inconclusive; });
   std::printf("table: %s\n", json_path.c_str());
   // The polar plot (matplotlib).
   const fs::path exe = hpr::launch::executable_dir();
@@ -229,6 +259,10 @@ int main(int argc, char** argv) {
     const std::string cmd = fmt::format("/usr/bin/python3 '{}' '{}' '{}/sweep.png'", script.string(), json_path, out_dir);
     if (std::system(cmd.c_str()) == 0) std::printf("plot: %s/sweep.png\n", out_dir.c_str());
     break;
+  }
+  if (any_inconclusive) {
+    std::fprintf(stderr, "push_sweep: some trials stayed inconclusive after %d attempts (marked in the table and the JSON)\n", kAttempts);
+    return 3;
   }
   return 0;
 }

@@ -1,7 +1,8 @@
 // push_trial: one push-recovery experiment with every process of the stack in lockstep against
 // sim_bullet (estimator in the loop). Prints one JSON object on stdout and progress on stderr.
 //
-// Exit status: 0 recovered, 1 not recovered, 2 bad arguments or configuration, 4 the run failed.
+// Exit status: 0 recovered, 1 not recovered, 2 bad arguments or configuration, 4 the run failed or
+// ended before it could tell (inconclusive in the JSON).
 #include <cstdio>
 #include <cstdlib>
 #include <iostream>
@@ -31,6 +32,9 @@ tilt, maximum sole slip, peak CAM per axis, minimum CoP margin, time to return t
   --quiet               no progress on stderr
 )");
   std::fputs(hpr::experiments::kPushOptionsUsage, out);
+  std::fputs("\nExit status: 0 recovered, 1 not recovered, 2 bad arguments or configuration, 4 the run failed or\n"
+             "ended before it could tell (\"inconclusive\": true in the JSON).\n",
+             out);
 }
 
 }  // namespace
@@ -100,10 +104,11 @@ int main(int argc, char** argv) {
       }
     }
     if (!quiet) {
-      std::fprintf(stderr, "push_trial: %s%s (%.1f s simulated in %.1f s)\n", r.recovered ? "recovered" : "NOT recovered: ",
-                   r.failure.c_str(), r.sim_time, r.wall_time);
+      std::fprintf(stderr, "push_trial: %s%s (%.1f s simulated in %.1f s)\n",
+                   r.recovered ? "recovered" : (r.inconclusive ? "INCONCLUSIVE: " : "NOT recovered: "), r.failure.c_str(), r.sim_time,
+                   r.wall_time);
     }
-    return r.recovered ? 0 : 1;
+    return r.recovered ? 0 : (r.inconclusive ? 4 : 1);
   } catch (const hpr::ConfigError& e) {
     std::fprintf(stderr, "push_trial: %s\n", e.what());
     return 2;

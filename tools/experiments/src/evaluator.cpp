@@ -137,7 +137,8 @@ TrialResult TrialEvaluator::result() const {
   std::vector<std::string> why;
   if (r.fallen) why.emplace_back("fell");
   const bool decided = r.fallen || r.max_tilt_deg >= kTiltLimitDeg || r.max_slip >= kSlipLimit;
-  if (!r.completed && !decided) why.emplace_back(fmt::format("run ended at t = {:.2f} s, before 5 s after the push", last_time_));
+  r.inconclusive = !r.completed && !decided;
+  if (r.inconclusive) why.emplace_back(fmt::format("run ended at t = {:.2f} s, before 5 s after the push", last_time_));
   if (r.max_tilt_deg >= kTiltLimitDeg) why.emplace_back(fmt::format("sole tilt {:.1f} deg", r.max_tilt_deg));
   if (r.max_slip >= kSlipLimit) why.emplace_back(fmt::format("sole slip {:.1f} mm", r.max_slip * 1e3));
   if (!decided && (!r.return_time || *r.return_time > kSettleTime)) why.emplace_back("posture not back within 1 cm and 1 deg");
@@ -157,6 +158,7 @@ std::string TrialResult::to_json(const TrialSpec& spec) const {
   j["recovered"] = recovered;
   j["fallen"] = fallen;
   j["failure"] = failure;
+  j["inconclusive"] = inconclusive;
   j["applied_impulse_Ns"] = impulse_W.norm();
   j["applied_impulse_W_Ns"] = {impulse_W.x(), impulse_W.y(), impulse_W.z()};
   j["max_foot_tilt_deg"] = max_tilt_deg;

@@ -215,8 +215,16 @@ TrialResult run_trial(const TrialSpec& spec, const std::function<void(const std:
       break;
     }
   }
-  // Drain what is still in flight, then stop everything (the logger with SIGINT so that it flushes).
-  for (int i = 0; i < 5; ++i) lcm.handleTimeout(10);
+  // Drain what is still in flight. When the simulator has finished, all of it: on a loaded machine
+  // this listener may trail the lockstep chain by a second of simulated time, and the evaluation
+  // needs every tick. Then stop everything (the logger with SIGINT so that it flushes).
+  if (group.running(sim)) {
+    for (int i = 0; i < 5; ++i) lcm.handleTimeout(10);
+  } else {
+    const auto drain_end = std::chrono::steady_clock::now() + 30s;
+    while (lcm.handleTimeout(200) > 0 && std::chrono::steady_clock::now() < drain_end) {
+    }
+  }
   group.stop_all(2000ms);
   TrialResult r = eval.result();
   if (timed_out) r.failure += (r.failure.empty() ? "" : "; ") + fmt::format("timed out after {:.0f} s", spec.timeout);

@@ -62,6 +62,9 @@ struct TrialSpec {
 
 struct TrialResult {
   bool recovered = false, fallen = false, completed = false;
+  /// The run says nothing about the robot: it ended (or timed out) before the evaluation window
+  /// closed with nothing decided yet (no fall, tilt or slip). A sweep runs such a trial again.
+  bool inconclusive = false;
   std::string failure;                 ///< why not recovered ("" when recovered)
   Eigen::Vector3d impulse_W = Eigen::Vector3d::Zero();  ///< applied impulse [N s]
   double max_tilt_deg = 0.0;           ///< stance soles, from the push on

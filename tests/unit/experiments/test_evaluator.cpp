@@ -1,0 +1,83 @@
+// The push-trial evaluator on synthetic runs: a robot that stands still through the whole window is
+// recovered; a run that ends early with nothing decided is inconclusive (a sweep runs it again),
+// never "not recovered"; a fall or a tilted sole decides the trial whatever the run's length.
+#include <gtest/gtest.h>
+
+#include <humanoid/sim_truth_t.hpp>
+
+#include "hpr/experiments/trial.hpp"
+#include "model_fixture.hpp"
+
+namespace {
+
+using hpr::experiments::TrialEvaluator;
+using hpr::experiments::TrialResult;
+
+constexpr double kPushStart = 1.0, kPushEnd = 1.2;
+
+/// Standing still at the origin: level pelvis and soles, half the weight on each sole centre.
+humanoid::sim_truth_t standing(double t, double weight) {
+  humanoid::sim_truth_t m{};
+  m.sim_time = t;
+  m.tick = static_cast<std::int64_t>(std::lround(t * 1e3));
+  m.quat_WB[0] = 1.0;
+  m.p_WCom[2] = 0.9;
+  m.push_id = t >= kPushStart ? 0 : -1;
+  m.push_impulse_W[0] = t >= kPushStart ? 12.0 : 0.0;
+  m.num_feet = 2;
+  m.p_WF = {{0.0, -0.1, 0.0}, {0.0, 0.1, 0.0}};
+  m.quat_WF = {{1, 0, 0, 0}, {1, 0, 0, 0}};
+  m.contact_wrench_W = {{0, 0, weight / 2, 0, 0, 0}, {0, 0, weight / 2, 0, 0, 0}};
+  m.foot_tilt = {0.0, 0.0};
+  return m;
+}
+
+struct Run {
+  double end = 0.0;            ///< last sample [s]
+  double fall_at = -1.0;       ///< fallen flag from then on
+  double tilt_at = -1.0;       ///< a sole tilted by 3 deg from then on
+};
+
+TrialResult evaluate(const Run& run) {
+  static const auto robot = hpr::test::load_robot("toro");
+  const double weight = robot.model.mass * robot.model.gravity.norm();
+  TrialEvaluator eval(robot, "double", kPushStart, kPushEnd);
+  for (int k = 500; k <= static_cast<int>(std::lround(run.end * 1e3)); ++k) {
+    const double t = k * 1e-3;
+    auto m = standing(t, weight);
+    if (run.fall_at >= 0 && t >= run.fall_at) m.fallen = true;
+    if (run.tilt_at >= 0 && t >= run.tilt_at) m.foot_tilt[0] = 3.0 * M_PI / 180.0;
+    eval.on_truth(m);
+  }
+  return eval.result();
+}
+
+TEST(TrialEvaluator, StandingThroughTheWindowIsRecovered) {
+  const TrialResult r = evaluate({kPushEnd + 5.0 + 0.01});
+  EXPECT_TRUE(r.completed);
+  EXPECT_TRUE(r.recovered) << r.failure;
+  EXPECT_FALSE(r.inconclusive);
+  EXPECT_NEAR(r.impulse_W.x(), 12.0, 1e-12);
+  EXPECT_NEAR(r.min_cop_margin, 0.05, 1e-9) << "CoP at the sole centre: half the sole width";
+}
+
+TEST(TrialEvaluator, ARunThatEndsEarlyIsInconclusive) {
+  const TrialResult r = evaluate({4.0});
+  EXPECT_FALSE(r.completed);
+  EXPECT_FALSE(r.recovered);
+  EXPECT_TRUE(r.inconclusive);
+  EXPECT_NE(r.failure.find("run ended at t = 4.00 s"), std::string::npos) << r.failure;
+}
+
+TEST(TrialEvaluator, AFallOrATiltDecidesAShortRun) {
+  const TrialResult fell = evaluate({4.0, 3.0});
+  EXPECT_TRUE(fell.fallen);
+  EXPECT_FALSE(fell.recovered);
+  EXPECT_FALSE(fell.inconclusive);
+  const TrialResult tilted = evaluate({4.0, -1.0, 2.0});
+  EXPECT_FALSE(tilted.recovered);
+  EXPECT_FALSE(tilted.inconclusive);
+  EXPECT_NE(tilted.failure.find("sole tilt 3.0 deg"), std::string::npos) << tilted.failure;
+}
+
+}  // namespace
