@@ -1,8 +1,9 @@
 // push_trial: one push-recovery experiment with every process of the stack in lockstep against
 // sim_bullet (estimator in the loop). Prints one JSON object on stdout and progress on stderr.
 //
-// Exit status: 0 recovered, 1 not recovered, 2 bad arguments or configuration, 4 the run failed or
-// ended before it could tell (inconclusive in the JSON).
+// Exit status: 0 recovered, 1 not recovered, 2 bad arguments or configuration, 3 inconclusive (the run
+// ended before 5 s after the push with nothing decided: --after below 5, or the stack stopped), 4 the
+// run failed.
 #include <cstdio>
 #include <cstdlib>
 #include <iostream>
@@ -32,8 +33,9 @@ tilt, maximum sole slip, peak CAM per axis, minimum CoP margin, time to return t
   --quiet               no progress on stderr
 )");
   std::fputs(hpr::experiments::kPushOptionsUsage, out);
-  std::fputs("\nExit status: 0 recovered, 1 not recovered, 2 bad arguments or configuration, 4 the run failed or\n"
-             "ended before it could tell (\"inconclusive\": true in the JSON).\n",
+  std::fputs("\nExit status: 0 recovered, 1 not recovered, 2 bad arguments or configuration, 3 inconclusive (the\n"
+             "run ended before 5 s after the push with nothing decided: --after below 5, or the stack stopped\n"
+             "early; \"inconclusive\": true in the JSON), 4 the run failed.\n",
              out);
 }
 
@@ -108,7 +110,7 @@ int main(int argc, char** argv) {
                    r.recovered ? "recovered" : (r.inconclusive ? "INCONCLUSIVE: " : "NOT recovered: "), r.failure.c_str(), r.sim_time,
                    r.wall_time);
     }
-    return r.recovered ? 0 : (r.inconclusive ? 4 : 1);
+    return r.recovered ? 0 : (r.inconclusive ? 3 : 1);
   } catch (const hpr::ConfigError& e) {
     std::fprintf(stderr, "push_trial: %s\n", e.what());
     return 2;

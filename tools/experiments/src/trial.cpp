@@ -218,11 +218,20 @@ TrialResult run_trial(const TrialSpec& spec, const std::function<void(const std:
   // Drain what is still in flight. When the simulator has finished, all of it: on a loaded machine
   // this listener may trail the lockstep chain by a second of simulated time, and the evaluation
   // needs every tick. Then stop everything (the logger with SIGINT so that it flushes).
+  // The other nodes keep publishing HEALTH, so "no message for a while" never comes: the drain
+  // ends when the evaluation has the simulator's last tick, or when its time stops advancing.
   if (group.running(sim)) {
     for (int i = 0; i < 5; ++i) lcm.handleTimeout(10);
   } else {
-    const auto drain_end = std::chrono::steady_clock::now() + 30s;
-    while (lcm.handleTimeout(200) > 0 && std::chrono::steady_clock::now() < drain_end) {
+    const double last_tick_time = sim_duration - 1.5e-3;
+    auto progress_at = std::chrono::steady_clock::now();
+    double seen = eval.last_time();
+    while (eval.last_time() < last_tick_time && std::chrono::steady_clock::now() - progress_at < 500ms) {
+      lcm.handleTimeout(50);
+      if (eval.last_time() > seen) {
+        seen = eval.last_time();
+        progress_at = std::chrono::steady_clock::now();
+      }
     }
   }
   group.stop_all(2000ms);
