@@ -7,12 +7,17 @@
 //   raw    LCM's own cost: pre-encoded bytes published with lcm_publish, timestamped on arrival.
 //   typed  the stack's path: fill robot_sensors_t, Output::publish (encode), Runtime Input (decode,
 //          validate, callback), timestamped in the callback.
-// Prints median, p99 and max per mode.
+// Prints median, p99 and max per mode. Then the same two as ping-pong, back to back (the next
+// message leaves when the echo is back, as liblcm's own latency figures are taken): the other
+// process echoes each message (raw: the bytes; typed: decoded, validated and re-encoded), and half
+// the round trip is one hop with both processes awake.
 #include <sys/wait.h>
 #include <time.h>
 #include <unistd.h>
 
 #include <cstring>
+#include <functional>
+#include <memory>
 #include <humanoid/robot_sensors_t.hpp>
 #include <vector>
 
@@ -131,6 +136,89 @@ void run(const std::string& url, bool typed, int count, double rate, int joints)
   std::fflush(stdout);
 }
 
+/// Echoes PING as PONG until `count` messages went back (raw bytes, or through the Runtime typed).
+void echo(const std::string& url, bool typed, int count) {
+  int n = 0;
+  if (typed) {
+    hpr::node::Runtime rt("bench_echo", url);
+    auto out = rt.advertise<humanoid::robot_sensors_t>("PONG");
+    rt.subscribe<humanoid::robot_sensors_t>(
+        "PING", [](const humanoid::robot_sensors_t& m) { return m.num_joints > 0 ? std::string() : std::string("size"); },
+        [&](const humanoid::robot_sensors_t& m) {
+          out.publish(m);
+          ++n;
+        });
+    rt.spin_until([&] { return n >= count; }, 30.0 + count * 1e-3);
+  } else {
+    lcm::LCM lcm(url);
+    struct H {
+      lcm::LCM* lcm;
+      int* n;
+      void on(const lcm::ReceiveBuffer* rb, const std::string&) {
+        lcm->publish("PONG", rb->data, rb->data_size);
+        ++*n;
+      }
+    } h{&lcm, &n};
+    lcm.subscribe("PING", &H::on, &h);
+    const std::int64_t end = now_ns() + static_cast<std::int64_t>((30.0 + count * 1e-3) * 1e9);
+    while (n < count && now_ns() < end) lcm.handleTimeout(100);
+  }
+  _exit(0);
+}
+
+void ping_pong(const std::string& url, bool typed, int count, int joints) {
+  const pid_t child = fork();
+  if (child == 0) echo(url, typed, count + 100);
+  usleep(300000);  // let the echo subscribe
+  std::vector<double> rtt;
+  rtt.reserve(static_cast<size_t>(count));
+  humanoid::robot_sensors_t m = make_message(joints);
+  std::int64_t sent = 0;
+  bool back = false;
+  auto record = [&] {
+    rtt.push_back(static_cast<double>(now_ns() - sent) * 1e-3);
+    back = true;
+  };
+  // Typed: this side publishes with Output and receives through a Runtime Input as well.
+  std::unique_ptr<hpr::node::Runtime> rt;
+  hpr::node::Output<humanoid::robot_sensors_t> out;
+  std::unique_ptr<lcm::LCM> raw_lcm;
+  struct H {
+    std::function<void()> f;
+    void on(const lcm::ReceiveBuffer*, const std::string&) { f(); }
+  } h{record};
+  std::vector<std::uint8_t> raw(static_cast<size_t>(m.getEncodedSize()));
+  m.encode(raw.data(), 0, m.getEncodedSize());
+  if (typed) {
+    rt = std::make_unique<hpr::node::Runtime>("bench_ping", url);
+    out = rt->advertise<humanoid::robot_sensors_t>("PING");
+    rt->subscribe<humanoid::robot_sensors_t>("PONG", {}, [&](const humanoid::robot_sensors_t&) { record(); });
+  } else {
+    raw_lcm = std::make_unique<lcm::LCM>(url);
+    raw_lcm->subscribe("PONG", &H::on, &h);
+  }
+  for (int k = 0; k < count + 100; ++k) {  // the first 100 warm up
+    back = false;
+    sent = now_ns();
+    if (typed) {
+      m.tick = k;
+      out.publish(m);
+      rt->spin_until([&] { return back; }, 1.0);
+    } else {
+      raw_lcm->publish("PING", raw.data(), static_cast<unsigned>(raw.size()));
+      const std::int64_t end = sent + 1000000000LL;
+      while (!back && now_ns() < end) raw_lcm->handleTimeout(100);
+    }
+    if (k == 99) rtt.clear();
+  }
+  int status = 0;
+  waitpid(child, &status, 0);
+  std::printf("%-6s %6zu ping-pongs of %5d bytes: half round trip median %7.1f us  p99 %7.1f us  (round trip median %7.1f us)\n",
+              typed ? "typed" : "raw", rtt.size(), m.getEncodedSize(), 0.5 * hpr::percentile(rtt, 0.5),
+              0.5 * hpr::percentile(rtt, 0.99), hpr::percentile(rtt, 0.5));
+  std::fflush(stdout);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -152,5 +240,7 @@ int main(int argc, char** argv) {
   std::printf("LCM %s, %d messages at %.0f Hz per mode\n", url.c_str(), count, rate);
   run(url, false, count, rate, joints);
   run(url, true, count, rate, joints);
+  ping_pong(url, false, count, joints);
+  ping_pong(url, true, count, joints);
   return 0;
 }
