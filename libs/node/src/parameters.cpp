@@ -63,14 +63,26 @@ ParameterSetResult ParameterSet::apply(const std::vector<std::string>& names, co
   }
   if (!r.addressed) return r;
   if (error.empty()) {
-    // Apply in order; a setter that refuses undoes the ones before it, newest first.
+    // Apply in order; a setter that refuses undoes the ones before it, newest first (a pair with
+    // a cross constraint comes back in the order that keeps it). A key that stands for several
+    // (reference_gen's "alpha" for three axes) reads NaN while they differ and cannot be restored
+    // itself: the values every parameter had before the set restore what it changed.
+    std::vector<double> before;
+    before.reserve(parameters_.size());
+    for (const auto& q : parameters_) before.push_back(q.get());
     for (std::size_t k = 0; k < changes.size(); ++k) {
       auto& c = changes[k];
       c.old = c.p->get();
       const std::string why = c.p->set(c.value);
       if (!why.empty()) {
         error = fmt::format("{}{} = {}: {}", prefix, c.p->key, c.value, why);
-        for (std::size_t u = k; u-- > 0;) changes[u].p->set(changes[u].old);
+        for (std::size_t u = k; u-- > 0;) {
+          if (std::isfinite(changes[u].old)) changes[u].p->set(changes[u].old);
+        }
+        for (std::size_t i = 0; i < parameters_.size(); ++i) {
+          const double now = parameters_[i].get();
+          if (std::isfinite(before[i]) && now != before[i]) parameters_[i].set(before[i]);
+        }
         break;
       }
     }

@@ -2,6 +2,7 @@
 // the registered ranges; a setter's refusal undoes what the set had already changed.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -105,6 +106,29 @@ TEST(Parameters, ASetterRefusalUndoesTheSetNewestFirst) {
   EXPECT_TRUE(ok.applied) << ok.text;
   EXPECT_EQ(g.on, 70.0);
   EXPECT_EQ(g.off, 60.0);
+}
+
+TEST(Parameters, AKeyForSeveralValuesIsUndoneThroughThem) {
+  // "gain" sets three axes and reads NaN while they differ, like reference_gen's "alpha".
+  std::array<double, 3> axes{0.7, 0.8, 0.9};
+  bool refuse = true;
+  ParameterSet p("reference_gen");
+  p.add(Parameter{"gain", "", 0.0, 1.0,
+                  [&] { return axes[0] == axes[1] && axes[1] == axes[2] ? axes[0] : std::nan(""); },
+                  [&](double v) {
+                    axes.fill(v);
+                    return std::string();
+                  }});
+  for (std::size_t i = 0; i < 3; ++i) p.add("gain." + std::to_string(i), axes[i], 0.0, 1.0, "");
+  p.add(Parameter{"picky", "", 0.0, 1.0, [] { return 0.5; }, [&](double) { return refuse ? std::string("refused") : std::string(); }});
+  const auto r = p.apply({"reference_gen.gain", "reference_gen.picky"}, {0.5, 0.1});
+  EXPECT_FALSE(r.applied);
+  EXPECT_EQ(axes[0], 0.7);
+  EXPECT_EQ(axes[1], 0.8);
+  EXPECT_EQ(axes[2], 0.9);
+  refuse = false;
+  EXPECT_TRUE(p.apply({"reference_gen.gain", "reference_gen.picky"}, {0.5, 0.1}).applied);
+  EXPECT_EQ(axes[1], 0.5);
 }
 
 TEST(Parameters, RegistrationErrorsAreProgrammingErrors) {
