@@ -75,25 +75,20 @@ int main(int argc, char** argv) {
   int i = 2;
   std::set<std::string> nodes;  // addressed by set or params
   try {
-    if (verb == "enable") {
-      m.command = humanoid::operator_t::COMMAND_ENABLE;
-    } else if (verb == "damp") {
-      m.command = humanoid::operator_t::COMMAND_DAMP;
-    } else if (verb == "stop") {
-      m.command = humanoid::operator_t::COMMAND_STOP;
+    static const std::map<std::string, std::int8_t> kCommands = {{"enable", humanoid::operator_t::COMMAND_ENABLE},
+                                                                 {"damp", humanoid::operator_t::COMMAND_DAMP},
+                                                                 {"stop", humanoid::operator_t::COMMAND_STOP}};
+    static const std::map<std::string, std::int8_t> kSupports = {{"double", humanoid::balance_status_t::SUPPORT_DOUBLE},
+                                                                 {"left", humanoid::balance_status_t::SUPPORT_LEFT},
+                                                                 {"right", humanoid::balance_status_t::SUPPORT_RIGHT}};
+    if (const auto c = kCommands.find(verb); c != kCommands.end()) {
+      m.command = c->second;
     } else if (verb == "support") {
       if (argc < 3) return usage("support needs double, left or right");
-      const std::string s = argv[2];
+      const auto s = kSupports.find(argv[2]);
+      if (s == kSupports.end()) return usage("unknown support '" + std::string(argv[2]) + "'");
       m.command = humanoid::operator_t::COMMAND_SET_SUPPORT;
-      if (s == "double") {
-        m.support = humanoid::balance_status_t::SUPPORT_DOUBLE;
-      } else if (s == "left") {
-        m.support = humanoid::balance_status_t::SUPPORT_LEFT;
-      } else if (s == "right") {
-        m.support = humanoid::balance_status_t::SUPPORT_RIGHT;
-      } else {
-        return usage("unknown support '" + s + "'");
-      }
+      m.support = s->second;
       i = 3;
     } else if (verb == "set" || verb == "params") {
       const bool set = verb == "set";

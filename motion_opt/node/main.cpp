@@ -7,7 +7,6 @@
 #include <humanoid/robot_state_t.hpp>
 #include <humanoid/wholebody_command_t.hpp>
 
-#include <array>
 #include <cmath>
 
 #include "hpr/motion_opt/optimizer.hpp"
@@ -19,14 +18,13 @@ namespace {
 
 /// The weights and gains of (14), (16), (17); ranges as the configuration accepts them.
 void add_parameters(hpr::node::ParameterSet& params, hpr::motion_opt::MotionOptConfig& c) {
-  static constexpr std::array<const char*, 3> kAxes{"x", "y", "z"};
   params.add({"weights.cam", "", 0.0, 1e6,
               [&c] { return c.Q_l.minCoeff() == c.Q_l.maxCoeff() ? c.Q_l(0) : std::nan(""); },
               [&c](double v) {
                 c.Q_l.setConstant(v);
                 return std::string();
               }});
-  for (int k = 0; k < 3; ++k) params.add(std::string("weights.cam.") + kAxes[static_cast<size_t>(k)], c.Q_l(k), 0.0, 1e6, "");
+  params.add_xyz("weights.cam", c.Q_l.data(), 0.0, 1e6, "");
   params.add("weights.posture", c.Q_p, 1e-9, 1e6, "");
   params.add("weights.cam_idle_fraction", c.cam_idle_fraction, 0.0, 1.0, "");
   params.add("weights.cam_release_time", c.cam_release_time, 0.0, 10.0, "s");

@@ -1,6 +1,5 @@
 #include "wbc_node.hpp"
 
-#include <array>
 #include <cmath>
 
 #include "hpr/common/log.hpp"
@@ -22,22 +21,10 @@ WbcNodeOptions WbcNodeOptions::load(const Config& c) {
 void WbcNode::add_parameters() {
   node::ParameterSet& params = rt_.parameters();
   WbcConfig& c = wbc_.tunable_config();
-  static constexpr std::array<const char*, 3> kAxes{"x", "y", "z"};
-  struct Gain {
-    const char* key;
-    Eigen::Vector3d* value;
-    double max_value;
-    const char* unit;
-  };
-  const std::array<Gain, 4> gains{{{"com.stiffness", &c.K_com, 1e6, "N/m"},
-                                   {"com.damping", &c.D_com, 1e5, "N s/m"},
-                                   {"base.stiffness", &c.K_base, 1e5, "N m/rad"},
-                                   {"base.damping", &c.D_base, 1e4, "N m s/rad"}}};
-  for (const Gain& g : gains) {
-    for (int k = 0; k < 3; ++k) {
-      params.add(std::string(g.key) + "." + kAxes[static_cast<size_t>(k)], (*g.value)(k), 0.0, g.max_value, g.unit);
-    }
-  }
+  params.add_xyz("com.stiffness", c.K_com.data(), 0.0, 1e6, "N/m");
+  params.add_xyz("com.damping", c.D_com.data(), 0.0, 1e5, "N s/m");
+  params.add_xyz("base.stiffness", c.K_base.data(), 0.0, 1e5, "N m/rad");
+  params.add_xyz("base.damping", c.D_base.data(), 0.0, 1e4, "N m s/rad");
   params.add("joint_damping", c.joint_damping, 0.0, 100.0, "N m s/rad");
   params.add({"contact.friction", "", 0.05, 2.0, [this] { return wbc_.config().contact.friction; },
               [this](double mu) {

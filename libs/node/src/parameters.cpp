@@ -26,6 +26,13 @@ void ParameterSet::add(const std::string& key, double& value, double min_value, 
                 }});
 }
 
+void ParameterSet::add_xyz(const std::string& key, double* xyz, double min_value, double max_value,
+                           const std::string& unit) {
+  add(key + ".x", xyz[0], min_value, max_value, unit);
+  add(key + ".y", xyz[1], min_value, max_value, unit);
+  add(key + ".z", xyz[2], min_value, max_value, unit);
+}
+
 const Parameter* ParameterSet::find(const std::string& key) const {
   const auto it = std::find_if(parameters_.begin(), parameters_.end(), [&](const Parameter& p) { return p.key == key; });
   return it == parameters_.end() ? nullptr : &*it;

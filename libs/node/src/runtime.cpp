@@ -321,9 +321,7 @@ void Runtime::publish_parameters(const ParameterRequest* request) {
     p.unit.push_back(q.unit);
   }
   p.num_params = static_cast<int32_t>(p.name.size());
-  const int n = p.getEncodedSize();
-  std::vector<std::uint8_t> buffer(static_cast<std::size_t>(n));
-  if (p.encode(buffer.data(), 0, n) >= 0) lcm_->publish(channel("PARAMS"), buffer.data(), static_cast<unsigned>(n));
+  lcm_->publish(channel("PARAMS"), &p);
 }
 
 RuntimeOptions runtime_options(const Config& cfg, double deadline_s) {

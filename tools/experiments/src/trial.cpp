@@ -215,11 +215,10 @@ TrialResult run_trial(const TrialSpec& spec, const std::function<void(const std:
       break;
     }
   }
-  // Drain what is still in flight. When the simulator has finished, all of it: on a loaded machine
-  // this listener may trail the lockstep chain by a second of simulated time, and the evaluation
-  // needs every tick. Then stop everything (the logger with SIGINT so that it flushes).
-  // The other nodes keep publishing HEALTH, so "no message for a while" never comes: the drain
-  // ends when the evaluation has the simulator's last tick, or when its time stops advancing.
+  // Drain what is still in flight. When the simulator has finished, until the evaluation has its
+  // last tick (on a loaded machine this listener may trail the lockstep chain by a second), or its
+  // time stops advancing (HEALTH keeps arriving, so silence never comes). Then stop everything
+  // (the logger with SIGINT so that it flushes).
   if (group.running(sim)) {
     for (int i = 0; i < 5; ++i) lcm.handleTimeout(10);
   } else {

@@ -49,6 +49,8 @@ class ParameterSet {
   /// what the node derives from it.
   void add(const std::string& key, double& value, double min_value, double max_value, const std::string& unit,
            std::function<void()> on_change = {});
+  /// Registers the three values at `xyz` (an Eigen::Vector3d's data(), say) as "key.x", "key.y", "key.z".
+  void add_xyz(const std::string& key, double* xyz, double min_value, double max_value, const std::string& unit);
 
   /// Applies the pairs of an OPERATOR set whose name starts with "<node>."; the others are for
   /// other nodes and ignored.
