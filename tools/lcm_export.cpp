@@ -161,6 +161,9 @@ void fill(Row& r, const humanoid::robot_sensors_t& m) {
   r.vec("q", m.q, m.joint_name);
   r.vec("qd", m.qd, m.joint_name);
   r.vec("tau", m.tau, m.joint_name);
+  for (size_t i = 0; i < m.drive_status.size(); ++i) {
+    r.add("drive_status_" + (i < m.joint_name.size() ? m.joint_name[i] : std::to_string(i)), static_cast<double>(m.drive_status[i]));
+  }
   r.arr("imu_gyro_B", m.imu_gyro_B);
   r.arr("imu_accel_B", m.imu_accel_B);
   r.mat("ft_wrench_S", m.ft_wrench_S, m.ft_name);

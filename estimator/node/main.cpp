@@ -56,7 +56,9 @@ int main(int argc, char** argv) {
         auto out = rt.advertise<humanoid::robot_state_t>("ROBOT_STATE");
         humanoid::robot_state_t state_msg{};
         bool stale = false;
-        std::string last_reason;
+        std::string last_kind;  // what a refusal is about (text before ':'), for the log
+        double last_warn = -1e9;
+        int unlogged = 0;
         rt.on_tick(sensors, {}, 0.0, [&](const node::TickInfo&) {
           const EstimatedState& s = est.update(sample);
           if (stale) {
@@ -64,13 +66,24 @@ int main(int argc, char** argv) {
             stale = false;
             rt.clear_fault("sensors");
           }
-          if (!est.implausible_reason().empty()) {
-            if (est.implausible_reason() != last_reason) log::warn("sample {} refused: {}", sample.tick, est.implausible_reason());
-            rt.set_fault("implausible", est.implausible_reason());
+          const std::string& reason = est.implausible_reason();
+          if (!reason.empty()) {
+            // A new kind of refusal at once; the same kind at most once a second, with a count.
+            const std::string kind = reason.substr(0, reason.find(':'));
+            const double now = monotonic_s();
+            if (kind != last_kind || now - last_warn >= 1.0) {
+              log::warn("sample {} refused: {}{}", sample.tick, reason,
+                        unlogged > 0 ? fmt::format(" ({} more refused since the last message)", unlogged) : "");
+              last_warn = now;
+              unlogged = 0;
+            } else {
+              ++unlogged;
+            }
+            rt.set_fault("implausible", reason);
           } else {
             rt.clear_fault("implausible");
           }
-          last_reason = est.implausible_reason();
+          last_kind = reason.empty() ? std::string() : reason.substr(0, reason.find(':'));
           if ((s.status & estimator::kStatusCovariance) != 0) {
             rt.set_fault("covariance", fmt::format("position standard deviation {:.3f} m", est.position_std()));
           } else {

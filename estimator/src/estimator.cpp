@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 
 namespace hpr::estimator {
@@ -162,6 +163,14 @@ const EstimatedState& Estimator::update(const SensorSample& s) {
     return state_;
   }
   if (!initialised_) {
+    // Only from a complete sample: a joint whose drive has not answered yet has no reading at all.
+    const bool complete = std::none_of(s.drive_status.begin(), s.drive_status.end(),
+                                       [](std::int32_t b) { return (b & SensorSample::kDriveStale) != 0; });
+    if (!complete) {
+      state_.tick = s.tick;
+      state_.status = kStatusInitialising | kStatusSensorStale;  // no estimate yet: nothing to act on
+      return state_;
+    }
     initialise(s);
     output(s, 0.0);
     return state_;
@@ -186,9 +195,20 @@ const EstimatedState& Estimator::update(const SensorSample& s) {
 }
 
 void Estimator::update_joints(const SensorSample& s, double dt) {
+  // A joint whose drive did not answer this tick (stale bit) holds an old reading: predicted only.
+  auto stale = [&](int j) {
+    const auto ju = static_cast<std::size_t>(j);
+    return ju < s.drive_status.size() && (s.drive_status[ju] & SensorSample::kDriveStale) != 0;
+  };
   if (!config_.filter_joints) {
-    qj_ = s.q;
-    qdj_ = s.qd;
+    for (int j = 0; j < qj_.size(); ++j) {
+      if (stale(j)) {
+        qj_(j) += qdj_(j) * dt;
+      } else {
+        qj_(j) = s.q(j);
+        qdj_(j) = s.qd(j);
+      }
+    }
     return;
   }
   if (std::abs(dt - ab_dt_) > 0.01 * ab_dt_) {
@@ -197,6 +217,10 @@ void Estimator::update_joints(const SensorSample& s, double dt) {
   }
   for (int j = 0; j < qj_.size(); ++j) {
     const double pred = qj_(j) + qdj_(j) * dt;
+    if (stale(j)) {
+      qj_(j) = pred;
+      continue;
+    }
     const double r = s.q(j) - pred;
     qj_(j) = pred + ab_(0) * r;
     qdj_(j) += ab_(1) * r / dt;

@@ -22,8 +22,8 @@ using namespace hpr;
 // The hal library's codes are the message constants.
 static_assert(hal::kDriveRun == humanoid::hal_status_t::DRIVE_RUN && hal::kDriveNoReply == humanoid::hal_status_t::DRIVE_NO_REPLY &&
               hal::kDriveFault == humanoid::hal_status_t::DRIVE_FAULT && hal::kDriveDamp == humanoid::hal_status_t::DRIVE_DAMP);
-static_assert(int{hal::kBitEnabled} == int{humanoid::robot_sensors_t::DRIVE_ENABLED} && int{hal::kBitDamping} == int{humanoid::robot_sensors_t::DRIVE_DAMPING} &&
-              int{hal::kBitFault} == int{humanoid::robot_sensors_t::DRIVE_FAULT} && int{hal::kBitStale} == int{humanoid::robot_sensors_t::DRIVE_STALE});
+static_assert(int{SensorSample::kDriveEnabled} == int{humanoid::robot_sensors_t::DRIVE_ENABLED} && int{SensorSample::kDriveDamping} == int{humanoid::robot_sensors_t::DRIVE_DAMPING} &&
+              int{SensorSample::kDriveFault} == int{humanoid::robot_sensors_t::DRIVE_FAULT} && int{SensorSample::kDriveStale} == int{humanoid::robot_sensors_t::DRIVE_STALE});
 static_assert(hal::kOperatorEnable == humanoid::operator_t::COMMAND_ENABLE && hal::kOperatorDamp == humanoid::operator_t::COMMAND_DAMP &&
               hal::kOperatorStop == humanoid::operator_t::COMMAND_STOP);
 static_assert(static_cast<int>(hal::SafetyState::kFault) == humanoid::hal_status_t::STATE_FAULT &&
@@ -83,15 +83,19 @@ int run(const node::CommandLine& cl, const Config& cfg) {
 
   msg::RobotNames names;
   names.joints = robot.model.joint_name;
+  // Hal time [s]: the monotonic clock on the robot; tick × period in lockstep (the emulator's clock).
+  const bool lockstep = config.lockstep;
+  double t_tick = 0.0;  // the present tick's hal time
+  auto hal_now = [&] { return lockstep ? t_tick : monotonic_s(); };
   JointCommand command;
   command.resize(robot.model.nj);
-  rt.subscribe<humanoid::joint_command_t>("JOINT_COMMAND", [&](const humanoid::joint_command_t& m) {
+  auto& command_in = rt.subscribe<humanoid::joint_command_t>("JOINT_COMMAND", [&](const humanoid::joint_command_t& m) {
     std::string why = msg::from_message(m, names, command);
-    if (why.empty()) why = h.set_command(command, monotonic_s());
+    if (why.empty()) why = h.set_command(command, hal_now());
     return why;  // rejected commands are counted by the runtime and by the hal, never sent
   });
   rt.subscribe<humanoid::operator_t>("OPERATOR", {}, [&](const humanoid::operator_t& m) {
-    const std::string what = h.operator_command(m.command, monotonic_s(), m.source.empty() ? "operator" : m.source);
+    const std::string what = h.operator_command(m.command, hal_now(), m.source.empty() ? "operator" : m.source);
     if (!what.empty()) log::info("OPERATOR {}: {}{}", m.command, what, m.reason.empty() ? "" : " (" + m.reason + ")");
   });
   auto sensors_out = rt.advertise<humanoid::robot_sensors_t>("ROBOT_SENSORS");
@@ -105,25 +109,31 @@ int run(const node::CommandLine& cl, const Config& cfg) {
   std::vector<double> tx_fps(config.buses.size(), 0.0), rx_fps(config.buses.size(), 0.0);
   RollingStats work(60000), jitter(60000);
   PeriodicClock clock(config.period);
-  const double start = monotonic_s();
+  const double start = hal_now();
   double last_status = -1.0, last_rate = start;
   std::int64_t tick = 0;
+  bool flowing = false;  // lockstep: the controllers answered the last tick
   hal::SafetyState last_state = h.safety().state();
   if (enable_on_start) log::info("{}", h.operator_command(humanoid::operator_t::COMMAND_ENABLE, start, "configuration"));
-  log::info("hal: {} drives on {} buses, period {} ms, reply window {} ms, command max age {} ms, state {}", config.drives.size(),
-            config.buses.size(), config.period * 1e3, config.reply_window * 1e3, config.safety.command_max_age * 1e3,
-            hal::to_string(h.safety().state()));
+  log::info("hal: {} drives on {} buses, period {} ms, {}, command max age {} ms, state {}", config.drives.size(), config.buses.size(),
+            config.period * 1e3,
+            lockstep ? fmt::format("lockstep clock (waits up to {} s)", config.lockstep_timeout)
+                     : fmt::format("reply window {} ms", config.reply_window * 1e3),
+            config.safety.command_max_age * 1e3, hal::to_string(h.safety().state()));
   while (!rt.stop_requested()) {
-    if (duration > 0 && monotonic_s() - start >= duration) break;
-    const double t0 = monotonic_s();
-    jitter.add(t0 - clock.deadline());
+    t_tick = lockstep ? static_cast<double>(tick) * config.period : monotonic_s();
+    const double t0 = t_tick, w0 = monotonic_s();
+    if (duration > 0 && t0 - start >= duration) break;
+    if (!lockstep) jitter.add(t0 - clock.deadline());
     rt.spin_once(0.0);  // the freshest JOINT_COMMAND and OPERATOR before the frames go out
     h.begin_tick(tick, t0);
-    // Replies within the window, one poll per wait.
+    // Replies within the window (lockstep: until every bus has the emulator's clock frame), one
+    // poll per wait.
+    const double reply_deadline = lockstep ? w0 + config.lockstep_timeout : t0 + config.reply_window;
     while (true) {
       h.receive();
-      if (h.replies_complete()) break;
-      const double left = t0 + config.reply_window - monotonic_s();
+      if (lockstep ? h.tick_closed() : h.replies_complete()) break;
+      const double left = reply_deadline - monotonic_s();
       if (left <= 0) break;
       poll_for(fds, left);
     }
@@ -131,7 +141,7 @@ int run(const node::CommandLine& cl, const Config& cfg) {
     msg::to_message(h.sensors(), names, sensors_msg);
     sensors_msg.utime = wall_us();
     sensors_out.publish(sensors_msg);
-    const double now = monotonic_s();
+    const double now = lockstep ? t0 : monotonic_s();
     if (now - last_rate >= 0.1) {
       for (std::size_t b = 0; b < config.buses.size(); ++b) {
         const auto& cnt = h.buses()[b]->counters();
@@ -159,9 +169,27 @@ int run(const node::CommandLine& cl, const Config& cfg) {
         rt.set_fault("drives", faults);
       }
     }
-    rt.record_step(tick, monotonic_s() - t0);
-    work.add(monotonic_s() - t0);
+    rt.record_step(tick, monotonic_s() - w0);
+    work.add(monotonic_s() - w0);
     ++tick;
+    if (lockstep) {
+      // The next tick starts when the controllers have answered this one; while they are silent
+      // (starting, killed) the hal runs on at one tick per period of wall time, so commands age
+      // and the safety rules act as on the robot.
+      const std::int64_t answered = tick - 1;
+      if (flowing) {
+        flowing = rt.spin_until([&] { return command_in.tick() >= answered; }, config.lockstep_timeout);
+      } else {
+        const double until = w0 + config.period;
+        while (!rt.stop_requested() && command_in.tick() < answered) {
+          const double left = until - monotonic_s();
+          if (left <= 0) break;
+          rt.spin_once(left);
+        }
+        flowing = command_in.tick() >= answered;
+      }
+      continue;
+    }
     clock.next();
     while (!rt.stop_requested()) {
       const double left = clock.left();
@@ -171,9 +199,11 @@ int run(const node::CommandLine& cl, const Config& cfg) {
   }
   std::int64_t missed = 0;
   for (const auto& d : h.drives()) missed += d.missed;
-  log::info("hal stopped after {} ticks: tick work median {:.1f} us, p99 {:.1f} us; period jitter p99 {:.1f} us, max {:.1f} us; "
+  log::info("hal stopped after {} ticks: tick work median {:.1f} us, p99 {:.1f} us; {}; "
             "commands rejected {}, stale ticks {}, malformed frames {}; replies missed {} of {}",
-            tick, work.median() * 1e6, work.percentile(0.99) * 1e6, jitter.percentile(0.99) * 1e6, jitter.max() * 1e6,
+            tick, work.median() * 1e6, work.percentile(0.99) * 1e6,
+            lockstep ? std::string("lockstep clock")
+                     : fmt::format("period jitter p99 {:.1f} us, max {:.1f} us", jitter.percentile(0.99) * 1e6, jitter.max() * 1e6),
             h.commands_rejected(), h.commands_stale(), h.frames_malformed(), missed, tick * static_cast<std::int64_t>(h.drives().size()));
   return node::kExitOk;
 }

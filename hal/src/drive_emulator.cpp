@@ -24,6 +24,7 @@ EmulatorOptions EmulatorOptions::load(const Config& c) {
 DriveEmulator::DriveEmulator(const HalConfig& config, sim::Simulator& sim, std::unique_ptr<DriveCodec> codec, EmulatorOptions options)
     : config_(config), sim_(sim), codec_(std::move(codec)), options_(std::move(options)), rng_(options_.seed) {
   drives_.assign(config_.drives.size(), Drive{});
+  requested_.assign(config_.drives.size(), 0);
   drive_by_id_.assign(config_.buses.size(), std::vector<int>(MitCodec::kMaxDriveId + 1, -1));
   for (std::size_t i = 0; i < config_.drives.size(); ++i) {
     const auto& d = config_.drives[i];
@@ -68,6 +69,8 @@ void DriveEmulator::handle(int bus, const CanFrame& f, double now, CanTransport&
   if (bus_off(bus)) return;  // a bus-off controller neither hears nor answers
   const std::uint32_t id = f.id & kCanSffMask;
   if (bus == config_.sensor_bus && id == kSyncId) {
+    sync_requested_ = true;
+    ++requests_;
     const SensorSample& s = sim_.sensors();
     const double q[4] = {s.imu_quat_WB(0), s.imu_quat_WB(1), s.imu_quat_WB(2), s.imu_quat_WB(3)};
     out.send(encode_int16s(kImuQuatId, q, 4, 1.0 / 32767.0));
@@ -95,6 +98,8 @@ void DriveEmulator::handle(int bus, const CanFrame& f, double now, CanTransport&
     return;
   }
   Drive& d = drives_[iu];
+  requested_[iu] = 1;
+  ++requests_;
   if (req->special) {
     if (*req->special == SpecialCommand::kEnterMotorMode) d.motor_mode = true;
     if (*req->special == SpecialCommand::kExitMotorMode) d.motor_mode = false;
@@ -115,7 +120,19 @@ void DriveEmulator::report_bus_state(int bus, CanTransport& out) {
   out.send(e);
 }
 
+bool DriveEmulator::tick_requested() const {
+  for (std::size_t i = 0; i < drives_.size(); ++i) {
+    if (requested_[i] == 0 && !bus_off(config_.drives[i].bus)) return false;
+  }
+  return config_.sensor_bus < 0 || sync_requested_ || bus_off(config_.sensor_bus);
+}
+
+void DriveEmulator::report_tick(std::int64_t tick, CanTransport& out) { out.send(encode_lockstep_tick(tick)); }
+
 void DriveEmulator::step(double now) {
+  std::fill(requested_.begin(), requested_.end(), 0);
+  sync_requested_ = false;
+  requests_ = 0;
   // On a gantry until the first enable: the robot hangs in its settled posture, physics frozen.
   if (!released_) {
     for (const Drive& d : drives_) released_ = released_ || d.motor_mode;

@@ -25,11 +25,13 @@ std::pair<double, double> range(const Config& c, const std::string& key, double 
 HalConfig HalConfig::load(const Config& c, const model::Model& m) {
   c.reject_unknown({"period", "reply_window", "transport", "udp_hal_host", "udp_drive_host", "udp_base_port", "enable_on_start",
                     "duration", "damping_kd", "soft_limit_margin", "soft_limit_kd", "safety", "drive_defaults", "sensors", "buses",
-                    "drives"});
+                    "drives", "clock", "lockstep_timeout"});
   HalConfig h;
   h.file = c.file();
   h.period = c.real_or("period", h.period, 1e-4, 0.1);
   h.reply_window = c.real_or("reply_window", h.reply_window, 0.0, h.period);
+  h.lockstep = c.choice_or("clock", "realtime", {"realtime", "lockstep"}) == "lockstep";
+  h.lockstep_timeout = c.real_or("lockstep_timeout", h.lockstep_timeout, 1e-3, 60.0);
   h.damping_kd = c.real_or("damping_kd", h.damping_kd, 0.0, 1e4);
   h.soft_limit_margin = c.real_or("soft_limit_margin", h.soft_limit_margin, 0.0, 1.0);
   h.soft_limit_kd = c.real_or("soft_limit_kd", h.soft_limit_kd, 0.0, 1e4);
@@ -167,6 +169,7 @@ std::vector<std::unique_ptr<CanTransport>> open_buses(const HalConfig& c, bool e
         filters.push_back({0x190, 0x7F0});  // F/T 0x190-0x19F
       }
     }
+    if (c.lockstep && !emulator_side) filters.push_back({kLockstepTickId, kCanSffMask});
     out.push_back(std::make_unique<SocketCanTransport>(bc.interface, bc.fd, filters));
   }
   return out;
@@ -186,6 +189,7 @@ Hal::Hal(HalConfig config, std::vector<std::unique_ptr<CanTransport>> buses, std
     drive_by_id_[static_cast<std::size_t>(d.bus)][static_cast<std::size_t>(d.id)] = i;
   }
   sensor_frames_expected_ = config_.sensor_bus >= 0 ? 3 + 2 * 2 : 0;
+  tick_closed_.assign(buses_.size(), 0);
   rx_.reserve(256);
 }
 
@@ -288,12 +292,17 @@ void Hal::begin_tick(std::int64_t tick, double now) {
       c.kp = command_.kp(j);
       c.kd = command_.kd(j);
       c.t_ff = d.sign * command_.tau_ff(j);
-      // Soft limits: damping ramps in over the last margin before a hard limit.
+      // Soft limits: damping towards rest, ramping in over the last margin before a hard limit. The
+      // drive evaluates one kd (v_des − v), so kd (v_des − v) − kd_s v is sent as
+      // (kd + kd_s) (v_des kd / (kd + kd_s) − v): the commanded velocity keeps its own damping and
+      // the extra damping never pushes towards v_des (a stance knee asked to straighten fast).
       const double q = sensors_.q(j);
       const double dist = std::min(q - d.q_lower, d.q_upper - q);
       if (config_.soft_limit_margin > 0 && dist < config_.soft_limit_margin) {
         const double r = std::clamp((config_.soft_limit_margin - dist) / config_.soft_limit_margin, 0.0, 1.0);
-        c.kd = std::min(c.kd + r * config_.soft_limit_kd, d.limits.kd_max);
+        const double kd = std::min(c.kd + r * config_.soft_limit_kd, d.limits.kd_max);
+        if (kd > 0) c.v_des *= c.kd / kd;
+        c.kd = kd;
       }
     } else if (mode == DriveMode::kRun && command_.mode == JointCommand::Mode::kOff) {
       c = DriveCommand{};
@@ -313,6 +322,7 @@ void Hal::begin_tick(std::int64_t tick, double now) {
     buses_[static_cast<std::size_t>(config_.sensor_bus)]->send(sync);
   }
   sensor_frames_ = 0;
+  std::fill(tick_closed_.begin(), tick_closed_.end(), 0);
   for (auto& b : buses_) b->flush();
 }
 
@@ -329,6 +339,14 @@ int Hal::receive() {
 
 void Hal::handle_frame(int bus, const CanFrame& f) {
   const std::uint32_t id = f.id & kCanSffMask;
+  if (config_.lockstep && id == kLockstepTickId) {  // a real device never sends it: unknown unless in lockstep
+    if (decode_lockstep_tick(f)) {
+      tick_closed_[static_cast<std::size_t>(bus)] = 1;
+    } else {
+      ++malformed_;
+    }
+    return;
+  }
   if (bus == config_.sensor_bus && id >= kImuQuatId && id <= kFtTorqueId + 2) {
     double v[4];
     bool ok = false;
@@ -380,6 +398,10 @@ bool Hal::replies_complete() const {
   return std::all_of(drive_status_.begin(), drive_status_.end(), [](const DriveStatus& d) { return d.replied; });
 }
 
+bool Hal::tick_closed() const {
+  return std::all_of(tick_closed_.begin(), tick_closed_.end(), [](char c) { return c != 0; });
+}
+
 void Hal::end_tick(double now) {
   const DriveMode mode = safety_.drive_mode();
   for (std::size_t i = 0; i < drive_status_.size(); ++i) {
@@ -391,17 +413,17 @@ void Hal::end_tick(double now) {
     std::int32_t bits = 0;
     if (ds.fault != 0) {
       ds.state = kDriveFault;
-      bits |= kBitFault;
+      bits |= SensorSample::kDriveFault;
     } else if (ds.missed_run > 0) {
       ds.state = kDriveNoReply;
-      bits |= kBitStale;
+      bits |= SensorSample::kDriveStale;
     } else {
       ds.state = mode == DriveMode::kRun ? kDriveRun
                : mode == DriveMode::kDamp ? kDriveDamp
                                           : kDriveOff;
     }
-    if (mode == DriveMode::kRun) bits |= kBitEnabled;
-    if (mode == DriveMode::kDamp) bits |= kBitDamping;
+    if (mode == DriveMode::kRun) bits |= SensorSample::kDriveEnabled;
+    if (mode == DriveMode::kDamp) bits |= SensorSample::kDriveDamping;
     sensors_.drive_status[i] = bits;
   }
   const std::string faults = fault_conditions();

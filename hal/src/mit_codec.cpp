@@ -133,4 +133,20 @@ bool decode_int16s(const CanFrame& f, double* values, int count, double scale) {
   return true;
 }
 
+CanFrame encode_lockstep_tick(std::int64_t tick) {
+  CanFrame f;
+  f.id = kLockstepTickId;
+  f.len = 8;
+  const auto u = static_cast<std::uint64_t>(tick);
+  for (std::size_t i = 0; i < 8; ++i) f.data[i] = static_cast<std::uint8_t>(u >> (56 - 8 * i));
+  return f;
+}
+
+std::optional<std::int64_t> decode_lockstep_tick(const CanFrame& f) {
+  if (f.len != 8 || (f.id & kCanErrFlag) != 0) return std::nullopt;
+  std::uint64_t u = 0;
+  for (std::size_t i = 0; i < 8; ++i) u = (u << 8) | f.data[i];
+  return static_cast<std::int64_t>(u);
+}
+
 }  // namespace hpr::hal

@@ -72,7 +72,12 @@ int main(int argc, char** argv) {
         std::vector<node::Sync> sync;
         if (wait) sync.push_back({&cam_in, 0});
         rt.on_tick(state_in, sync, timeout, [&](const node::TickInfo& info) {
-          if (!reference.started()) reference.start(state.q, state.time);
+          if (!reference.started()) {
+            // The posture reference starts from the first usable estimate; nothing goes out before it
+            // (the wbc damps meanwhile).
+            if ((state.status & msg::kStateUnusable) != 0) return;
+            reference.start(state.q, state.time);
+          }
           const auto& ref = reference.update(state.time);
           const bool fresh = cam_in.has_value() && cam_in.tick() >= info.tick - stale_ticks;
           Eigen::Vector3d l_ref = Eigen::Vector3d::Zero();

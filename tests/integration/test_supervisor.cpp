@@ -2,7 +2,8 @@
 // every process running and ticking (the lockstep group: a loaded machine slows it down but cannot
 // make the robot fall; the real-time `sim` group is checked under the label hil); killing a critical process makes the supervisor send OPERATOR
 // damp; tools/record writes into the run folder; `down` leaves no process behind; a recorded push
-// experiment replays exactly; two hosts (network namespaces) share one group and one status.
+// experiment replays exactly; two hosts (network namespaces) share one group and one status: the hil
+// group split, drive emulator and hal on one, the control processes on the other.
 #include <gtest/gtest.h>
 
 #include <unistd.h>
@@ -219,16 +220,22 @@ TEST(Supervisor, TwoHostsRunOneGroupWithOneStatusAndStand) {
   const std::string dir = hpr::test::temp_dir("supervisor-hosts");
   const std::string file = dir + "/groups.yaml";
   const std::string cfg = hpr::test::source_dir() + "/config/toro.yaml";
+  // The hil group (on the drive emulator's clock, hal.clock=lockstep): the drives' side, emulator
+  // and hal talking cannelloni over the robot's loopback, on "plant"; the control processes on "brain".
+  const std::string lockstep = "--set, hal.clock=lockstep";
   std::ofstream(file) << "vars: {cfg: " << cfg << "}\n"
-                      << "groups:\n  split:\n    description: the simulated robot on one host, its controllers on another\n"
+                      << "groups:\n  split:\n    description: the robot's drives and hal on one host, its controllers on another\n"
                       << "    processes:\n"
-                      << "      sim_bullet: {command: sim_bullet, host: plant, args: [--config, '${cfg}', --set, sim.mode=lockstep]}\n"
+                      << "      drive_emulator: {command: drive_emulator, host: plant, args: [--config, '${cfg}', " << lockstep << "]}\n"
+                      << "      hal: {command: hal, host: plant, depends_on: [drive_emulator], args: [--config, '${cfg}', " << lockstep << "]}\n"
                       << hpr::test::control_processes_yaml("brain");
   // This test listens from host "plant" (LCM opens its receive socket lazily, so the thread stays there).
   ASSERT_TRUE(hosts.enter(hosts.a));
   hpr::test::LcmListener lcm(url);
   ASSERT_TRUE(lcm.good());
   auto truth = lcm.collect<humanoid::sim_truth_t>("SIM_TRUTH");
+  auto commands = lcm.collect<humanoid::joint_command_t>("JOINT_COMMAND");
+  auto hal_status = lcm.collect<humanoid::hal_status_t>("HAL_STATUS");
 
   const auto brain = run_command({supervisor(), "up", "split", "--groups", file, "--host", "brain", "--lcm-url", url, "--run-root", dir + "/brain"}, hosts.exec(hosts.b));
   ASSERT_EQ(brain.exit_code, 0) << brain.out;
@@ -241,14 +248,24 @@ TEST(Supervisor, TwoHostsRunOneGroupWithOneStatusAndStand) {
   for (const auto& s : st["supervisors"]) {
     for (const auto& p : s["processes"]) where[p["name"]] = s["host"];
   }
-  EXPECT_EQ(where["sim_bullet"], "plant") << st.dump(2);
+  EXPECT_EQ(where["drive_emulator"], "plant") << st.dump(2);
+  EXPECT_EQ(where["hal"], "plant") << st.dump(2);
   for (const char* n : {"estimator", "wbc", "reference_gen", "motion_opt"}) EXPECT_EQ(where[n], "brain") << n << "\n" << st.dump(2);
 
-  // The robot stands 10 s (simulated) with its controllers on the other host.
-  const bool ran = lcm.wait_for([&] { return !truth->empty() && (truth->back().sim_time >= 10.0 || truth->back().fallen); }, 120s);
+  // Commands come from the other host; the operator enables the drives; the robot stands 10 s
+  // (simulated) with its controllers on the other host.
+  ASSERT_TRUE(lcm.wait_for([&] { return commands->size() > 200; }, 60s)) << "no JOINT_COMMAND from host 'brain'";
+  humanoid::operator_t op{};
+  op.source = "test";
+  op.command = humanoid::operator_t::COMMAND_ENABLE;
+  lcm.publish("OPERATOR", op);
+  const auto hal_state = [&] { return hal_status->empty() ? -1 : int{hal_status->back().state}; };
+  ASSERT_TRUE(lcm.wait_for([&] { return hal_state() == humanoid::hal_status_t::STATE_ENABLED; }, 10s));
+  const bool ran = lcm.wait_for([&] { return !truth->empty() && (truth->back().sim_time >= 10.0 || truth->back().fallen); }, 180s);
   ASSERT_TRUE(ran) << "SIM_TRUTH did not reach 10 s: " << (truth->empty() ? 0.0 : truth->back().sim_time);
   EXPECT_FALSE(truth->back().fallen);
   EXPECT_GE(truth->back().sim_time, 10.0);
+  EXPECT_EQ(hal_state(), int{humanoid::hal_status_t::STATE_ENABLED}) << hal_status->back().state_reason;
 
   // down from one host stops both.
   const auto down = run_command({supervisor(), "down", "--lcm-url", url}, hosts.exec(hosts.b));

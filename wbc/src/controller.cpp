@@ -266,13 +266,20 @@ const JointCommand& WholeBodyController::step(const RobotState& state, const bal
       command_.qd_des(j) = cmd.qd_free(i);
     }
   }
+  // Within the joint's limits: torque (a fraction of the effort limit), velocity and position
+  // targets (a drive refuses a command outside its ranges; near a stretched knee J⁻¹ asks for more).
   status_.saturated = false;
+  auto saturate = [&](double& x, double lo, double hi) {
+    if (!(x < lo || x > hi)) return;
+    x = std::clamp(x, lo, hi);
+    status_.saturated = true;
+  };
   for (int j = 0; j < n; ++j) {
-    const double lim = config_.max_torque_fraction * m.tau_max[static_cast<size_t>(j)];
-    if (std::abs(command_.tau_ff(j)) > lim) {
-      command_.tau_ff(j) = std::clamp(command_.tau_ff(j), -lim, lim);
-      status_.saturated = true;
-    }
+    const auto ju = static_cast<size_t>(j);
+    const double lim = config_.max_torque_fraction * m.tau_max[ju];
+    saturate(command_.tau_ff(j), -lim, lim);
+    if (std::isfinite(m.v_max[ju]) && m.v_max[ju] > 0) saturate(command_.qd_des(j), -m.v_max[ju], m.v_max[ju]);
+    if (command_.kp(j) > 0 && m.q_lower[ju] < m.q_upper[ju]) saturate(command_.q_des(j), m.q_lower[ju], m.q_upper[ju]);
   }
   if (!command_.tau_ff.allFinite() || !command_.q_des.allFinite() || !command_.qd_des.allFinite()) {
     // Never a non-finite number to a motor: damp instead.

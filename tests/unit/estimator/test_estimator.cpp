@@ -268,6 +268,44 @@ TEST_F(EstimatorTest, RefusesImplausibleSamplesAndKeepsTheEstimate) {
   EXPECT_TRUE(est.implausible_reason().empty());
 }
 
+TEST_F(EstimatorTest, AStaleJointIsPredictedAndNoEstimateStartsFromAnIncompleteSample) {
+  const Eigen::VectorXd q = standing_with_yaw(robot, 0.0);
+  StaticSensors sensors(robot, q);
+  estimator::Estimator est(robot, estimator::EstimatorConfig{});
+  const int nj = robot.model.nj;
+  auto at = [&](SensorSample s, int k) {
+    s.tick = k;
+    s.time = 1e-3 * k;
+    return s;
+  };
+  // The first sample of a robot whose drives have not answered: zeros, every joint stale.
+  SensorSample none = at(sensors.sample, 0);
+  none.q.setZero();
+  none.qd.setZero();
+  for (auto& b : none.drive_status) b = SensorSample::kDriveStale;
+  const EstimatedState& first = est.update(none);
+  EXPECT_NE(first.status & estimator::kStatusInitialising, 0);
+  EXPECT_NE(first.status & estimator::kStatusSensorStale, 0) << "no estimate yet: flagged as nothing to act on";
+  for (int k = 1; k <= 400; ++k) est.update(at(sensors.sample, k));
+  EXPECT_LT((est.state().q.tail(nj) - q.tail(nj)).norm(), 1e-9) << "initialised from the first complete sample";
+  // A joint moving at constant velocity whose drive misses every third reply: the stale reading
+  // (the previous one, held) is not taken as a measurement, so the filter keeps tracking the ramp.
+  const int j = 3;
+  const double v = 0.5;
+  double worst = 0.0;
+  for (int k = 401; k <= 700; ++k) {
+    SensorSample s = at(sensors.sample, k);
+    const double truth = q(7 + j) + v * 1e-3 * (k - 400);
+    s.q(j) = k % 3 == 0 ? q(7 + j) + v * 1e-3 * (k - 401) : truth;  // held: last tick's value
+    s.qd(j) = v;
+    if (k % 3 == 0) s.drive_status[static_cast<std::size_t>(j)] = SensorSample::kDriveStale;
+    est.update(s);
+    if (k > 600) worst = std::max(worst, std::abs(est.state().v(6 + j) - v));
+  }
+  EXPECT_LT(worst, 0.01 * v) << "velocity of a joint with missed replies";
+  EXPECT_NEAR(est.state().q(7 + j), q(7 + j) + v * 0.3, 1e-5);
+}
+
 TEST_F(EstimatorTest, InitialisedInTheAirPlacesTheWorldFrameAtTheFirstContact) {
   const Eigen::VectorXd q = standing_with_yaw(robot, 0.0);
   StaticSensors loaded(robot, q);

@@ -2,6 +2,8 @@
 // step and saturate out of range; cannelloni datagrams round-trip and malformed ones are refused.
 #include <gtest/gtest.h>
 
+#include <cstdint>
+
 #include <cmath>
 #include <cstring>
 #include <random>
@@ -114,6 +116,20 @@ TEST(SensorFrames, Int16FieldsRoundTripAndSaturate) {
   CanFrame shorter = encode_int16s(kImuGyroId, v, 3, kImuGyroScale);
   shorter.len = 5;
   EXPECT_FALSE(decode_int16s(shorter, back, 3, kImuGyroScale));
+}
+
+TEST(SensorFrames, LockstepClockFrameCarriesTheTickExactly) {
+  for (const std::int64_t tick : {std::int64_t{0}, std::int64_t{1}, std::int64_t{1234567}, std::int64_t{-1}, INT64_MAX, INT64_MIN}) {
+    const CanFrame f = encode_lockstep_tick(tick);
+    EXPECT_EQ(f.id, kLockstepTickId);
+    EXPECT_EQ(f.len, 8);
+    const auto back = decode_lockstep_tick(f);
+    ASSERT_TRUE(back.has_value()) << tick;
+    EXPECT_EQ(*back, tick);
+  }
+  CanFrame shorter = encode_lockstep_tick(7);
+  shorter.len = 4;
+  EXPECT_FALSE(decode_lockstep_tick(shorter).has_value());
 }
 
 TEST(Cannelloni, DatagramsRoundTripClassicAndFdFramesBitExactly) {

@@ -250,6 +250,82 @@ TEST(Hal, BusOffOnOneBusDampsEveryDrive) {
   }
 }
 
+TEST(Hal, SoftLimitDampsTowardsRestNotTowardsTheCommandedVelocity) {
+  Rig r;
+  (void)r.h->operator_command(hal::kOperatorEnable, r.now, "test");
+  ASSERT_EQ(r.h->set_command(r.hold(), r.now), "");
+  r.h->begin_tick(0, r.now);  // enter motor mode
+  const int j = r.robot.model.joint_index("r_knee");
+  const auto& d = r.config.drives[static_cast<std::size_t>(j)];
+  const double inside = 0.01;  // [rad] from the lower limit, within the soft-limit margin
+  ASSERT_LT(inside, r.config.soft_limit_margin);
+  hal::DriveReply reply;
+  reply.drive_id = d.id;
+  reply.p = d.sign * (d.q_lower + inside - d.offset);
+  hal::MitCodec codec;
+  r.drive_buses[static_cast<std::size_t>(d.bus)]->send(codec.encode_reply(reply, d.limits));
+  r.drive_buses[static_cast<std::size_t>(d.bus)]->flush();
+  r.h->receive();
+  r.h->end_tick(r.now);
+  ASSERT_NEAR(r.h->sensors().q(j), d.q_lower + inside, 1e-4);
+  JointCommand c = r.hold();
+  const double kd = 5.0, qd_des = -2.0;  // asked to move fast into the limit
+  c.kd(j) = kd;
+  c.qd_des(j) = qd_des;
+  ASSERT_EQ(r.h->set_command(c, r.now), "");
+  r.h->begin_tick(1, r.now);
+  const hal::DriveCommand& sent = r.h->sent()[static_cast<std::size_t>(j)];
+  const double measured = r.h->sensors().q(j) - d.q_lower;  // `inside`, quantised by the position field
+  const double kd_s = (r.config.soft_limit_margin - measured) / r.config.soft_limit_margin * r.config.soft_limit_kd;
+  EXPECT_NEAR(sent.kd, kd + kd_s, 1e-12);
+  // The drive's law kd' (v_des' − v) equals the commanded damping plus damping towards rest, in
+  // drive units, at every velocity.
+  for (const double v : {-3.0, -1.0, 0.0, 0.5, 2.0}) {
+    EXPECT_NEAR(sent.kd * (sent.v_des - v), kd * (d.sign * qd_des - v) - kd_s * v, 1e-9) << v;
+  }
+}
+
+TEST(Hal, LockstepTickClosesOnTheEmulatorsClockFrameWhateverTheRepliesDid) {
+  Rig r({"hal.clock=lockstep", "emulator.drop_reply_probability=0.2", "emulator.bus_off_bus=can4", "emulator.bus_off_at=0.0"});
+  ASSERT_TRUE(r.config.lockstep);
+  std::vector<hal::CanFrame> rx;
+  int incomplete = 0;
+  for (std::int64_t k = 0; k < 50; ++k) {
+    r.h->begin_tick(k, 1e-3 * static_cast<double>(k));
+    EXPECT_FALSE(r.emu->any_requested());
+    for (std::size_t b = 0; b < r.drive_buses.size(); ++b) {
+      rx.clear();
+      r.drive_buses[b]->receive(rx);
+      for (const auto& f : rx) r.emu->handle(static_cast<int>(b), f, 1e-3 * static_cast<double>(k), *r.drive_buses[b]);
+      r.drive_buses[b]->flush();
+    }
+    // Every drive on a live bus and the SYNC have been heard (can4 is bus-off: deaf).
+    ASSERT_TRUE(r.emu->tick_requested()) << k;
+    r.h->receive();
+    EXPECT_FALSE(r.h->tick_closed()) << "replies alone never close a lockstep tick";
+    incomplete += r.h->replies_complete() ? 0 : 1;
+    r.emu->step(1e-3 * static_cast<double>(k));
+    for (auto& bus : r.drive_buses) {
+      hal::DriveEmulator::report_tick(k, *bus);
+      bus->flush();
+    }
+    r.h->receive();
+    EXPECT_TRUE(r.h->tick_closed()) << k;
+    r.h->end_tick(1e-3 * static_cast<double>(k));
+  }
+  EXPECT_EQ(incomplete, 50) << "dropped replies and a deaf bus: no tick had every reply";
+  EXPECT_EQ(r.h->frames_malformed(), 0) << "the clock frame is no unknown frame in lockstep";
+  // On the robot's clock the same frame is an unknown one: counted, nothing else.
+  Rig rt;
+  ASSERT_FALSE(rt.config.lockstep);
+  rt.h->begin_tick(0, 0.0);
+  hal::DriveEmulator::report_tick(0, *rt.drive_buses[0]);
+  rt.drive_buses[0]->flush();
+  rt.h->receive();
+  EXPECT_EQ(rt.h->frames_malformed(), 1);
+  EXPECT_FALSE(rt.h->tick_closed());
+}
+
 TEST(DriveEmulator, DrivesDampByThemselvesWhenTheHalStops) {
   Rig r;
   (void)r.h->operator_command(hal::kOperatorEnable, r.now, "test");

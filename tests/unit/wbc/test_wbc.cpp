@@ -202,4 +202,32 @@ TEST(Wbc, TorquesReproduceTheDesiredClosedLoop) {
   }
 }
 
+TEST(Wbc, CommandsStayWithinTheJointLimits) {
+  // A commanded motion far beyond what the joints can follow (J⁻¹ turns 4 m/s of CoM into leg
+  // rates above their limits): the drives get targets inside their ranges, and the step says so.
+  const auto robot = test::load_robot("toro");
+  const model::Model& m = robot.model;
+  const Config cfg = Config::load(test::source_dir() + "/config/toro.yaml");
+  const wbc::WbcConfig config = wbc::WbcConfig::load(cfg.section("wbc"), robot);
+  wbc::WholeBodyController ctl(robot, config);
+  balance::PostureReference pref(robot, {});
+  pref.start(robot.standing_configuration(), 0.0);
+  balance::TaskReference cmd = pref.update(0.3);
+  cmd.v_com = Vector3d(4.0, 0.0, -2.0);
+  cmd.omega_base = Vector3d(0.0, 6.0, 0.0);
+  wbc::RobotState st;
+  st.q = robot.standing_configuration();
+  st.v = VectorXd::Zero(m.nv);
+  const JointCommand& c = ctl.step(st, cmd);
+  EXPECT_TRUE(ctl.status().saturated);
+  int at_limit = 0;
+  for (int j = 0; j < m.nj; ++j) {
+    const auto ju = static_cast<size_t>(j);
+    EXPECT_LE(std::abs(c.qd_des(j)), m.v_max[ju] + 1e-12) << m.joint_name[ju];
+    EXPECT_LE(std::abs(c.tau_ff(j)), config.max_torque_fraction * m.tau_max[ju] + 1e-12) << m.joint_name[ju];
+    at_limit += std::abs(c.qd_des(j)) >= m.v_max[ju] - 1e-12 ? 1 : 0;
+  }
+  EXPECT_GT(at_limit, 0) << "some joint was asked for more than its velocity limit";
+}
+
 }  // namespace

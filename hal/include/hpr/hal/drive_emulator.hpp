@@ -38,6 +38,13 @@ class DriveEmulator {
   /// Queues what a bus in bus-off reports (an error frame) on it; call once per period per bus.
   void report_bus_state(int bus, CanTransport& out);
 
+  /// Lockstep: every drive on a bus that is not bus-off, and the sensors' SYNC, has had its frame
+  /// since the last step (the hal's tick is complete), or at least one has (`any_requested`).
+  [[nodiscard]] bool tick_requested() const;
+  [[nodiscard]] bool any_requested() const { return requests_ > 0; }
+  /// Lockstep: queues the simulated clock's frame for `tick` on `out` (after the tick's replies).
+  static void report_tick(std::int64_t tick, CanTransport& out);
+
   [[nodiscard]] bool motor_mode(std::size_t drive) const { return drives_[drive].motor_mode; }
   [[nodiscard]] bool timed_out(std::size_t drive, double now) const;
   [[nodiscard]] std::int64_t frames_ignored() const { return ignored_; }
@@ -66,6 +73,9 @@ class DriveEmulator {
   std::uniform_real_distribution<double> uniform_{0.0, 1.0};
   std::int64_t ignored_ = 0;
   bool released_ = false;
+  std::vector<char> requested_;  ///< per drive, since the last step
+  bool sync_requested_ = false;
+  int requests_ = 0;
 };
 
 }  // namespace hpr::hal

@@ -42,6 +42,12 @@ struct HalConfig {
   std::string file;                 ///< the configuration file (messages)
   double period = 0.001;            ///< [s]
   double reply_window = 0.0007;     ///< [s] after the tick start to wait for replies
+  /// Clock `lockstep` (simulation only, with a drive emulator): hal time is tick × period; a tick
+  /// ends when every bus has delivered the emulator's clock frame (kLockstepTickId), the next starts
+  /// when the controllers have answered, each wait bounded by `lockstep_timeout` of wall time.
+  /// `realtime` (the robot): an absolute 1 kHz clock and the reply window.
+  bool lockstep = false;
+  double lockstep_timeout = 0.5;    ///< [s, wall]
   std::vector<BusConfig> buses;
   std::vector<DriveConfig> drives;  ///< one per model joint, in model order
   int sensor_bus = -1;              ///< bus of the IMU and F/T sensors (-1: none)
@@ -58,8 +64,6 @@ std::vector<std::unique_ptr<CanTransport>> open_buses(const HalConfig& c, bool e
 
 /// Drive states as HAL_STATUS reports them (hal_status_t::DRIVE_*).
 enum DriveState : std::int8_t { kDriveOff = 0, kDriveRun = 1, kDriveDamp = 2, kDriveFault = 3, kDriveNoReply = 4 };
-/// Per-joint status bits in ROBOT_SENSORS (robot_sensors_t::DRIVE_*).
-enum DriveBits : std::int32_t { kBitEnabled = 1, kBitDamping = 2, kBitFault = 4, kBitStale = 8 };
 /// OPERATOR commands the hal acts on (operator_t::COMMAND_*).
 enum OperatorCommand : int { kOperatorEnable = 1, kOperatorDamp = 2, kOperatorStop = 3 };
 
@@ -86,6 +90,8 @@ class Hal {
   /// Drains every bus; returns the frames handled.
   int receive();
   [[nodiscard]] bool replies_complete() const;
+  /// Lockstep: every bus has delivered the emulator's clock frame since begin_tick.
+  [[nodiscard]] bool tick_closed() const;
   void end_tick(double now);
 
   [[nodiscard]] const SensorSample& sensors() const { return sensors_; }
@@ -121,6 +127,7 @@ class Hal {
   std::vector<std::vector<int>> drive_by_id_;  ///< per bus: drive id → drive index (-1)
   std::vector<CanFrame> rx_;
   int sensor_frames_ = 0, sensor_frames_expected_ = 0;
+  std::vector<char> tick_closed_;  ///< lockstep: per bus, the clock frame arrived this tick
 };
 
 }  // namespace hpr::hal

@@ -92,6 +92,16 @@ inline constexpr std::uint32_t kFtForceId = 0x190;   ///< + 2 × sensor index: f
 inline constexpr std::uint32_t kFtTorqueId = 0x191;  ///< + 2 × sensor index: tx, ty, tz int16 × 0.01 Nm
 inline constexpr double kImuGyroScale = 1e-3, kImuAccelScale = 1e-2, kFtForceScale = 0.1, kFtTorqueScale = 0.01;
 
+// ---------------------------------------------------------------------------------------------
+// The simulated clock (lockstep only; no real device sends it). A drive emulator in lockstep ends
+// every tick it has answered with this frame on every bus, after its replies: the hal's tick is
+// complete when each bus has delivered it, however long the emulator took.
+// ---------------------------------------------------------------------------------------------
+inline constexpr std::uint32_t kLockstepTickId = 0x7F0;  ///< emulator tick: int64, big-endian
+CanFrame encode_lockstep_tick(std::int64_t tick);
+/// The tick of a clock frame; nullopt if the frame is not 8 bytes.
+std::optional<std::int64_t> decode_lockstep_tick(const CanFrame& f);
+
 /// Three (or four) saturated int16 values, big-endian, in an 8-byte frame.
 CanFrame encode_int16s(std::uint32_t id, const double* values, int count, double scale);
 /// Decodes `count` int16 values; false if the frame is shorter than 2 × count bytes.

@@ -68,7 +68,7 @@ struct BalanceStatus {
   bool qp_fallback = false;
   bool qp_exact = false;  ///< the desired CoM wrench was met exactly (else: least error)
   bool singular = false;
-  bool saturated = false;
+  bool saturated = false;  ///< a torque, velocity or position target was cut to the joint's limit
 };
 
 class WholeBodyController {

@@ -16,7 +16,9 @@ struct SensorSample {
   std::int64_t tick = 0;
   double time = 0.0;                       ///< robot clock [s]
   Eigen::VectorXd q, qd, tau;              ///< joint position [rad], velocity [rad/s], torque [Nm]
-  std::vector<std::int32_t> drive_status;  ///< robot_sensors_t::DRIVE_* bits
+  std::vector<std::int32_t> drive_status;  ///< per joint, kDrive* bits (robot_sensors_t::DRIVE_*)
+  /// drive_status bits. Stale: the drive did not answer this tick; q, qd, tau hold older values.
+  static constexpr std::int32_t kDriveEnabled = 1, kDriveDamping = 2, kDriveFault = 4, kDriveStale = 8;
   Eigen::Vector4d imu_quat_WB{1, 0, 0, 0}; ///< IMU orientation (w, x, y, z)
   Eigen::Vector3d imu_gyro_B = Eigen::Vector3d::Zero();   ///< [rad/s], IMU frame
   Eigen::Vector3d imu_accel_B = Eigen::Vector3d::Zero();  ///< specific force [m/s²], IMU frame

@@ -11,6 +11,12 @@
 
 namespace hpr::msg {
 
+/// ROBOT_STATE status bits of an estimate nothing may act on or start from: sensors stale or
+/// incomplete, a reading implausible, the filter diverged.
+inline constexpr std::int32_t kStateUnusable = std::int32_t{humanoid::robot_state_t::STATUS_SENSOR_STALE} |
+                                               std::int32_t{humanoid::robot_state_t::STATUS_IMPLAUSIBLE} |
+                                               std::int32_t{humanoid::robot_state_t::STATUS_COVARIANCE};
+
 void to_message(const EstimatedState& s, const RobotNames& names, humanoid::robot_state_t& m);
 /// Empty when `m` is valid for `names` (filled into `s`), else the reason.
 std::string from_message(const humanoid::robot_state_t& m, const RobotNames& names, EstimatedState& s);
