@@ -48,7 +48,10 @@ bool DriveEmulator::timed_out(std::size_t drive, double now) const {
 
 void DriveEmulator::reply(std::size_t i, CanTransport& out) {
   const DriveConfig& d = config_.drives[i];
-  if (options_.drop_reply_probability > 0 && uniform_(rng_) < options_.drop_reply_probability) return;
+  // Injected losses act on running drives only, one draw per reply from the seed: a lockstep run
+  // drops the same replies every time, however long the hal took to enable.
+  const bool inject = drives_[i].motor_mode;
+  if (inject && options_.drop_reply_probability > 0 && uniform_(rng_) < options_.drop_reply_probability) return;
   const auto j = static_cast<Eigen::Index>(i);
   const SensorSample& s = sim_.sensors();
   DriveReply r;
@@ -61,7 +64,7 @@ void DriveEmulator::reply(std::size_t i, CanTransport& out) {
     r.fault = static_cast<std::uint8_t>(options_.fault_code);
   }
   CanFrame f = codec_->encode_reply(r, d.limits);
-  if (options_.corrupt_probability > 0 && uniform_(rng_) < options_.corrupt_probability) f.len = 6;
+  if (inject && options_.corrupt_probability > 0 && uniform_(rng_) < options_.corrupt_probability) f.len = 6;
   out.send(f);
 }
 

@@ -288,6 +288,7 @@ TEST(Hal, SoftLimitDampsTowardsRestNotTowardsTheCommandedVelocity) {
 TEST(Hal, LockstepTickClosesOnTheEmulatorsClockFrameWhateverTheRepliesDid) {
   Rig r({"hal.clock=lockstep", "emulator.drop_reply_probability=0.2", "emulator.bus_off_bus=can4", "emulator.bus_off_at=0.0"});
   ASSERT_TRUE(r.config.lockstep);
+  (void)r.h->operator_command(hal::kOperatorEnable, 0.0, "test");  // drives in motor mode: losses injected
   std::vector<hal::CanFrame> rx;
   int incomplete = 0;
   for (std::int64_t k = 0; k < 50; ++k) {

@@ -16,8 +16,8 @@ namespace hpr::hal {
 struct EmulatorOptions {
   double drive_timeout = 0.02;       ///< [s] without a command frame: the drive damps by itself
   double drive_damping_kd = 10.0;    ///< [Nm s/rad]
-  double drop_reply_probability = 0; ///< per reply
-  double corrupt_probability = 0;    ///< per reply: sent with a wrong length
+  double drop_reply_probability = 0; ///< per reply of a drive in motor mode (seeded: reproducible)
+  double corrupt_probability = 0;    ///< per reply of a drive in motor mode: sent with a wrong length
   std::string fault_joint;           ///< this drive reports `fault_code` from `fault_at` [s sim time]
   int fault_code = 0;
   double fault_at = -1;
