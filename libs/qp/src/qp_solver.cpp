@@ -83,6 +83,9 @@ Solver::Solver(int n, int m, Options options)
       rinv_(Vector::Zero(n)) {
   free_.reserve(static_cast<size_t>(n));
   rows_.reserve(static_cast<size_t>(n));
+  row_entry_.reserve(static_cast<size_t>(n));
+  bound_entry_.assign(static_cast<size_t>(n), -1);
+  trial_.reserve(static_cast<size_t>(n));
   active_.reserve(static_cast<size_t>(n));
   previous_active_.reserve(static_cast<size_t>(n));
 }
@@ -506,11 +509,31 @@ Status Solver::solve(bool hot, const ConstMatrix& H, const ConstVector& g, const
   row_norms_current_ = false;
 
   // Fast path: most hot starts keep their working set; solve it directly and accept a KKT point.
-  if (hot && have_previous_ && try_working_set(previous_active_)) {
-    status_ = Status::kOptimal;
-    primal_feasible_ = true;
-    prev_x_ = x_;
-    return status_;
+  // When the data moved a constraint in or out, a few single changes of the working set, each
+  // solved the same way, usually reach the KKT point at a fraction of a refactorisation.
+  if (hot && have_previous_) {
+    trial_ = previous_active_;
+    constexpr int kRetries = 3;
+    for (int attempt = 0; attempt <= kRetries && attempt < options_.max_working_set_changes; ++attempt) {
+      Entry add{};
+      int drop = -1;
+      const FastPath r = try_working_set(trial_, &add, &drop);
+      if (r == FastPath::kOptimal) {
+        changes_ = attempt;
+        previous_active_ = active_;
+        status_ = Status::kOptimal;
+        primal_feasible_ = true;
+        prev_x_ = x_;
+        return status_;
+      }
+      if (r == FastPath::kFailed) break;
+      if (r == FastPath::kAdd) {
+        if (static_cast<int>(trial_.size()) >= n_) break;
+        trial_.push_back(add);
+      } else {
+        trial_.erase(trial_.begin() + drop);
+      }
+    }
   }
 
   if (!H_factorized_) {
@@ -664,41 +687,45 @@ const KktResiduals& Solver::kkt() const {
   return kkt_;
 }
 
-bool Solver::try_working_set(const std::vector<Entry>& W) {
+Solver::FastPath Solver::try_working_set(const std::vector<Entry>& W, Entry* add, int* drop) {
   // Bounds in W fix their variables; the rows of W are handled by a Schur complement on the free
   // variables: H_FF x_F + g_F' = N_Fᵀ u, N_F x_F = b'.
   free_.clear();
   rows_.clear();
+  row_entry_.clear();
   std::fill(bound_state_.begin(), bound_state_.end(), Active::kInactive);
   std::fill(constraint_state_.begin(), constraint_state_.end(), Active::kInactive);
   bool any_bound = false;
-  for (const Entry& e : W) {
+  for (std::size_t w = 0; w < W.size(); ++w) {
+    const Entry& e = W[w];
     const bool eq = lower(e.c) == upper(e.c);
     const double bound = e.sign > 0 ? lower(e.c) : upper(e.c);
-    if (!std::isfinite(bound)) return false;
+    if (!std::isfinite(bound)) return FastPath::kFailed;
     const Active st = eq ? Active::kEquality : (e.sign > 0 ? Active::kLower : Active::kUpper);
     if (e.c < n_) {
       if (!any_bound) xb_.setZero();
       any_bound = true;
       xb_(e.c) = bound;
       bound_state_[static_cast<size_t>(e.c)] = st;
+      bound_entry_[static_cast<size_t>(e.c)] = static_cast<int>(w);
     } else {
       constraint_state_[static_cast<size_t>(e.c - n_)] = st;
       rows_.push_back(e.c - n_);
+      row_entry_.push_back(static_cast<int>(w));
     }
   }
   // Equalities missing from W (new data) make the fast path inapplicable.
   for (int i = 0; i < n_; ++i) {
-    if (lb_(i) == ub_(i) && bound_state_[static_cast<size_t>(i)] == Active::kInactive) return false;
+    if (lb_(i) == ub_(i) && bound_state_[static_cast<size_t>(i)] == Active::kInactive) return FastPath::kFailed;
   }
   for (int j = 0; j < m_; ++j) {
-    if (lbA_(j) == ubA_(j) && constraint_state_[static_cast<size_t>(j)] == Active::kInactive) return false;
+    if (lbA_(j) == ubA_(j) && constraint_state_[static_cast<size_t>(j)] == Active::kInactive) return FastPath::kFailed;
   }
   for (int i = 0; i < n_; ++i) {
     if (bound_state_[static_cast<size_t>(i)] == Active::kInactive) free_.push_back(i);
   }
   const int nf = static_cast<int>(free_.size()), qg = static_cast<int>(rows_.size());
-  if (qg > nf) return false;
+  if (qg > nf) return FastPath::kFailed;
   // Reduced Hessian and gradient: g_F' = g_F + H_FB x_B.
   if (any_bound) {
     grad_.noalias() = H_ * xb_;
@@ -731,7 +758,7 @@ bool Solver::try_working_set(const std::vector<Entry>& W) {
       const double ljk = ck[j];
       for (int i = j; i < nf; ++i) cj[i] -= ljk * ck[i];
     }
-    if (!(cj[j] > 1e-14 * scale)) return false;
+    if (!(cj[j] > 1e-14 * scale)) return FastPath::kFailed;
     const double djj = std::sqrt(cj[j]);
     const double inv = 1.0 / djj;
     cj[j] = djj;
@@ -809,7 +836,7 @@ bool Solver::try_working_set(const std::vector<Entry>& W) {
     for (int j = 0; j < qg; ++j) {
       double djj = S_(j, j);
       for (int k = 0; k < j; ++k) djj -= S_(j, k) * S_(j, k);
-      if (!(djj > 1e-12 * sscale)) return false;
+      if (!(djj > 1e-12 * sscale)) return FastPath::kFailed;
       djj = std::sqrt(djj);
       S_(j, j) = djj;
       for (int i = j + 1; i < qg; ++i) {
@@ -839,14 +866,26 @@ bool Solver::try_working_set(const std::vector<Entry>& W) {
   }
   for (int a = 0; a < nf; ++a) x_(free_[static_cast<size_t>(a)]) = xf_(a);
   update_constraint_values();
-  if (!is_feasible()) return false;
-  // Multipliers: rows from u (sign by side); bounds from the gradient of the Lagrangian.
+  if (!is_feasible()) {
+    double slack = 0.0, sign = 0.0;
+    const int c = most_violated(&slack, &sign);
+    if (c < 0) return FastPath::kFailed;
+    *add = Entry{c, sign, false};
+    return FastPath::kAdd;
+  }
+  // Multipliers: rows from u (sign by side); bounds from the gradient of the Lagrangian. The most
+  // negative one (of an inequality) is the one to drop.
   const double tol = options_.dual_tolerance * std::max(1.0, g_.cwiseAbs().maxCoeff());
+  double worst = -tol;
+  *drop = -1;
   y_constraints_.setZero();
   for (int r = 0; r < qg; ++r) {
     const int row = rows_[static_cast<size_t>(r)];
     const Active st = constraint_state_[static_cast<size_t>(row)];
-    if (st != Active::kEquality && uf_(r) < -tol) return false;
+    if (st != Active::kEquality && uf_(r) < worst) {
+      worst = uf_(r);
+      *drop = row_entry_[static_cast<size_t>(r)];
+    }
     y_constraints_(row) = st == Active::kUpper ? -uf_(r) : uf_(r);
   }
   y_bounds_.setZero();
@@ -858,11 +897,16 @@ bool Solver::try_working_set(const std::vector<Entry>& W) {
       const Active st = bound_state_[static_cast<size_t>(i)];
       if (st == Active::kInactive) continue;
       y_bounds_(i) = grad_(i);
-      if ((st == Active::kLower && grad_(i) < -tol) || (st == Active::kUpper && grad_(i) > tol)) return false;
+      const double u = st == Active::kLower ? grad_(i) : st == Active::kUpper ? -grad_(i) : 0.0;
+      if (u < worst) {
+        worst = u;
+        *drop = bound_entry_[static_cast<size_t>(i)];
+      }
     }
   }
+  if (*drop >= 0) return FastPath::kDrop;
   active_ = W;
-  return true;
+  return FastPath::kOptimal;
 }
 
 }  // namespace hpr::qp

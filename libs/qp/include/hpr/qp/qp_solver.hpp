@@ -131,7 +131,11 @@ class Solver {
   int most_violated(double* slack, double* sign);
   bool is_feasible() const;
   double evaluate_objective(const Vector& x) const;
-  bool try_working_set(const std::vector<Entry>& W);  // fast path: the working set as is
+  // Fast path: the EQP of working set W by a Schur complement, accepted only at a KKT point. If
+  // not, what one working-set change would do next: add the most violated constraint (`add`) or
+  // drop the most negative multiplier (`drop`, an index into W); kFailed when neither applies.
+  enum class FastPath { kOptimal, kAdd, kDrop, kFailed };
+  FastPath try_working_set(const std::vector<Entry>& W, Entry* add, int* drop);
   Status run_dual();
   Status run_primal();
   void finish(Status s);
@@ -156,6 +160,8 @@ class Solver {
   Matrix Hf_, Nf_, Y_, S_;
   Vector gf_, xf_, xb_, rhs_, uf_, rinv_;
   std::vector<int> free_, rows_;
+  std::vector<int> row_entry_, bound_entry_;  // index in W of each row in rows_ / of each bound
+  std::vector<Entry> trial_;                  // the fast path's working set while it retries
   double best_obj_ = 0;
   bool have_best_ = false, have_previous_ = false;
   int changes_ = 0;
