@@ -513,8 +513,9 @@ Status Solver::solve(bool hot, const ConstMatrix& H, const ConstVector& g, const
   // solved the same way, usually reach the KKT point at a fraction of a refactorisation.
   if (hot && have_previous_) {
     trial_ = previous_active_;
-    constexpr int kRetries = 3;
-    for (int attempt = 0; attempt <= kRetries && attempt < options_.max_working_set_changes; ++attempt) {
+    constexpr int kRetries = 3;  // each one working-set change, within the cap
+    const int attempts = std::min(kRetries, options_.max_working_set_changes);
+    for (int attempt = 0; attempt <= attempts; ++attempt) {
       Entry add{};
       int drop = -1;
       const FastPath r = try_working_set(trial_, &add, &drop);
