@@ -67,9 +67,9 @@ int main(int argc, char** argv) {
             rt.clear_fault("sensors");
           }
           const std::string& reason = est.implausible_reason();
+          const std::string kind = reason.substr(0, reason.find(':'));
           if (!reason.empty()) {
             // A new kind of refusal at once; the same kind at most once a second, with a count.
-            const std::string kind = reason.substr(0, reason.find(':'));
             const double now = monotonic_s();
             if (kind != last_kind || now - last_warn >= 1.0) {
               log::warn("sample {} refused: {}{}", sample.tick, reason,
@@ -83,7 +83,7 @@ int main(int argc, char** argv) {
           } else {
             rt.clear_fault("implausible");
           }
-          last_kind = reason.empty() ? std::string() : reason.substr(0, reason.find(':'));
+          last_kind = kind;
           if ((s.status & estimator::kStatusCovariance) != 0) {
             rt.set_fault("covariance", fmt::format("position standard deviation {:.3f} m", est.position_std()));
           } else {

@@ -2,7 +2,6 @@
 
 #include <fmt/format.h>
 
-#include <algorithm>
 #include <cmath>
 
 namespace hpr::estimator {
@@ -164,8 +163,8 @@ const EstimatedState& Estimator::update(const SensorSample& s) {
   }
   if (!initialised_) {
     // Only from a complete sample: a joint whose drive has not answered yet has no reading at all.
-    const bool complete = std::none_of(s.drive_status.begin(), s.drive_status.end(),
-                                       [](std::int32_t b) { return (b & SensorSample::kDriveStale) != 0; });
+    bool complete = true;
+    for (int j = 0; j < s.q.size(); ++j) complete = complete && !s.stale(j);
     if (!complete) {
       state_.tick = s.tick;
       state_.status = kStatusInitialising | kStatusSensorStale;  // no estimate yet: nothing to act on
@@ -195,14 +194,10 @@ const EstimatedState& Estimator::update(const SensorSample& s) {
 }
 
 void Estimator::update_joints(const SensorSample& s, double dt) {
-  // A joint whose drive did not answer this tick (stale bit) holds an old reading: predicted only.
-  auto stale = [&](int j) {
-    const auto ju = static_cast<std::size_t>(j);
-    return ju < s.drive_status.size() && (s.drive_status[ju] & SensorSample::kDriveStale) != 0;
-  };
+  // A joint whose drive did not answer this tick holds an old reading: predicted only.
   if (!config_.filter_joints) {
     for (int j = 0; j < qj_.size(); ++j) {
-      if (stale(j)) {
+      if (s.stale(j)) {
         qj_(j) += qdj_(j) * dt;
       } else {
         qj_(j) = s.q(j);
@@ -217,7 +212,7 @@ void Estimator::update_joints(const SensorSample& s, double dt) {
   }
   for (int j = 0; j < qj_.size(); ++j) {
     const double pred = qj_(j) + qdj_(j) * dt;
-    if (stale(j)) {
+    if (s.stale(j)) {
       qj_(j) = pred;
       continue;
     }

@@ -16,6 +16,7 @@
 #include <csignal>
 
 #include "all_types.hpp"
+#include "hal_enable.hpp"
 #include "lcm_listener.hpp"
 #include "process_group.hpp"
 #include "shell.hpp"
@@ -68,14 +69,7 @@ struct Hil {
   [[nodiscard]] int hal_state() const { return status->empty() ? -1 : status->back().state; }
   /// Waits for commands to flow, then enables the hal.
   void enable() {
-    ASSERT_TRUE(lcm.wait_for([&] { return commands->size() > 200; }, 30s)) << "no JOINT_COMMAND from the control processes";
-    humanoid::operator_t op{};
-    op.source = "test";
-    op.command = humanoid::operator_t::COMMAND_ENABLE;
-    op.num_params = 0;
-    lcm.publish("OPERATOR", op);
-    ASSERT_TRUE(lcm.wait_for([&] { return hal_state() == humanoid::hal_status_t::STATE_ENABLED; }, 5s))
-        << "hal state " << hal_state() << ": " << (status->empty() ? "" : status->back().state_reason);
+    ASSERT_EQ(hpr::test::enable_drives(lcm, commands, status, 30s, 5s), "");
     missed_at_enable = status->back().drive_missed;  // the hal may have started before the drives answered
   }
   std::vector<std::int64_t> missed_at_enable;
@@ -251,13 +245,8 @@ TEST(HardwareInTheLoop, SplitOverTwoHostsStandsTenSeconds) {
   ASSERT_EQ(robot.exit_code, 0) << robot.out;
   const auto pc = hpr::test::run_command({sup, "up", "hil-split", "--groups", file, "--host", "pc", "--lcm-url", url, "--run-root", dir + "/pc"}, hosts.exec(hosts.b));
   ASSERT_EQ(pc.exit_code, 0) << pc.out;
-  ASSERT_TRUE(lcm.wait_for([&] { return commands->size() > 200; }, 30s)) << "no JOINT_COMMAND from the other host";
-  humanoid::operator_t op{};
-  op.source = "test";
-  op.command = humanoid::operator_t::COMMAND_ENABLE;
-  lcm.publish("OPERATOR", op);
+  ASSERT_EQ(hpr::test::enable_drives(lcm, commands, status, 30s, 5s), "") << "with the control processes on the other host";
   const auto state = [&] { return status->empty() ? -1 : int{status->back().state}; };
-  ASSERT_TRUE(lcm.wait_for([&] { return state() == humanoid::hal_status_t::STATE_ENABLED; }, 5s));
   const double t0 = truth->empty() ? 0.0 : truth->back().sim_time;
   lcm.wait_for([&] { return !truth->empty() && (truth->back().sim_time >= t0 + 10.0 || truth->back().fallen); }, 60s);
   ASSERT_FALSE(truth->empty());

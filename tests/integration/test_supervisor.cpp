@@ -16,6 +16,7 @@
 #include <thread>
 
 #include "all_types.hpp"
+#include "hal_enable.hpp"
 #include "lcm_listener.hpp"
 #include "process_group.hpp"
 #include "shell.hpp"
@@ -254,13 +255,8 @@ TEST(Supervisor, TwoHostsRunOneGroupWithOneStatusAndStand) {
 
   // Commands come from the other host; the operator enables the drives; the robot stands 10 s
   // (simulated) with its controllers on the other host.
-  ASSERT_TRUE(lcm.wait_for([&] { return commands->size() > 200; }, 60s)) << "no JOINT_COMMAND from host 'brain'";
-  humanoid::operator_t op{};
-  op.source = "test";
-  op.command = humanoid::operator_t::COMMAND_ENABLE;
-  lcm.publish("OPERATOR", op);
+  ASSERT_EQ(hpr::test::enable_drives(lcm, commands, hal_status, 60s, 10s), "") << "with the control processes on host 'brain'";
   const auto hal_state = [&] { return hal_status->empty() ? -1 : int{hal_status->back().state}; };
-  ASSERT_TRUE(lcm.wait_for([&] { return hal_state() == humanoid::hal_status_t::STATE_ENABLED; }, 10s));
   const bool ran = lcm.wait_for([&] { return !truth->empty() && (truth->back().sim_time >= 10.0 || truth->back().fallen); }, 180s);
   ASSERT_TRUE(ran) << "SIM_TRUTH did not reach 10 s: " << (truth->empty() ? 0.0 : truth->back().sim_time);
   EXPECT_FALSE(truth->back().fallen);

@@ -110,11 +110,10 @@ void WbcNode::publish_damp(std::int64_t tick, const std::string& why) {
 }
 
 void WbcNode::step(std::int64_t tick, const EstimatedState& state, bool wholebody_fresh) {
-  constexpr std::int32_t kBad = msg::kStateUnusable;
   // The held posture starts from the first usable estimate (a robot whose drives have not all
   // answered yet has none): until then the joints only damp.
   if (!reference_.started()) {
-    if ((state.status & kBad) != 0) {
+    if ((state.status & msg::kStateUnusable) != 0) {
       publish_damp(tick, "no usable ROBOT_STATE yet (status " + std::to_string(state.status) + ")");
       return;
     }
@@ -127,7 +126,7 @@ void WbcNode::step(std::int64_t tick, const EstimatedState& state, bool wholebod
   }
   // A state the estimator flags as stale, implausible or diverged is tolerated for a few ticks (one
   // refused sample keeps the previous estimate), then the robot goes limp.
-  bad_state_count_ = (state.status & kBad) != 0 ? bad_state_count_ + 1 : 0;
+  bad_state_count_ = (state.status & msg::kStateUnusable) != 0 ? bad_state_count_ + 1 : 0;
   if (bad_state_count_ >= options_.bad_state_ticks) {
     publish_damp(tick, "ROBOT_STATE flagged (status " + std::to_string(state.status) + ") for " +
                            std::to_string(bad_state_count_) + " ticks");

@@ -19,6 +19,11 @@ struct SensorSample {
   std::vector<std::int32_t> drive_status;  ///< per joint, kDrive* bits (robot_sensors_t::DRIVE_*)
   /// drive_status bits. Stale: the drive did not answer this tick; q, qd, tau hold older values.
   static constexpr std::int32_t kDriveEnabled = 1, kDriveDamping = 2, kDriveFault = 4, kDriveStale = 8;
+  /// The reading of `joint` is older than this tick (its drive did not answer).
+  [[nodiscard]] bool stale(int joint) const {
+    const auto j = static_cast<std::size_t>(joint);
+    return j < drive_status.size() && (drive_status[j] & kDriveStale) != 0;
+  }
   Eigen::Vector4d imu_quat_WB{1, 0, 0, 0}; ///< IMU orientation (w, x, y, z)
   Eigen::Vector3d imu_gyro_B = Eigen::Vector3d::Zero();   ///< [rad/s], IMU frame
   Eigen::Vector3d imu_accel_B = Eigen::Vector3d::Zero();  ///< specific force [m/s²], IMU frame
