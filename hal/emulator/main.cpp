@@ -22,14 +22,13 @@ using namespace hpr;
 int run(const node::CommandLine& cl, const Config& cfg) {
   const Config robot_cfg = cfg.section("robot");
   const auto robot = model::RobotSpec::load(robot_cfg);
-  const auto description = model::load_urdf(robot_cfg.file_path("urdf"));
   const hal::HalConfig config = hal::HalConfig::load(cfg.section("hal"), robot.model);
   const auto options = cfg.has("emulator") ? hal::EmulatorOptions::load(cfg.section("emulator")) : hal::EmulatorOptions{};
   const Config sim_cfg = cfg.section("sim");
   const sim::SimConfig sim_config = sim::SimConfig::load(sim_cfg);
   const double duration = cfg.has("emulator") ? cfg.section("emulator").real_or("duration", 0.0, 0.0, 1e7) : 0.0;
   node::Runtime rt(cl.name, node::lcm_url(cl, cfg), node::runtime_options(cfg, sim_config.dt));
-  sim::Simulator simulator(robot, description, sim_config);
+  sim::Simulator simulator(robot, sim_config);
   auto buses = hal::open_buses(config, true);
   hal::DriveEmulator emu(config, simulator, std::make_unique<hal::MitCodec>(), options);
 

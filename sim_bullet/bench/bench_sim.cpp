@@ -17,7 +17,6 @@ struct Setup {
   Setup()
       : cfg(Config::load(std::string(HPR_SOURCE_DIR) + "/config/toro.yaml")),
         spec(model::RobotSpec::load(cfg.section("robot"))),
-        desc(model::load_urdf(cfg.section("robot").file_path("urdf"))),
         sim_config(sim::SimConfig::load(cfg.section("sim"))) {
     command.resize(spec.model.nj);
     command.mode = JointCommand::Mode::kRun;
@@ -27,14 +26,13 @@ struct Setup {
   }
   Config cfg;
   model::RobotSpec spec;
-  model::RobotDescription desc;
   sim::SimConfig sim_config;
   JointCommand command;
 };
 
 void BM_SimStep(benchmark::State& st) {
   static Setup s;
-  sim::Simulator sim(s.spec, s.desc, s.sim_config);
+  sim::Simulator sim(s.spec, s.sim_config);
   for (auto _ : st) {
     sim.set_command(s.command);
     sim.step();

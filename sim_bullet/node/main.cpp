@@ -1,5 +1,4 @@
 // sim_bullet: the Bullet simulation of the robot, speaking the same LCM channels as the hardware.
-#include "hpr/model/urdf.hpp"
 #include "hpr/node/command_line.hpp"
 #include "sim_node.hpp"
 
@@ -8,13 +7,12 @@ int main(int argc, char** argv) {
                              [](const hpr::node::CommandLine& cl, const hpr::Config& cfg) {
                                const hpr::Config robot_cfg = cfg.section("robot");
                                const auto robot = hpr::model::RobotSpec::load(robot_cfg);
-                               const auto description = hpr::model::load_urdf(robot_cfg.file_path("urdf"));
                                const hpr::Config sim_cfg = cfg.section("sim");
                                const auto sim_config = hpr::sim::SimConfig::load(sim_cfg);
                                const auto options = hpr::sim::SimNodeOptions::load(sim_cfg);
                                hpr::node::Runtime rt(cl.name, hpr::node::lcm_url(cl, cfg),
                                                      hpr::node::runtime_options(cfg, sim_config.dt));
-                               hpr::sim::Simulator sim(robot, description, sim_config);
+                               hpr::sim::Simulator sim(robot, sim_config);
                                hpr::sim::SimNode node(rt, sim, options);
                                return node.run();
                              });

@@ -2,6 +2,7 @@
 
 #include <BulletCollision/CollisionShapes/btBoxShape.h>
 #include <BulletCollision/CollisionShapes/btCompoundShape.h>
+#include <BulletCollision/CollisionShapes/btConvexHullShape.h>
 #include <BulletCollision/CollisionShapes/btCylinderShape.h>
 #include <BulletCollision/CollisionShapes/btSphereShape.h>
 #include <BulletDynamics/Featherstone/btMultiBodyConstraintSolver.h>
@@ -18,6 +19,7 @@
 #include <limits>
 
 #include "hpr/common/log.hpp"
+#include "hpr/mesh/mesh.hpp"
 #include "hpr/model/algorithms.hpp"
 #include "hpr/sim/multibody.hpp"
 
@@ -31,48 +33,6 @@ using Vector6d = Eigen::Matrix<double, 6, 1>;
 
 namespace {
 constexpr int kGroundGroup = 1, kRobotGroup = 2;
-
-// Axis-aligned bounding box of a binary or ASCII STL file; false if it cannot be read.
-bool stl_bounding_box(const std::string& path, Vector3d& lo, Vector3d& hi) {
-  std::ifstream f(path, std::ios::binary);
-  if (!f) return false;
-  std::string head(80, '\0');
-  f.read(head.data(), 80);
-  lo = Vector3d::Constant(std::numeric_limits<double>::infinity());
-  hi = -lo;
-  std::uint32_t count = 0;
-  f.read(reinterpret_cast<char*>(&count), 4);
-  f.seekg(0, std::ios::end);
-  const auto size = static_cast<std::size_t>(f.tellg());
-  if (size == 84 + static_cast<std::size_t>(count) * 50) {
-    f.seekg(84);
-    for (std::uint32_t i = 0; i < count; ++i) {
-      float rec[12];
-      f.read(reinterpret_cast<char*>(rec), 48);
-      f.ignore(2);
-      for (int v = 1; v < 4; ++v) {
-        const Vector3d p(rec[3 * v], rec[3 * v + 1], rec[3 * v + 2]);
-        lo = lo.cwiseMin(p);
-        hi = hi.cwiseMax(p);
-      }
-    }
-    return count > 0;
-  }
-  f.clear();
-  f.seekg(0);
-  std::string word;
-  bool any = false;
-  while (f >> word) {
-    if (word == "vertex") {
-      Vector3d p;
-      f >> p.x() >> p.y() >> p.z();
-      lo = lo.cwiseMin(p);
-      hi = hi.cwiseMax(p);
-      any = true;
-    }
-  }
-  return any;
-}
 
 btTransform to_bt(const SE3& X) {
   btTransform t;
@@ -128,6 +88,11 @@ SimConfig SimConfig::load(const Config& c) {
     s.settle_time = st.real_or("settle_time", s.settle_time, 0.0, 10.0);
     s.settle_kp = st.real_or("kp", s.settle_kp, 0.0, 1e5);
     s.settle_kd = st.real_or("kd", s.settle_kd, 0.0, 1e4);
+  }
+  if (c.has("held_joints")) {
+    const Config h = c.section("held_joints");
+    s.held_kp = h.real_or("kp", s.held_kp, 0.0, 1e5);
+    s.held_kd = h.real_or("kd", s.held_kd, 0.0, 1e4);
   }
   if (c.has("fallen")) {
     const Config f = c.section("fallen");
@@ -238,10 +203,23 @@ struct Simulator::Impl {
   }
 };
 
-Simulator::Simulator(const model::RobotSpec& robot, const model::RobotDescription& description, SimConfig config)
-    : robot_(&robot), config_(config), impl_(std::make_unique<Impl>()), rng_(config.noise.seed) {
-  const model::Model& m = robot.model;
+Simulator::Simulator(const model::RobotSpec& robot, SimConfig config)
+    : robot_(&robot), config_(config), full_(robot.full_model()), impl_(std::make_unique<Impl>()), rng_(config.noise.seed) {
+  const model::Model& m = full_;
+  const model::RobotDescription& description = robot.description;
   Impl& I = *impl_;
+  for (const auto& name : robot.model.joint_name) joint_of_.push_back(m.joint_index(name));
+  held_q_.resize(static_cast<Eigen::Index>(robot.model.held_joint_name.size()));
+  for (size_t k = 0; k < robot.model.held_joint_name.size(); ++k) {
+    held_joint_.push_back(m.joint_index(robot.model.held_joint_name[k]));
+    held_q_(static_cast<Eigen::Index>(k)) = robot.model.held_q[k];
+  }
+  for (int k = 0; k < 2; ++k) {
+    const auto ku = static_cast<size_t>(k);
+    sole_frame_[ku] = m.frame_index(robot.model.frames[static_cast<size_t>(robot.feet[ku].sole_frame)].name);
+    ft_frame_[ku] = m.frame_index(robot.model.frames[static_cast<size_t>(robot.feet[ku].ft_frame)].name);
+  }
+  imu_frame_ = m.frame_index(robot.model.frames[static_cast<size_t>(robot.imu_frame)].name);
   I.world->setGravity(to_bt(config_.gravity));
   btContactSolverInfo& info = I.world->getSolverInfo();
   info.m_numIterations = config_.solver_iterations;
@@ -257,9 +235,7 @@ Simulator::Simulator(const model::RobotSpec& robot, const model::RobotDescriptio
   // Collision shapes: every URDF link's geometries, merged per body, in the Bullet link frame.
   I.body_collider.assign(static_cast<size_t>(m.nb), nullptr);
   std::array<int, 2> foot_bodies{};
-  for (int k = 0; k < 2; ++k) {
-    foot_bodies[static_cast<size_t>(k)] = m.frames[static_cast<size_t>(robot.feet[static_cast<size_t>(k)].sole_frame)].body;
-  }
+  for (int k = 0; k < 2; ++k) foot_bodies[static_cast<size_t>(k)] = m.frames[static_cast<size_t>(sole_frame_[static_cast<size_t>(k)])].body;
   for (int b = 0; b < m.nb; ++b) {
     if (config_.feet_only_collisions && b != foot_bodies[0] && b != foot_bodies[1]) continue;
     auto compound = std::make_unique<btCompoundShape>();
@@ -282,21 +258,29 @@ Simulator::Simulator(const model::RobotSpec& robot, const model::RobotDescriptio
             shape = std::make_unique<btSphereShape>(g.size.x());
             break;
           case model::Geometry::Type::kMesh: {
-            Vector3d lo, hi;
-            std::string path = g.mesh;
-            if (path.rfind("file://", 0) == 0) path = path.substr(7);
-            if (!stl_bounding_box(path, lo, hi)) {
-              log::warn("link '{}': mesh '{}' cannot be read; its collision shape is left out", link->name, g.mesh);
-              continue;
+            std::vector<Vector3d> points;
+            try {
+              points = mesh::load(g.mesh, g.mesh_scale).vertices;
+            } catch (const mesh::MeshError& e) {
+              throw model::ModelError(fmt::format("{}: link '{}': {}", m.source, link->name, e.what()));
             }
-            lo = lo.cwiseProduct(g.mesh_scale);
-            hi = hi.cwiseProduct(g.mesh_scale);
-            log::warn("link '{}': mesh '{}' replaced by its bounding box {:.3f} x {:.3f} x {:.3f} m", link->name,
-                      g.mesh, hi.x() - lo.x(), hi.y() - lo.y(), hi.z() - lo.z());
-            shape = std::make_unique<btBoxShape>(to_bt(Vector3d(0.5 * (hi - lo).cwiseAbs())));
-            SE3 X_GC;
-            X_GC.p = 0.5 * (hi + lo);
-            X_BG = X_BG * X_GC;
+            if (robot.mesh_collision == model::MeshCollision::kBox) {
+              Vector3d lo = points.front(), hi = points.front();
+              for (const auto& p : points) {
+                lo = lo.cwiseMin(p);
+                hi = hi.cwiseMax(p);
+              }
+              shape = std::make_unique<btBoxShape>(to_bt(Vector3d(0.5 * (hi - lo))));
+              SE3 X_GC;
+              X_GC.p = 0.5 * (hi + lo);
+              X_BG = X_BG * X_GC;
+            } else {
+              auto hull = std::make_unique<btConvexHullShape>();
+              for (const auto& p : mesh::hull_points(points, robot.mesh_hull_points)) hull->addPoint(sim::to_bt(p), false);
+              hull->recalcLocalAabb();
+              hull->setMargin(0.001);
+              shape = std::move(hull);
+            }
             break;
           }
         }
@@ -326,8 +310,7 @@ Simulator::Simulator(const model::RobotSpec& robot, const model::RobotDescriptio
     I.colliders.push_back(std::move(collider));
   }
   for (int k = 0; k < 2; ++k) {
-    const int frame = robot.feet[static_cast<size_t>(k)].sole_frame;
-    I.foot_body[static_cast<size_t>(k)] = m.frames[static_cast<size_t>(frame)].body;
+    I.foot_body[static_cast<size_t>(k)] = foot_bodies[static_cast<size_t>(k)];
     if (I.body_collider[static_cast<size_t>(I.foot_body[static_cast<size_t>(k)])] == nullptr) {
       throw model::ModelError(fmt::format("{}: the {} foot link '{}' has no collision geometry", m.source,
                                           model::kFootNames[static_cast<size_t>(k)], robot.feet[static_cast<size_t>(k)].link));
@@ -359,15 +342,31 @@ Simulator::Simulator(const model::RobotSpec& robot, const model::RobotDescriptio
   I.v_W.resize(static_cast<size_t>(m.nb));
   I.omega_W.resize(static_cast<size_t>(m.nb));
   I.R_W.resize(static_cast<size_t>(m.nb));
-  applied_ = VectorXd::Zero(m.nj);
-  sensors_.resize(m.nj);
+  applied_ = VectorXd::Zero(robot.model.nj);
+  sensors_.resize(robot.model.nj);
+  q_full_.resize(m.nq);
+  v_full_.resize(m.nv);
   reset();
 }
 
 Simulator::~Simulator() = default;
 
+void Simulator::expand_state(const VectorXd& q, const VectorXd& v) {
+  q_full_.head<7>() = q.head<7>();
+  v_full_.head<6>() = v.head<6>();
+  for (size_t j = 0; j < joint_of_.size(); ++j) {
+    q_full_(7 + joint_of_[j]) = q(7 + static_cast<Eigen::Index>(j));
+    v_full_(6 + joint_of_[j]) = v(6 + static_cast<Eigen::Index>(j));
+  }
+  for (size_t k = 0; k < held_joint_.size(); ++k) {
+    q_full_(7 + held_joint_[k]) = held_q_(static_cast<Eigen::Index>(k));
+    v_full_(6 + held_joint_[k]) = 0.0;
+  }
+}
+
 void Simulator::set_state(const VectorXd& q, const VectorXd& v) {
-  impl_->bullet->set_state(q, v);
+  expand_state(q, v);
+  impl_->bullet->set_state(q_full_, v_full_);
   impl_->refresh_kinematics();
   have_v_imu_prev_ = false;
   have_foot_momentum_prev_ = false;
@@ -380,9 +379,26 @@ VectorXd Simulator::settle_torque() const {
   const btMultiBody* mb = impl_->bullet->multibody();
   VectorXd tau(m.nj);
   for (int j = 0; j < m.nj; ++j) {
-    tau(j) = settle_kp_(j) * (robot_->q_joints_stand(j) - mb->getJointPos(j)) - settle_kd_(j) * mb->getJointVel(j);
+    const int b = joint_of_[static_cast<size_t>(j)];
+    tau(j) = settle_kp_(j) * (robot_->q_joints_stand(j) - mb->getJointPos(b)) - settle_kd_(j) * mb->getJointVel(b);
   }
   return tau;
+}
+
+void Simulator::apply_hold(JointCommand::Mode mode) {
+  btMultiBody* mb = impl_->bullet->multibody();
+  for (size_t k = 0; k < held_joint_.size(); ++k) {
+    const int b = held_joint_[k];
+    const auto ku = static_cast<Eigen::Index>(k);
+    double tau = 0.0;
+    if (mode == JointCommand::Mode::kRun) {
+      tau = held_kp_(ku) * (held_q_(ku) - mb->getJointPos(b)) - held_kd_(ku) * mb->getJointVel(b);
+    } else if (mode == JointCommand::Mode::kDamp) {
+      tau = -held_kd_(ku) * mb->getJointVel(b);
+    }
+    const double lim = full_.tau_max[static_cast<size_t>(b)];
+    mb->addJointTorque(b, std::clamp(tau, -lim, lim));
+  }
 }
 
 void Simulator::reset() {
@@ -401,7 +417,22 @@ void Simulator::reset() {
   VectorXd q = robot_->standing_configuration();
   hold_gains(*robot_, q, config_.settle_kp, config_.settle_kd, config_.dt / config_.substeps, settle_kp_, settle_kd_);
   q(2) += 1e-4;  // a hair above the ground
-  impl_->bullet->set_state(q, VectorXd::Zero(m.nv));
+  expand_state(q, VectorXd::Zero(m.nv));
+  // Held joints: a drive's joint impedance, capped for the inertia each meets (as hold_gains).
+  held_kp_.resize(held_q_.size());
+  held_kd_.resize(held_q_.size());
+  if (!held_joint_.empty()) {
+    model::Data data(full_);
+    model::crba(full_, data, q_full_);
+    const Eigen::MatrixXd Minv = data.M.llt().solve(Eigen::MatrixXd::Identity(full_.nv, full_.nv));
+    const double h = config_.dt / config_.substeps;
+    for (size_t k = 0; k < held_joint_.size(); ++k) {
+      const double I_j = 1.0 / Minv(6 + held_joint_[k], 6 + held_joint_[k]);
+      held_kp_(static_cast<Eigen::Index>(k)) = std::min(config_.held_kp, 0.2 * I_j / (h * h));
+      held_kd_(static_cast<Eigen::Index>(k)) = std::min(config_.held_kd, 0.5 * I_j / h);
+    }
+  }
+  impl_->bullet->set_state(q_full_, v_full_);
   impl_->refresh_kinematics();
   // Settle: hold the standing posture with stiff joint springs.
   const int settle_steps = static_cast<int>(std::round(config_.settle_time / config_.dt));
@@ -415,8 +446,9 @@ void Simulator::reset() {
     btMultiBody* mb = impl_->bullet->multibody();
     for (int j = 0; j < m.nj; ++j) {
       const double lim = m.tau_max[static_cast<size_t>(j)];
-      mb->addJointTorque(j, std::clamp(tau(j), -lim, lim));
+      mb->addJointTorque(joint_of_[static_cast<size_t>(j)], std::clamp(tau(j), -lim, lim));
     }
+    apply_hold(JointCommand::Mode::kRun);
     physics_substep(h);
   }
   have_v_imu_prev_ = false;
@@ -461,7 +493,8 @@ void Simulator::apply_actuation() {
   stale_ = time_ - command_time_ > config_.command_timeout + 1e-9;
   JointCommand::Mode mode = stale_ ? JointCommand::Mode::kDamp : c.mode;
   for (int j = 0; j < m.nj; ++j) {
-    const double q = mb->getJointPos(j), qd = mb->getJointVel(j);
+    const int b = joint_of_[static_cast<size_t>(j)];
+    const double q = mb->getJointPos(b), qd = mb->getJointVel(b);
     double tau = 0.0;
     if (mode == JointCommand::Mode::kRun) {
       tau = c.tau_ff(j) + c.kp(j) * (c.q_des(j) - q) + c.kd(j) * (c.qd_des(j) - qd);
@@ -475,14 +508,15 @@ void Simulator::apply_actuation() {
     // Joint friction acts in the joint on top of the motor torque.
     double fric = -config_.joint_friction_viscous * qd;
     if (config_.joint_friction_coulomb > 0) fric -= config_.joint_friction_coulomb * std::tanh(qd / 0.01);
-    mb->addJointTorque(j, tau + fric);
+    mb->addJointTorque(b, tau + fric);
   }
+  apply_hold(mode);
 }
 
 void Simulator::physics_substep(double h) {
   Impl& I = *impl_;
   btMultiBody* mb = I.bullet->multibody();
-  const model::Model& m = robot_->model;
+  const model::Model& m = full_;
   // Pushes.
   for (const Push& p : pushes_) {
     const Vector3d F = p.force_at(time_);
@@ -557,12 +591,23 @@ void Simulator::step() {
 
 void Simulator::compute_truth() {
   Impl& I = *impl_;
-  const model::Model& m = robot_->model;
+  const model::Model& m = full_;
   btMultiBody* mb = I.bullet->multibody();
   TruthData& t = truth_;
   t.tick = tick_;
   t.time = time_;
-  I.bullet->get_state(t.q, t.v);
+  I.bullet->get_state(q_full_, v_full_);
+  const int nj = robot_->model.nj;
+  t.q.resize(7 + nj);
+  t.v.resize(6 + nj);
+  t.q.head<7>() = q_full_.head<7>();
+  t.v.head<6>() = v_full_.head<6>();
+  for (int j = 0; j < nj; ++j) {
+    t.q(7 + j) = q_full_(7 + joint_of_[static_cast<size_t>(j)]);
+    t.v(6 + j) = v_full_(6 + joint_of_[static_cast<size_t>(j)]);
+  }
+  t.q_held.resize(static_cast<Eigen::Index>(held_joint_.size()));
+  for (size_t k = 0; k < held_joint_.size(); ++k) t.q_held(static_cast<Eigen::Index>(k)) = q_full_(7 + held_joint_[k]);
   const SE3 X_WB = I.bullet->body_placement(0);
   t.p_WB = X_WB.p;
   t.quat_WB = quat_wxyz(X_WB.R);
@@ -601,7 +646,7 @@ void Simulator::compute_truth() {
   t.l_WCom = l;
   for (int k = 0; k < 2; ++k) {
     const auto ku = static_cast<size_t>(k);
-    const int frame = robot_->feet[ku].sole_frame;
+    const int frame = sole_frame_[ku];
     const int body = m.frames[static_cast<size_t>(frame)].body;
     const SE3 X_WS = I.bullet->body_placement(body) * m.frames[static_cast<size_t>(frame)].X_BF;
     t.p_WF[ku] = X_WS.p;
@@ -618,7 +663,7 @@ void Simulator::compute_truth() {
 
 void Simulator::compute_sensors() {
   Impl& I = *impl_;
-  const model::Model& m = robot_->model;
+  const model::Model& m = robot_->model;  // the controlled joints; bodies and frames of full_
   const btMultiBody* mb = I.bullet->multibody();
   const NoiseConfig& nc = config_.noise;
   const bool noisy = nc.enabled;
@@ -630,14 +675,14 @@ void Simulator::compute_sensors() {
   const double res = noisy && nc.encoder_bits > 0 ? 2.0 * M_PI / std::ldexp(1.0, nc.encoder_bits) : 0.0;
   VectorXd qm(m.nj);
   for (int j = 0; j < m.nj; ++j) {
-    const double q = mb->getJointPos(j);
+    const double q = mb->getJointPos(joint_of_[static_cast<size_t>(j)]);
     qm(j) = res > 0 ? res * std::round(q / res) : q;
   }
   for (int j = 0; j < m.nj; ++j) {
     if (res > 0 && q_meas_prev_.size() == m.nj) {
       s.qd(j) = (qm(j) - q_meas_prev_(j)) / config_.dt;
     } else {
-      s.qd(j) = mb->getJointVel(j);
+      s.qd(j) = mb->getJointVel(joint_of_[static_cast<size_t>(j)]);
     }
     s.tau(j) = applied_(j) + (noisy ? nc.joint_torque_noise * nd(rng_) : 0.0);
     std::int32_t st = 0;
@@ -650,10 +695,10 @@ void Simulator::compute_sensors() {
   s.q = qm;
   q_meas_prev_ = qm;
   // IMU: orientation, angular rate and specific force of the IMU frame.
-  const int frame = robot_->imu_frame;
-  const int body = m.frames[static_cast<size_t>(frame)].body;
+  const model::Frame& imu = full_.frames[static_cast<size_t>(imu_frame_)];
+  const int body = imu.body;
   const SE3 X_WL = I.link_frame(body);
-  const SE3 X_WI = I.bullet->body_placement(body) * m.frames[static_cast<size_t>(frame)].X_BF;
+  const SE3 X_WI = I.bullet->body_placement(body) * imu.X_BF;
   mb->compTreeLinkVelocities(I.omega.data(), I.vel.data());
   const Vector3d w = X_WL.R * from_bt(I.omega[static_cast<size_t>(body)]);
   const Vector3d v_com = X_WL.R * from_bt(I.vel[static_cast<size_t>(body)]);
@@ -676,9 +721,9 @@ void Simulator::compute_sensors() {
   // S: contact wrench + its weight − the rate of its momentum (all about the sensor origin).
   for (int k = 0; k < 2; ++k) {
     const auto ku = static_cast<size_t>(k);
-    const int ft = robot_->feet[ku].ft_frame;
-    const int fb = m.frames[static_cast<size_t>(ft)].body;
-    const SE3 X_WS = I.bullet->body_placement(fb) * m.frames[static_cast<size_t>(ft)].X_BF;
+    const model::Frame& ft = full_.frames[static_cast<size_t>(ft_frame_[ku])];
+    const int fb = ft.body;
+    const SE3 X_WS = I.bullet->body_placement(fb) * ft.X_BF;
     const SE3 X_WF = I.link_frame(fb);
     const double mf = fb == 0 ? mb->getBaseMass() : mb->getLink(fb - 1).m_mass;
     const Vector3d If = fb == 0 ? from_bt(mb->getBaseInertia()) : from_bt(mb->getLink(fb - 1).m_inertiaLocal);

@@ -2,6 +2,8 @@
 
 #include <fmt/format.h>
 
+#include <Eigen/Eigenvalues>
+
 #include <cmath>
 #include <functional>
 #include <limits>
@@ -11,16 +13,58 @@ namespace hpr::model {
 namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-Inertia link_inertia(const LinkDesc& l) {
+Inertia link_inertia(const LinkDesc& l, bool physical) {
   if (!l.has_inertial) return {};
-  return Inertia::from_com(l.mass, l.com, l.inertia);
+  return Inertia::from_com(l.mass, l.com, physical ? l.inertia_physical : l.inertia);
+}
+
+bool positive_definite(const Matrix3d& I) {
+  return Eigen::SelfAdjointEigenSolver<Matrix3d>(0.5 * (I + I.transpose())).eigenvalues()(0) > 0.0;
+}
+
+// The placement a joint of the description adds at position q.
+SE3 joint_motion(const JointDesc& j, double q) {
+  SE3 X = SE3::Identity();
+  if (j.type == JointType::kPrismatic) {
+    X.p = q * j.axis.normalized();
+  } else if (j.type == JointType::kRevolute || j.type == JointType::kContinuous) {
+    X.R = Eigen::AngleAxisd(q, j.axis.normalized()).toRotationMatrix();
+  }
+  return X;
 }
 }  // namespace
 
 Model Model::build(const RobotDescription& d, const std::string& base_link_in) {
+  ModelOptions options;
+  options.base_link = base_link_in;
+  return build(d, options);
+}
+
+Model Model::build(const RobotDescription& d, const ModelOptions& options) {
   Model m;
   m.source = d.source;
-  std::string base = base_link_in;
+  for (const auto& [name, q] : options.held) {
+    const JointDesc* j = d.find_joint(name);
+    if (j == nullptr) throw ModelError(fmt::format("{}: held joint '{}' is not a joint of the URDF", d.source, name));
+    if (j->type == JointType::kFixed || j->type == JointType::kFloating || j->type == JointType::kPlanar) {
+      throw ModelError(fmt::format("{}: held joint '{}' does not move (it is not revolute, continuous or prismatic)",
+                                   d.source, name));
+    }
+    if (!std::isfinite(q) || (j->has_limits && j->type != JointType::kContinuous && (q < j->lower || q > j->upper))) {
+      throw ModelError(fmt::format("{}: held joint '{}': position {} is outside its limits [{}, {}]", d.source, name, q,
+                                   j->lower, j->upper));
+    }
+  }
+  // The fixed position of a held or locked joint, or NaN for a joint of the model.
+  std::function<double(const JointDesc&, int)> fixed_position = [&](const JointDesc& j, int depth) -> double {
+    if (auto it = options.held.find(j.name); it != options.held.end()) return it->second;
+    if (j.mimic.empty() || depth > 32) return std::numeric_limits<double>::quiet_NaN();
+    const JointDesc* leader = d.find_joint(j.mimic);
+    double q_leader = leader != nullptr ? fixed_position(*leader, depth + 1) : 0.0;
+    if (std::isnan(q_leader)) q_leader = 0.0;
+    return j.mimic_multiplier * q_leader + j.mimic_offset;
+  };
+  std::string base = options.base_link;
   if (base.empty()) {
     base = d.root_link;
     // A floating joint from a massless root ("world") to the real base.
@@ -48,17 +92,30 @@ Model Model::build(const RobotDescription& d, const std::string& base_link_in) {
   m.inertia = {Inertia{}};
   m.support = {{}};
   std::vector<std::string> moved_by = {"(floating base)"};
+  std::vector<Inertia> physical = {Inertia{}};  // the same bodies with the physical inertias
 
   // Depth-first walk; fixed joints merge the child link into the current body.
   std::function<void(const std::string&, int, const SE3&)> walk = [&](const std::string& link, int body,
                                                                       const SE3& X_BL) {
     const LinkDesc* ld = d.find_link(link);
-    m.inertia[static_cast<size_t>(body)] += link_inertia(*ld).transformed(X_BL);
+    m.inertia[static_cast<size_t>(body)] += link_inertia(*ld, options.physical_inertia).transformed(X_BL);
+    physical[static_cast<size_t>(body)] += link_inertia(*ld, true).transformed(X_BL);
     m.frames.push_back(Frame{link, body, X_BL});
     for (const JointDesc* j : d.child_joints(link)) {
       const SE3 X_BJ = X_BL * j->X_PJ;
       if (j->type == JointType::kFixed) {
         walk(j->child, body, X_BJ);
+        continue;
+      }
+      if (const double q_fixed = fixed_position(*j, 0); !std::isnan(q_fixed)) {
+        m.held_joint_name.push_back(j->name);
+        m.held_q.push_back(q_fixed);
+        if (!options.held.count(j->name)) {
+          m.warnings.push_back(fmt::format("joint '{}' mimics '{}' and is locked at {:.4g} (its position with the "
+                                           "leader at {})", j->name, j->mimic, q_fixed,
+                                           options.held.count(j->mimic) ? "its held position" : "zero"));
+        }
+        walk(j->child, body, X_BJ * joint_motion(*j, q_fixed));
         continue;
       }
       if (j->type == JointType::kFloating || j->type == JointType::kPlanar) {
@@ -72,6 +129,7 @@ Model Model::build(const RobotDescription& d, const std::string& base_link_in) {
       m.X_PJ.push_back(X_BJ);
       m.axis.push_back(j->axis.normalized());
       m.inertia.emplace_back();
+      physical.emplace_back();
       auto sup = m.support[static_cast<size_t>(body)];
       sup.push_back(child - 1);
       m.support.push_back(sup);
@@ -89,6 +147,17 @@ Model Model::build(const RobotDescription& d, const std::string& base_link_in) {
   };
   walk(base, 0, SE3::Identity());
 
+  // A body that the file's inertias leave without a positive-definite inertia (a point mass on its
+  // own) takes the physical one: the dynamics need it.
+  for (size_t i = 0; i < m.inertia.size(); ++i) {
+    Inertia& I = m.inertia[i];
+    if (options.physical_inertia || !(I.m > 0.0) || positive_definite(I.inertia_about_com())) continue;
+    if (positive_definite(physical[i].inertia_about_com())) {
+      m.warnings.push_back(fmt::format("body '{}': its inertia from the file is singular; the controllers' model "
+                                       "uses the regularised one", m.body_name[i]));
+      I = physical[i];
+    }
+  }
   m.nb = static_cast<int>(m.body_name.size());
   m.nj = m.nb - 1;
   m.nq = 7 + m.nj;
@@ -116,9 +185,9 @@ Model Model::build(const RobotDescription& d, const std::string& base_link_in) {
                                    "or on a link fixed to it)",
                                    d.source, m.body_name[static_cast<size_t>(i)], moved_by[static_cast<size_t>(i)]));
     }
-    if (const std::string why = check_inertia(I.inertia_about_com()); !why.empty()) {
+    if (!positive_definite(I.inertia_about_com())) {
       throw ModelError(fmt::format("{}: body '{}' (with the links fixed to it): inertia {}", d.source,
-                                   m.body_name[static_cast<size_t>(i)], why));
+                                   m.body_name[static_cast<size_t>(i)], check_inertia(I.inertia_about_com())));
     }
     m.mass += I.m;
   }

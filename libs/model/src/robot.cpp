@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <filesystem>
 
 #include "hpr/model/algorithms.hpp"
 
@@ -31,6 +32,9 @@ std::vector<int> RobotSpec::joints(const std::vector<std::string>& names, const 
         found = true;
       }
     }
+    if (!found && held.count(n) != 0) {
+      where.fail(key, fmt::format("'{}' is held (robot.held_joints): it is not a joint of the controllers' model", n));
+    }
     if (!found) where.fail(key, fmt::format("'{}' is not a joint of {}", n, model.source));
   }
   return out;
@@ -40,11 +44,39 @@ RobotSpec RobotSpec::load(const Config& c) {
   RobotSpec r;
   r.name = c.string("name");
   const std::string urdf = c.file_path("urdf");
+  UrdfOptions urdf_options;
+  if (c.has("mesh_search_paths")) {
+    for (const auto& p : c.strings("mesh_search_paths")) {
+      std::filesystem::path path(p);
+      if (path.is_relative()) path = std::filesystem::path(c.file()).parent_path() / path;
+      urdf_options.mesh_search_paths.push_back(path.string());
+    }
+  }
+  ModelOptions model_options;
+  model_options.base_link = c.string_or("base_link", "");
+  if (c.has("held_joints")) {
+    const Config h = c.section("held_joints");
+    for (const auto& key : h.keys()) model_options.held[key] = h.real(key);
+  }
+  r.held = model_options.held;
+  r.mesh_collision = c.choice_or("collision_meshes", "convex_hull", {"convex_hull", "box"}) == "box"
+                         ? MeshCollision::kBox
+                         : MeshCollision::kConvexHull;
+  r.mesh_hull_points = static_cast<int>(c.integer_or("mesh_hull_points", r.mesh_hull_points, 8, 1000));
   try {
-    r.model = Model::from_urdf(urdf, c.string_or("base_link", ""));
+    r.description = load_urdf(urdf, urdf_options);
   } catch (const ModelError& e) {
     c.fail("urdf", e.what());
   }
+  try {
+    r.model = Model::build(r.description, model_options);
+  } catch (const ModelError& e) {
+    c.fail(std::string(e.what()).find("held joint") != std::string::npos ? "held_joints" : "urdf", e.what());
+  }
+  auto add_frame = [&r](const std::string& name, const std::string& link, const SE3& X_LF) {
+    r.added_frames.push_back(AddedFrame{name, link, X_LF});
+    return r.model.add_frame(name, link, X_LF);
+  };
   const Config feet = c.section("feet");
   for (int k = 0; k < 2; ++k) {
     const std::string side = kFootNames[static_cast<size_t>(k)];
@@ -52,13 +84,13 @@ RobotSpec RobotSpec::load(const Config& c) {
     FootSpec& fs = r.feet[static_cast<size_t>(k)];
     fs.link = f.string("link");
     if (!r.model.has_frame(fs.link)) f.fail("link", "no such link in the URDF");
-    fs.sole_frame = r.model.add_frame(side + "_sole", fs.link, pose_from(f, "sole_xyz", "sole_rpy"));
+    fs.sole_frame = add_frame(side + "_sole", fs.link, pose_from(f, "sole_xyz", "sole_rpy"));
     const auto size = f.reals("sole_size", 2, 0.01, 1.0);
     fs.length = size[0];
     fs.width = size[1];
     fs.ft_link = f.string_or("ft_link", fs.link);
     if (!r.model.has_frame(fs.ft_link)) f.fail("ft_link", "no such link in the URDF");
-    fs.ft_frame = r.model.add_frame(side + "_ft", fs.ft_link, pose_from(f, "ft_xyz", "ft_rpy"));
+    fs.ft_frame = add_frame(side + "_ft", fs.ft_link, pose_from(f, "ft_xyz", "ft_rpy"));
     fs.leg_joints = r.model.support[static_cast<size_t>(r.model.frames[static_cast<size_t>(fs.sole_frame)].body)];
     if (fs.leg_joints.size() != 6) {
       f.fail("link", fmt::format("the {} leg has {} joints between the base and the foot; the task Jacobian (2) "
@@ -74,7 +106,7 @@ RobotSpec RobotSpec::load(const Config& c) {
   const Config imu = c.section("imu");
   const std::string imu_link = imu.string("link");
   if (!r.model.has_frame(imu_link)) imu.fail("link", "no such link in the URDF");
-  r.imu_frame = r.model.add_frame("imu", imu_link, pose_from(imu, "xyz", "rpy"));
+  r.imu_frame = add_frame("imu", imu_link, pose_from(imu, "xyz", "rpy"));
 
   r.q_joints_stand = Eigen::VectorXd::Zero(r.model.nj);
   if (c.has("standing_posture")) {
@@ -91,9 +123,25 @@ RobotSpec RobotSpec::load(const Config& c) {
   }
   if (c.has("segments")) {
     const Config s = c.section("segments");
-    for (const auto& key : s.keys()) r.segments[key] = r.joints(s.strings(key), s, key);
+    // A held joint moves nothing: it leaves its segment.
+    for (const auto& key : s.keys()) {
+      std::vector<std::string> names;
+      for (const auto& n : s.strings(key)) {
+        if (r.held.count(n) == 0) names.push_back(n);
+      }
+      r.segments[key] = r.joints(names, s, key);
+    }
   }
   return r;
+}
+
+Model RobotSpec::full_model() const {
+  ModelOptions options;
+  options.base_link = model.body_name.front();
+  options.physical_inertia = true;
+  Model full = Model::build(description, options);
+  for (const auto& f : added_frames) full.add_frame(f.name, f.link, f.X_LF);
+  return full;
 }
 
 Eigen::VectorXd RobotSpec::standing_configuration() const {

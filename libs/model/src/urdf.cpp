@@ -5,6 +5,9 @@
 #include <tinyxml.h>
 
 #include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <map>
 #include <set>
@@ -90,31 +93,183 @@ void check_structure(const RobotDescription& d) {
   }
 }
 
-void check_links(const RobotDescription& d) {
-  for (const auto& l : d.links) {
+// Link inertias: refuses what cannot be a body, repairs what real descriptions ship (each repair
+// reported once in d.repairs).
+void check_links(RobotDescription& d) {
+  for (auto& l : d.links) {
     if (!l.has_inertial) continue;
-    if (!(l.mass > 0.0) || !std::isfinite(l.mass)) {
+    if (!std::isfinite(l.mass) || l.mass < 0.0) {
       throw ModelError(fmt::format("{}: link '{}' has mass {} kg; a link with <inertial> needs a positive mass",
                                    d.source, l.name, l.mass));
     }
     if (!l.com.allFinite() || !l.inertia.allFinite()) {
       throw ModelError(fmt::format("{}: link '{}' has a non-finite centre of mass or inertia", d.source, l.name));
     }
-    if (const std::string why = check_inertia(l.inertia); !why.empty()) {
-      throw ModelError(fmt::format("{}: link '{}': inertia {}", d.source, l.name, why));
+    if (l.mass == 0.0) {
+      // A frame link (camera, sensor) written with an empty <inertial>: no inertia at all.
+      d.repairs.push_back(fmt::format("link '{}': <inertial> with mass 0 is treated as no inertia{}", l.name,
+                                      l.inertia.isZero(0.0) ? "" : " (its rotational inertia is ignored)"));
+      l.has_inertial = false;
+      l.inertia.setZero();
+      l.com.setZero();
+      continue;
+    }
+    const InertiaRepair r = regularise_inertia(l.mass, l.inertia);
+    if (!r.error.empty()) throw ModelError(fmt::format("{}: link '{}': inertia {}", d.source, l.name, r.error));
+    l.inertia_physical = r.I_c;
+    l.inertia_regularised = !r.what.empty();
+    if (l.inertia_regularised) {
+      d.repairs.push_back(fmt::format("link '{}' ({:.4g} kg): {}; the simulator uses the regularised inertia, the "
+                                      "controllers' model the file's",
+                                      l.name, l.mass, r.what));
     }
   }
   for (const auto& j : d.joints) {
     if (j.type == JointType::kRevolute || j.type == JointType::kContinuous || j.type == JointType::kPrismatic) {
-      if (!(j.axis.norm() > 1e-9)) {
-        throw ModelError(fmt::format("{}: joint '{}' has a zero axis", d.source, j.name));
+      if (!j.axis.allFinite() || !(j.axis.norm() > 1e-9)) {
+        throw ModelError(fmt::format("{}: joint '{}' has a zero or non-finite axis", d.source, j.name));
+      }
+      if (j.has_limits) {
+        for (const auto& [what, v] : {std::pair{"lower", j.lower}, std::pair{"upper", j.upper},
+                                      std::pair{"effort", j.effort}, std::pair{"velocity", j.velocity}}) {
+          if (!std::isfinite(v)) {
+            throw ModelError(fmt::format("{}: joint '{}': <limit {}=\"{}\"> is not a finite number", d.source, j.name,
+                                         what, v));
+          }
+        }
+        if (j.effort < 0.0 || j.velocity < 0.0) {
+          throw ModelError(fmt::format("{}: joint '{}': negative <limit> (effort {}, velocity {})", d.source, j.name,
+                                       j.effort, j.velocity));
+        }
       }
       if (j.has_limits && j.type != JointType::kContinuous && j.lower > j.upper) {
         throw ModelError(fmt::format("{}: joint '{}' has lower limit {} above upper limit {}", d.source, j.name,
                                      j.lower, j.upper));
       }
     }
+    if (!j.X_PJ.p.allFinite() || !j.X_PJ.R.allFinite()) {
+      throw ModelError(fmt::format("{}: joint '{}' has a non-finite <origin>", d.source, j.name));
+    }
+    if (!std::isfinite(j.damping) || !std::isfinite(j.friction) || j.damping < 0.0 || j.friction < 0.0) {
+      throw ModelError(fmt::format("{}: joint '{}': <dynamics damping=\"{}\" friction=\"{}\"> must be finite and "
+                                   "non-negative", d.source, j.name, j.damping, j.friction));
+    }
+    if (!j.mimic.empty()) {
+      const JointDesc* leader = d.find_joint(j.mimic);
+      if (leader == nullptr) {
+        throw ModelError(fmt::format("{}: joint '{}' mimics joint '{}', which does not exist", d.source, j.name,
+                                     j.mimic));
+      }
+      if (!std::isfinite(j.mimic_multiplier) || !std::isfinite(j.mimic_offset)) {
+        throw ModelError(fmt::format("{}: joint '{}': non-finite <mimic> multiplier or offset", d.source, j.name));
+      }
+    }
   }
+  for (const auto& l : d.links) {
+    for (const auto* list : {&l.collisions, &l.visuals}) {
+      for (const auto& g : *list) {
+        if (!g.size.allFinite() || !g.mesh_scale.allFinite() || !g.X_LG.p.allFinite() || !g.X_LG.R.allFinite() ||
+            (g.type != Geometry::Type::kMesh && (g.size.array() < 0.0).any())) {
+          throw ModelError(fmt::format("{}: link '{}': a {} geometry has a non-finite or negative size or origin",
+                                       d.source, l.name, list == &l.collisions ? "collision" : "visual"));
+        }
+      }
+    }
+  }
+}
+
+Geometry to_geometry(const urdf::Geometry& geometry, const urdf::Pose& origin) {
+  Geometry g;
+  g.X_LG = to_se3(origin);
+  switch (geometry.type) {
+    case urdf::Geometry::BOX: {
+      const auto& b = dynamic_cast<const urdf::Box&>(geometry);
+      g.type = Geometry::Type::kBox;
+      g.size = Vector3d(b.dim.x, b.dim.y, b.dim.z);
+      break;
+    }
+    case urdf::Geometry::CYLINDER: {
+      const auto& cy = dynamic_cast<const urdf::Cylinder&>(geometry);
+      g.type = Geometry::Type::kCylinder;
+      g.size = Vector3d(cy.radius, cy.length, 0);
+      break;
+    }
+    case urdf::Geometry::SPHERE: {
+      const auto& sp = dynamic_cast<const urdf::Sphere&>(geometry);
+      g.type = Geometry::Type::kSphere;
+      g.size = Vector3d(sp.radius, 0, 0);
+      break;
+    }
+    case urdf::Geometry::MESH: {
+      const auto& me = dynamic_cast<const urdf::Mesh&>(geometry);
+      g.type = Geometry::Type::kMesh;
+      g.mesh_uri = me.filename;
+      g.mesh = me.filename;
+      g.mesh_scale = Vector3d(me.scale.x, me.scale.y, me.scale.z);
+      break;
+    }
+  }
+  return g;
+}
+
+// The configured folders for mesh files, then HPR_MESH_PATH and ROS_PACKAGE_PATH (the URDF's folder
+// and its parents come first: resolve_mesh).
+std::vector<std::filesystem::path> mesh_search_dirs(const UrdfOptions& options) {
+  namespace fs = std::filesystem;
+  std::vector<fs::path> dirs;
+  for (const auto& p : options.mesh_search_paths) dirs.emplace_back(p);
+  for (const char* var : {"HPR_MESH_PATH", "ROS_PACKAGE_PATH"}) {
+    const char* v = std::getenv(var);
+    if (v == nullptr) continue;
+    std::stringstream ss(v);
+    std::string item;
+    while (std::getline(ss, item, ':')) {
+      if (!item.empty()) dirs.emplace_back(item);
+    }
+  }
+  return dirs;
+}
+
+std::string resolve_mesh(const std::string& uri, const std::string& source, const std::string& link,
+                         const std::vector<std::filesystem::path>& search) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::path urdf_dir = fs::absolute(fs::path(source), ec).parent_path();
+  std::vector<fs::path> candidates;
+  constexpr std::string_view kPackage = "package://", kFile = "file://";
+  if (uri.rfind(kPackage, 0) == 0) {
+    const std::string rest = uri.substr(kPackage.size());
+    const auto slash = rest.find('/');
+    const std::string package = rest.substr(0, slash);
+    const std::string inside = slash == std::string::npos ? "" : rest.substr(slash + 1);
+    // The package's folder among the URDF's ancestors (the usual PACKAGE/urdf/robot.urdf layout).
+    for (fs::path d = urdf_dir; !d.empty(); d = d.parent_path()) {
+      if (d.filename() == package) candidates.push_back(d / inside);
+      candidates.push_back(d / package / inside);
+      if (d == d.root_path()) break;
+    }
+    for (const auto& s : search) {
+      candidates.push_back(s / package / inside);
+      candidates.push_back(s / inside);
+    }
+    candidates.push_back(urdf_dir / inside);
+  } else if (uri.rfind(kFile, 0) == 0) {
+    candidates.emplace_back(uri.substr(kFile.size()));
+  } else if (fs::path(uri).is_absolute()) {
+    candidates.emplace_back(uri);
+  } else {
+    candidates.push_back(urdf_dir / uri);
+    for (const auto& s : search) candidates.push_back(s / uri);
+  }
+  for (const auto& c : candidates) {
+    if (fs::is_regular_file(c, ec)) return fs::weakly_canonical(c, ec).string();
+  }
+  std::string looked;
+  for (size_t i = 0; i < candidates.size() && i < 6; ++i) looked += (i ? ", " : "") + candidates[i].string();
+  if (candidates.size() > 6) looked += fmt::format(" and {} more", candidates.size() - 6);
+  throw ModelError(fmt::format("{}: link '{}': mesh '{}' not found (looked for {}; add its folder with "
+                               "robot.mesh_search_paths or HPR_MESH_PATH)",
+                               source, link, uri, looked));
 }
 
 RobotDescription convert(const urdf::ModelInterface& m, const std::string& source) {
@@ -133,39 +288,24 @@ RobotDescription convert(const urdf::ModelInterface& m, const std::string& sourc
       const auto& in = *link->inertial;
       I << in.ixx, in.ixy, in.ixz, in.ixy, in.iyy, in.iyz, in.ixz, in.iyz, in.izz;
       l.inertia = X_LI.R * I * X_LI.R.transpose();
+      l.inertia_physical = l.inertia;
     }
     for (const auto& c : link->collision_array) {
-      if (!c || !c->geometry) continue;
-      Geometry g;
-      g.X_LG = to_se3(c->origin);
-      switch (c->geometry->type) {
-        case urdf::Geometry::BOX: {
-          const auto& b = dynamic_cast<const urdf::Box&>(*c->geometry);
-          g.type = Geometry::Type::kBox;
-          g.size = Vector3d(b.dim.x, b.dim.y, b.dim.z);
-          break;
-        }
-        case urdf::Geometry::CYLINDER: {
-          const auto& cy = dynamic_cast<const urdf::Cylinder&>(*c->geometry);
-          g.type = Geometry::Type::kCylinder;
-          g.size = Vector3d(cy.radius, cy.length, 0);
-          break;
-        }
-        case urdf::Geometry::SPHERE: {
-          const auto& s = dynamic_cast<const urdf::Sphere&>(*c->geometry);
-          g.type = Geometry::Type::kSphere;
-          g.size = Vector3d(s.radius, 0, 0);
-          break;
-        }
-        case urdf::Geometry::MESH: {
-          const auto& me = dynamic_cast<const urdf::Mesh&>(*c->geometry);
-          g.type = Geometry::Type::kMesh;
-          g.mesh = me.filename;
-          g.mesh_scale = Vector3d(me.scale.x, me.scale.y, me.scale.z);
-          break;
+      if (c && c->geometry) l.collisions.push_back(to_geometry(*c->geometry, c->origin));
+    }
+    for (const auto& v : link->visual_array) {
+      if (!v || !v->geometry) continue;
+      Geometry g = to_geometry(*v->geometry, v->origin);
+      if (v->material) {
+        const auto& c = v->material->color;
+        g.rgba = Eigen::Vector4d(c.r, c.g, c.b, c.a);
+        // urdfdom leaves a material defined at the top level by name only on the visual.
+        if (auto it = m.materials_.find(v->material_name); it != m.materials_.end() && it->second) {
+          const auto& mc = it->second->color;
+          g.rgba = Eigen::Vector4d(mc.r, mc.g, mc.b, mc.a);
         }
       }
-      l.collisions.push_back(g);
+      l.visuals.push_back(g);
     }
     d.links.push_back(std::move(l));
   }
@@ -194,6 +334,11 @@ RobotDescription convert(const urdf::ModelInterface& m, const std::string& sourc
     if (joint->dynamics) {
       j.damping = joint->dynamics->damping;
       j.friction = joint->dynamics->friction;
+    }
+    if (joint->mimic) {
+      j.mimic = joint->mimic->joint_name;
+      j.mimic_multiplier = joint->mimic->multiplier;
+      j.mimic_offset = joint->mimic->offset;
     }
     if (j.type != JointType::kFixed && j.type != JointType::kFloating && j.axis.norm() > 0) j.axis.normalize();
     d.joints.push_back(std::move(j));
@@ -254,6 +399,69 @@ std::string check_inertia(const Matrix3d& I_c) {
   return "";
 }
 
+InertiaRepair regularise_inertia(double mass, const Matrix3d& I_c) {
+  InertiaRepair out;
+  out.I_c = I_c;
+  if (!I_c.allFinite() || !std::isfinite(mass)) {
+    out.error = "has non-finite entries";
+    return out;
+  }
+  const Matrix3d I_sym = 0.5 * (I_c + I_c.transpose());
+  if ((I_c - I_sym).cwiseAbs().maxCoeff() > 1e-12 * (1.0 + I_c.cwiseAbs().maxCoeff())) {
+    out.error = "is not symmetric";
+    return out;
+  }
+  const Eigen::SelfAdjointEigenSolver<Matrix3d> es(I_sym);
+  const Vector3d e0 = es.eigenvalues();  // ascending
+  Vector3d e = e0;
+  constexpr double kNegativeTolerance = 1e-3, kTriangleTolerance = 0.10, kMinRadiusOfGyration = 0.002;
+  const double scale = std::max(e(2), 0.0);
+  std::vector<std::string> what;
+  if (!(e(0) > 0.0)) {
+    if (e(0) < -kNegativeTolerance * scale || (scale == 0.0 && e(0) < 0.0)) {
+      out.error = fmt::format("is not positive definite (principal moments {:.3g}, {:.3g}, {:.3g})", e(0), e(1), e(2));
+      return out;
+    }
+    const double floor = std::max(mass * kMinRadiusOfGyration * kMinRadiusOfGyration, 1e-6 * scale);
+    const bool point = scale == 0.0;
+    for (int k = 0; k < 3; ++k) e(k) = e(k) > 0.0 ? e(k) : floor;
+    what.push_back(point ? fmt::format("point mass (zero inertia): given a radius of gyration of {:g} mm",
+                                       1e3 * kMinRadiusOfGyration)
+                         : fmt::format("principal moments {:.6g}, {:.6g}, {:.6g} are not all positive: raised to "
+                                       "{:.6g} at least", e0(0), e0(1), e0(2), floor));
+  }
+  // Keep the moments ascending (with their axes) for the triangle inequality.
+  Matrix3d V = es.eigenvectors();
+  for (int a = 0; a < 2; ++a) {
+    for (int b = 0; b < 2 - a; ++b) {
+      if (e(b) > e(b + 1)) {
+        std::swap(e(b), e(b + 1));
+        V.col(b).swap(V.col(b + 1));
+      }
+    }
+  }
+  const double deficit = e(2) - e(0) - e(1);
+  if (deficit > 1e-9 * e(2)) {
+    if (deficit > kTriangleTolerance * e(2)) {
+      out.error = fmt::format("violates the triangle inequality (principal moments {:.6g} + {:.6g} < {:.6g}, by "
+                              "{:.1f} % of the largest)", e(0), e(1), e(2), 100.0 * deficit / e(2));
+      return out;
+    }
+    const Vector3d before = e;
+    e(0) += deficit / 3.0;
+    e(1) += deficit / 3.0;
+    e(2) -= deficit / 3.0;
+    what.push_back(fmt::format("principal moments {:.6g}, {:.6g}, {:.6g} violate the triangle inequality by {:.2f} % "
+                               "of the largest: moved to {:.6g}, {:.6g}, {:.6g}",
+                               before(0), before(1), before(2), 100.0 * deficit / before(2), e(0), e(1), e(2)));
+  }
+  if (what.empty()) return out;
+  out.I_c = V * e.asDiagonal() * V.transpose();
+  out.I_c = 0.5 * (out.I_c + out.I_c.transpose()).eval();
+  for (const auto& w : what) out.what += (out.what.empty() ? "" : "; ") + w;
+  return out;
+}
+
 const LinkDesc* RobotDescription::find_link(const std::string& n) const {
   for (const auto& l : links) {
     if (l.name == n) return &l;
@@ -289,7 +497,7 @@ double RobotDescription::total_mass() const {
   return m;
 }
 
-RobotDescription parse_urdf(const std::string& xml, const std::string& source) {
+RobotDescription parse_urdf(const std::string& xml, const std::string& source, const UrdfOptions& options) {
   // Structure first, on a tolerant extraction, so that loops and double parents name the joints.
   check_structure(extract_structure(xml, source));
   CaptureHandler capture;
@@ -309,15 +517,25 @@ RobotDescription parse_urdf(const std::string& xml, const std::string& source) {
   RobotDescription d = convert(*m, source);
   check_structure(d);
   check_links(d);
+  if (options.resolve_meshes) {
+    const auto search = mesh_search_dirs(options);
+    for (auto& l : d.links) {
+      for (auto* list : {&l.collisions, &l.visuals}) {
+        for (auto& g : *list) {
+          if (g.type == Geometry::Type::kMesh) g.mesh = resolve_mesh(g.mesh_uri, source, l.name, search);
+        }
+      }
+    }
+  }
   return d;
 }
 
-RobotDescription load_urdf(const std::string& path) {
+RobotDescription load_urdf(const std::string& path, const UrdfOptions& options) {
   std::ifstream f(path);
   if (!f) throw ModelError(fmt::format("{}: cannot open the URDF file", path));
   std::stringstream ss;
   ss << f.rdbuf();
-  return parse_urdf(ss.str(), path);
+  return parse_urdf(ss.str(), path, options);
 }
 
 }  // namespace hpr::model

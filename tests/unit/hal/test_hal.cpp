@@ -59,7 +59,6 @@ TEST(SafetyMachine, TransitionsOfTheTable) {
 struct Rig {
   Config cfg;
   model::RobotSpec robot;
-  model::RobotDescription description;
   hal::HalConfig config;
   sim::Simulator sim;
   std::vector<hal::MemoryTransport*> hal_side, drive_side;
@@ -73,9 +72,8 @@ struct Rig {
   explicit Rig(const std::vector<std::string>& overrides = {})
       : cfg(Config::load(test::source_dir() + "/config/toro.yaml", overrides)),
         robot(model::RobotSpec::load(cfg.section("robot"))),
-        description(model::load_urdf(cfg.section("robot").file_path("urdf"))),
         config(hal::HalConfig::load(cfg.section("hal"), robot.model)),
-        sim(robot, description, sim::SimConfig::load(cfg.section("sim"))) {
+        sim(robot, sim::SimConfig::load(cfg.section("sim"))) {
     std::vector<std::unique_ptr<hal::CanTransport>> hal_buses;
     for (std::size_t b = 0; b < config.buses.size(); ++b) {
       auto [a, d] = hal::MemoryTransport::pair();

@@ -66,13 +66,45 @@ TEST(Urdf, MovingLinkWithoutInertiaIsRejected) {
   EXPECT_NE(msg.find("joint 'j1'"), std::string::npos) << msg;
 }
 
-TEST(Urdf, NonPositiveMassIsRejected) {
-  for (double m : {0.0, -1.0}) {
-    const std::string msg = error_of(robot(link("base", inertial(1)) + link("arm", inertial(m)) +
-                                           joint("j1", "revolute", "base", "arm")));
-    EXPECT_NE(msg.find("link 'arm'"), std::string::npos) << msg;
-    EXPECT_NE(msg.find("positive mass"), std::string::npos) << msg;
-  }
+TEST(Urdf, NegativeMassIsRejected) {
+  const std::string msg = error_of(robot(link("base", inertial(1)) + link("arm", inertial(-1.0)) +
+                                         joint("j1", "revolute", "base", "arm")));
+  EXPECT_NE(msg.find("link 'arm'"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("positive mass"), std::string::npos) << msg;
+}
+
+TEST(Urdf, MassZeroOnAMovingLinkLeavesItWithoutInertia) {
+  // <inertial> of mass 0 is no inertia: on a link moved by a joint, with nothing fixed to it, that
+  // is the error of a moving link without inertia.
+  const std::string msg = error_of(robot(link("base", inertial(1)) + link("arm", inertial(0.0)) +
+                                         joint("j1", "revolute", "base", "arm")));
+  EXPECT_NE(msg.find("link 'arm'"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("no inertia"), std::string::npos) << msg;
+}
+
+TEST(Urdf, NonFiniteNumbersAreRejectedNamingTheElement) {
+  const std::string base = link("base", inertial(1));
+  // NaN mass, NaN in a joint origin, NaN joint limit.
+  std::string msg = error_of(robot(base + "<link name=\"arm\"><inertial><mass value=\"nan\"/><inertia ixx=\"1\" "
+                                   "ixy=\"0\" ixz=\"0\" iyy=\"1\" iyz=\"0\" izz=\"1\"/></inertial></link>" +
+                                   joint("j1", "revolute", "base", "arm")));
+  EXPECT_NE(msg.find("arm"), std::string::npos) << msg;
+  msg = error_of(robot(base + link("arm", inertial(1)) +
+                       "<joint name=\"j1\" type=\"revolute\"><parent link=\"base\"/><child link=\"arm\"/>"
+                       "<origin xyz=\"0 nan 0\"/><axis xyz=\"0 0 1\"/><limit lower=\"-1\" upper=\"1\" effort=\"1\" "
+                       "velocity=\"1\"/></joint>"));
+  EXPECT_NE(msg.find("j1"), std::string::npos) << msg;
+  msg = error_of(robot(base + link("arm", inertial(1)) +
+                       "<joint name=\"j1\" type=\"revolute\"><parent link=\"base\"/><child link=\"arm\"/>"
+                       "<axis xyz=\"0 0 1\"/><limit lower=\"-1\" upper=\"1\" effort=\"nan\" velocity=\"1\"/></joint>"));
+  EXPECT_NE(msg.find("j1"), std::string::npos) << msg;
+}
+
+TEST(Urdf, MissingParentLinkIsNamed) {
+  const std::string msg = error_of(robot(link("base", inertial(1)) + link("arm", inertial(1)) +
+                                         joint("j1", "revolute", "nowhere", "arm")));
+  EXPECT_NE(msg.find("joint 'j1'"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("'nowhere'"), std::string::npos) << msg;
 }
 
 TEST(Urdf, InertiaNotPositiveDefiniteIsRejected) {

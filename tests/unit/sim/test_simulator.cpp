@@ -17,12 +17,10 @@ struct Robot {
   explicit Robot(const std::string& name) {
     cfg = std::make_unique<Config>(Config::load(test::source_dir() + "/config/" + name + ".yaml"));
     spec = std::make_unique<model::RobotSpec>(model::RobotSpec::load(cfg->section("robot")));
-    desc = std::make_unique<model::RobotDescription>(model::load_urdf(cfg->section("robot").file_path("urdf")));
     sim_config = sim::SimConfig::load(cfg->section("sim"));
   }
   std::unique_ptr<Config> cfg;
   std::unique_ptr<model::RobotSpec> spec;
-  std::unique_ptr<model::RobotDescription> desc;
   sim::SimConfig sim_config;
 };
 
@@ -39,7 +37,7 @@ sim::JointCommand hold_command(const Robot& r, double kp = 1500, double kd = 30)
 TEST(Simulator, PushedFreeFloatingBodyGainsTheImpulse) {
   Robot r("toro");
   r.sim_config.gravity.setZero();
-  sim::Simulator s(*r.spec, *r.desc, r.sim_config);
+  sim::Simulator s(*r.spec, r.sim_config);
   VectorXd q = r.spec->standing_configuration();
   q(2) = 5.0;
   s.set_state(q, VectorXd::Zero(r.spec->model.nv));
@@ -65,7 +63,7 @@ TEST(Simulator, PushedFreeFloatingBodyGainsTheImpulse) {
 TEST(Simulator, TruthMomentumMatchesTheModelLibrary) {
   for (const char* name : {"toro", "h1_2"}) {
     Robot r(name);
-    sim::Simulator s(*r.spec, *r.desc, r.sim_config);
+    sim::Simulator s(*r.spec, r.sim_config);
     test::RandomState rs(21);
     model::Data data(r.spec->model);
     for (int k = 0; k < 20; ++k) {
@@ -87,7 +85,7 @@ TEST(Simulator, TruthMomentumMatchesTheModelLibrary) {
 TEST(Simulator, StandsWithStiffJointImpedance) {
   for (const char* name : {"toro", "h1_2"}) {
     Robot r(name);
-    sim::Simulator s(*r.spec, *r.desc, r.sim_config);
+    sim::Simulator s(*r.spec, r.sim_config);
     const auto c = hold_command(r);
     const auto p0 = s.truth().p_WF;
     double slip = 0, sink = 0, tilt = 0;
@@ -114,7 +112,7 @@ TEST(Simulator, StandsWithStiffJointImpedance) {
 
 TEST(Simulator, SensorsAtRestAreConsistent) {
   Robot r("toro");
-  sim::Simulator s(*r.spec, *r.desc, r.sim_config);
+  sim::Simulator s(*r.spec, r.sim_config);
   const auto c = hold_command(r);
   for (int k = 0; k < 3000; ++k) {  // let the hand-over from the settling gains die out
     s.set_command(c);
@@ -142,7 +140,7 @@ TEST(Simulator, SensorsAtRestAreConsistent) {
 
 TEST(Simulator, IsDeterministic) {
   Robot r("toro");
-  sim::Simulator a(*r.spec, *r.desc, r.sim_config), b(*r.spec, *r.desc, r.sim_config);
+  sim::Simulator a(*r.spec, r.sim_config), b(*r.spec, r.sim_config);
   auto c = hold_command(r, 800, 20);
   sim::Push p;
   p.link = "torso";
@@ -168,7 +166,7 @@ TEST(Simulator, IsDeterministic) {
 
 TEST(Simulator, BadCommandsAreRefusedThenStaleCommandsDamp) {
   Robot r("toro");
-  sim::Simulator s(*r.spec, *r.desc, r.sim_config);
+  sim::Simulator s(*r.spec, r.sim_config);
   const auto good = hold_command(r);
   for (int k = 0; k < 500; ++k) {
     ASSERT_TRUE(s.set_command(good));
@@ -202,6 +200,37 @@ TEST(Simulator, BadCommandsAreRefusedThenStaleCommandsDamp) {
     EXPECT_LE(std::abs(s.applied_torque()(j)), r.sim_config.damping_kd * (std::abs(qd(j)) + 0.01));
     EXPECT_NE(s.sensors().drive_status[static_cast<size_t>(j)] & 2, 0);
   }
+}
+
+// Held joints: out of the commands and sensors, held at their positions by the simulator.
+TEST(Simulator, HeldJointsStayAtTheirPositionsOutsideTheCommands) {
+  auto cfg = Config::load(test::source_dir() + "/config/toro.yaml",
+                          {"robot.held_joints={r_wrist_yaw: 0.4, l_wrist_pitch: -0.6, neck_yaw: -0.2}"});
+  const auto spec = model::RobotSpec::load(cfg.section("robot"));
+  const auto sim_config = sim::SimConfig::load(cfg.section("sim"));
+  ASSERT_EQ(spec.model.nj, 24);
+  sim::Simulator s(spec, sim_config);
+  EXPECT_EQ(s.simulated_model().nj, 27);
+  EXPECT_EQ(s.sensors().q.size(), 24);
+  sim::JointCommand c;
+  c.resize(spec.model.nj);
+  c.mode = sim::JointCommand::Mode::kRun;
+  c.q_des = spec.q_joints_stand;
+  sim::hold_gains(spec, spec.standing_configuration(), 1500, 30, sim_config.dt / sim_config.substeps, c.kp, c.kd);
+  // Swing the right shoulder: the held wrist must not follow its inertia away from 0.4.
+  const int shoulder = spec.model.joint_index("r_shoulder_pitch");
+  for (int k = 0; k < 1000; ++k) {
+    c.q_des(shoulder) = spec.q_joints_stand(shoulder) + 0.6 * std::sin(2 * M_PI * k / 1000.0);
+    ASSERT_TRUE(s.set_command(c));
+    s.step();
+    ASSERT_EQ(s.truth().q_held.size(), 3);
+    for (Eigen::Index h = 0; h < 3; ++h) {
+      const std::string& name = spec.model.held_joint_name[static_cast<size_t>(h)];
+      EXPECT_NEAR(s.truth().q_held(h), spec.held.at(name), 0.02) << name << " at tick " << k;
+    }
+  }
+  EXPECT_FALSE(s.truth().fallen);
+  EXPECT_NEAR(s.truth().q(7 + shoulder), spec.q_joints_stand(shoulder), 0.1);
 }
 
 }  // namespace

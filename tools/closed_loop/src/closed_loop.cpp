@@ -21,8 +21,7 @@ ClosedLoop::ClosedLoop(const std::string& config_file, const std::vector<std::st
     : opt(options),
       cfg(Config::load(config_file, overrides)),
       spec(model::RobotSpec::load(cfg.section("robot"))),
-      desc(model::load_urdf(cfg.section("robot").file_path("urdf"))),
-      sim(spec, desc, sim::SimConfig::load(cfg.section("sim"))),
+      sim(spec, sim::SimConfig::load(cfg.section("sim"))),
       wbc(spec, wbc::WbcConfig::load(cfg.section("wbc"), spec)),
       reference(spec, balance::PostureReferenceConfig::load(cfg.section("balance"))) {
   if (opt.estimator_in_loop || opt.run_estimator) {

@@ -57,6 +57,7 @@ struct SimConfig {
   double damping_kd = 10.0;             ///< [Nm s/rad] used when damping by itself
   double settle_time = 0.5;             ///< [s] holding the standing posture before tick 0
   double settle_kp = 3000.0, settle_kd = 60.0;
+  double held_kp = 3000.0, held_kd = 60.0;  ///< held joints' impedance (capped per joint as hold_gains)
   double fallen_base_height = 0.45;     ///< [m] pelvis below this: fallen
   double fallen_tilt_deg = 45.0;        ///< pelvis tilt above this: fallen
   NoiseConfig noise;
@@ -99,12 +100,16 @@ struct TruthData {
   Eigen::Vector3d push_force_W = Eigen::Vector3d::Zero();
   Eigen::Vector3d push_impulse_W = Eigen::Vector3d::Zero();
   bool fallen = false;
-  Eigen::VectorXd q, v;  ///< the model's coordinates of Bullet's state (for tests)
+  Eigen::VectorXd q, v;  ///< Bullet's state in the controlled model's coordinates (held joints left out)
+  Eigen::VectorXd q_held;  ///< positions of the held joints, in the order of RobotSpec::model.held_joint_name
 };
 
 class Simulator {
  public:
-  Simulator(const model::RobotSpec& robot, const model::RobotDescription& description, SimConfig config);
+  /// Simulates `robot.description` with every joint free: the controlled joints (those of
+  /// `robot.model`, the only ones commands and sensors carry) are driven by the commands, the held
+  /// joints (`robot.held`) by a stiff joint impedance at their held positions.
+  Simulator(const model::RobotSpec& robot, SimConfig config);
   ~Simulator();
   Simulator(const Simulator&) = delete;
   Simulator& operator=(const Simulator&) = delete;
@@ -129,6 +134,10 @@ class Simulator {
   [[nodiscard]] bool command_stale() const { return stale_; }
   [[nodiscard]] const SimConfig& config() const { return config_; }
   [[nodiscard]] const model::RobotSpec& robot() const { return *robot_; }
+  /// The simulated model: every joint of the description, physically consistent inertias.
+  [[nodiscard]] const model::Model& simulated_model() const { return full_; }
+  /// Index in simulated_model() of each controlled joint.
+  [[nodiscard]] const std::vector<int>& simulated_joint() const { return joint_of_; }
   /// Applied joint torques of the last sub-step (after saturation).
   [[nodiscard]] const Eigen::VectorXd& applied_torque() const { return applied_; }
 
@@ -138,10 +147,19 @@ class Simulator {
   void physics_substep(double h);
   void compute_truth();
   void compute_sensors();
+  void apply_hold(JointCommand::Mode mode);
+  void expand_state(const Eigen::VectorXd& q, const Eigen::VectorXd& v);
   Eigen::VectorXd settle_torque() const;
 
   const model::RobotSpec* robot_;
   SimConfig config_;
+  model::Model full_;                 ///< what Bullet integrates (robot_->full_model())
+  std::vector<int> joint_of_;         ///< full_ joint of each controlled joint
+  std::vector<int> held_joint_;       ///< full_ joints held by impedance
+  Eigen::VectorXd held_q_, held_kp_, held_kd_;
+  std::array<int, 2> sole_frame_{}, ft_frame_{};  ///< in full_
+  int imu_frame_ = -1;                ///< in full_
+  Eigen::VectorXd q_full_, v_full_;   ///< get_state workspace
   std::unique_ptr<Impl> impl_;
   SensorData sensors_;
   TruthData truth_;

@@ -10,6 +10,7 @@
 ///   q = (p_WB, quat_WB as (x, y, z, w), joint positions)           nq = 7 + n
 ///   v = (v_B, ω_B, joint velocities), base twist in the base frame  nv = 6 + n
 
+#include <map>
 #include <string>
 #include <vector>
 
@@ -27,12 +28,26 @@ struct Frame {
   SE3 X_BF;       ///< placement in the body frame
 };
 
+/// How a description becomes a Model.
+struct ModelOptions {
+  std::string base_link;                 ///< floating base (empty: the URDF root, or the child of a floating joint at it)
+  /// Joints removed from the model as fixed joints at the given position [rad or m] (Pinocchio's
+  /// reduced model): fingers, head, grippers that the balance controller does not use.
+  std::map<std::string, double> held;
+  /// Use the links' physically consistent inertias (a simulator's model); otherwise the file's, except
+  /// for a body that would not be positive definite without the repair.
+  bool physical_inertia = false;
+};
+
 class Model {
  public:
   /// Builds the tree from a validated description, the floating base at `base_link` (default: the
   /// URDF root, or the child of a floating joint at the root). Throws ModelError for a moving body
   /// without inertia.
   static Model build(const RobotDescription& description, const std::string& base_link = "");
+  /// Same with held joints and the choice of inertias. A `<mimic>` joint is locked at the position it
+  /// takes when its leader is at zero (or at its held position), and said so in `warnings`.
+  static Model build(const RobotDescription& description, const ModelOptions& options);
   static Model from_urdf(const std::string& path, const std::string& base_link = "");
 
   int nq = 7, nv = 6;     ///< configuration and velocity sizes
@@ -60,6 +75,11 @@ class Model {
   std::vector<double> q_lower, q_upper;  ///< position limits (±inf for continuous joints)
   std::vector<double> v_max, tau_max;    ///< velocity and effort limits (inf when absent)
   std::vector<double> damping, friction; ///< from <dynamics>
+
+  // Joints of the description that are not joints of the model: held (configured) and locked (mimic).
+  std::vector<std::string> held_joint_name;
+  std::vector<double> held_q;            ///< their fixed positions [rad or m]
+  std::vector<std::string> warnings;     ///< what the build decided that a user should know (one line each)
 
   std::vector<Frame> frames;
   Vector3d gravity{0.0, 0.0, -9.81};     ///< g_0 [m/s^2], world frame

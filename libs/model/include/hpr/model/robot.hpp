@@ -28,21 +28,42 @@ struct FootSpec {
   int ft_frame = -1;           ///< sensor frame (measures the wrench the foot applies to the leg)
 };
 
+/// A frame the configuration adds to a URDF link (soles, sensors), kept so that another model of the
+/// same description (the simulator's, with the held joints free) can add it too.
+struct AddedFrame {
+  std::string name;
+  std::string link;
+  SE3 X_LF;  ///< in the link frame
+};
+
+/// How a simulator makes collision shapes of mesh geometry.
+enum class MeshCollision { kConvexHull, kBox };
+
 struct RobotSpec {
   std::string name;
-  Model model;
+  RobotDescription description;  ///< the URDF as loaded (repairs in description.repairs)
+  Model model;                   ///< the controllers' model: held joints fixed, the file's inertias
   std::array<FootSpec, 2> feet;
   std::vector<int> leg_joints;   ///< right leg then left leg (12 for the paper's square J)
   std::vector<int> free_joints;  ///< every other joint, in model order (S_f selects them)
   int imu_frame = -1;
   Eigen::VectorXd q_joints_stand;                 ///< standing posture, joint positions (n)
-  std::map<std::string, std::vector<int>> segments; ///< named joint groups (plots, Fig. 7d)
+  std::map<std::string, std::vector<int>> segments; ///< named joint groups (plots, Fig. 7d); held joints left out
+  std::vector<AddedFrame> added_frames;           ///< sole, F/T and IMU frames, as added to `model`
+  /// Held joints (robot.held_joints): not in `model`; a simulator or the hal holds them at these
+  /// positions with a stiff joint impedance.
+  std::map<std::string, double> held;
+  MeshCollision mesh_collision = MeshCollision::kConvexHull;
+  int mesh_hull_points = 64;                      ///< at most this many points per convex hull
 
   /// Reads and validates the `robot` section; errors name the file and key.
   static RobotSpec load(const Config& robot_section);
   /// Joint indices of `names`, with errors naming the configuration key.
   [[nodiscard]] std::vector<int> joints(const std::vector<std::string>& names, const Config& where,
                                         const std::string& key) const;
+  /// The description as a model with every joint free (held ones included) and the physically
+  /// consistent inertias, with the same added frames: what a simulator integrates.
+  [[nodiscard]] Model full_model() const;
   /// Full configuration q of the standing posture with the soles flat at z = 0, centred on the origin.
   [[nodiscard]] Eigen::VectorXd standing_configuration() const;
 };

@@ -54,7 +54,6 @@ struct ClosedLoop {
   ClosedLoopOptions opt;
   Config cfg;
   model::RobotSpec spec;
-  model::RobotDescription desc;
   sim::Simulator sim;
   wbc::WholeBodyController wbc;
   balance::PostureReference reference;

@@ -1,0 +1,110 @@
+#include "hpr/mesh/mesh.hpp"
+
+#include <fmt/format.h>
+
+#include <assimp/Importer.hpp>
+#include <assimp/postprocess.h>
+#include <assimp/scene.h>
+#include <cmath>
+#include <filesystem>
+#include <limits>
+
+namespace hpr::mesh {
+
+namespace {
+
+Eigen::Matrix4d to_eigen(const aiMatrix4x4& m) {
+  Eigen::Matrix4d out;
+  out << m.a1, m.a2, m.a3, m.a4, m.b1, m.b2, m.b3, m.b4, m.c1, m.c2, m.c3, m.c4, m.d1, m.d2, m.d3, m.d4;
+  return out;
+}
+
+void collect(const aiScene& scene, const aiNode& node, const Eigen::Matrix4d& parent, const Eigen::Vector3d& scale,
+             TriangleMesh& out) {
+  const Eigen::Matrix4d T = parent * to_eigen(node.mTransformation);
+  for (unsigned k = 0; k < node.mNumMeshes; ++k) {
+    const aiMesh& m = *scene.mMeshes[node.mMeshes[k]];
+    const int base = static_cast<int>(out.vertices.size());
+    for (unsigned v = 0; v < m.mNumVertices; ++v) {
+      const aiVector3D& p = m.mVertices[v];
+      const Eigen::Vector4d x = T * Eigen::Vector4d(p.x, p.y, p.z, 1.0);
+      out.vertices.push_back(x.head<3>().cwiseProduct(scale));
+    }
+    for (unsigned f = 0; f < m.mNumFaces; ++f) {
+      const aiFace& face = m.mFaces[f];
+      if (face.mNumIndices != 3) continue;
+      out.triangles.push_back({base + static_cast<int>(face.mIndices[0]), base + static_cast<int>(face.mIndices[1]),
+                               base + static_cast<int>(face.mIndices[2])});
+    }
+  }
+  for (unsigned c = 0; c < node.mNumChildren; ++c) collect(scene, *node.mChildren[c], T, scale, out);
+}
+
+}  // namespace
+
+TriangleMesh load(const std::string& path, const Eigen::Vector3d& scale) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) throw MeshError(fmt::format("{}: mesh file not found", path));
+  Assimp::Importer importer;
+  // Identical vertices joined (an STL repeats each vertex per facet), polygons split into triangles.
+  const aiScene* scene = importer.ReadFile(path, aiProcess_Triangulate | aiProcess_JoinIdenticalVertices |
+                                                     aiProcess_SortByPType);
+  if (scene == nullptr || scene->mRootNode == nullptr) {
+    throw MeshError(fmt::format("{}: cannot read the mesh: {}", path, importer.GetErrorString()));
+  }
+  TriangleMesh out;
+  collect(*scene, *scene->mRootNode, Eigen::Matrix4d::Identity(), scale, out);
+  if (out.vertices.empty()) throw MeshError(fmt::format("{}: the mesh has no vertices", path));
+  for (const auto& v : out.vertices) {
+    if (!v.allFinite()) throw MeshError(fmt::format("{}: the mesh has a non-finite vertex", path));
+  }
+  return out;
+}
+
+std::vector<Eigen::Vector3d> sphere_directions(int n) {
+  std::vector<Eigen::Vector3d> d;
+  d.reserve(static_cast<size_t>(std::max(n, 0)));
+  const double golden = M_PI * (3.0 - std::sqrt(5.0));
+  for (int i = 0; i < n; ++i) {
+    const double z = 1.0 - (2.0 * i + 1.0) / n;
+    const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
+    d.emplace_back(r * std::cos(golden * i), r * std::sin(golden * i), z);
+  }
+  return d;
+}
+
+std::vector<Eigen::Vector3d> hull_points(const std::vector<Eigen::Vector3d>& points, int max_points) {
+  std::vector<Eigen::Vector3d> out;
+  if (points.empty() || max_points <= 0) return out;
+  std::vector<char> taken(points.size(), 0);
+  for (const Eigen::Vector3d& dir : sphere_directions(max_points)) {
+    size_t best = 0;
+    double best_s = -std::numeric_limits<double>::infinity();
+    for (size_t i = 0; i < points.size(); ++i) {
+      const double s = dir.dot(points[i]);
+      if (s > best_s) {
+        best_s = s;
+        best = i;
+      }
+    }
+    if (taken[best] == 0) {
+      taken[best] = 1;
+      out.push_back(points[best]);
+    }
+  }
+  return out;
+}
+
+double hull_gap(const std::vector<Eigen::Vector3d>& points, const std::vector<Eigen::Vector3d>& simplified,
+                int directions) {
+  auto support = [](const std::vector<Eigen::Vector3d>& p, const Eigen::Vector3d& d) {
+    double s = -std::numeric_limits<double>::infinity();
+    for (const auto& x : p) s = std::max(s, d.dot(x));
+    return s;
+  };
+  double gap = 0.0;
+  for (const Eigen::Vector3d& d : sphere_directions(directions)) gap = std::max(gap, support(points, d) - support(simplified, d));
+  return gap;
+}
+
+}  // namespace hpr::mesh
