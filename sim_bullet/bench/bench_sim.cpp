@@ -1,12 +1,17 @@
-// One 1 ms physics step of the TORO-like robot standing on the ground, with sensors and ground truth.
+// One 1 ms physics step of each robot standing on the ground, with sensors and ground truth.
 //
-//   bench_sim [--benchmark_repetitions=N]
+//   bench_sim [--benchmark_filter=REGEX] [--benchmark_repetitions=N]
 //
-// BM_SimStep         the simulator's step (drive torques, Bullet step, contact forces, sensors, truth)
+// SimStep/ROBOT                  the simulator's step (drive torques, Bullet step, contact forces,
+//                                sensors, truth) with the configuration's collisions (the feet)
+// SimStep/g1/all_meshes/hullN    the G1 with every link's mesh colliding with the ground as a convex
+//                                hull of at most N points (16, 64, 256)
 // The counter realtime_factor is simulated seconds per wall second.
 #include <benchmark/benchmark.h>
 
-#include "hpr/model/urdf.hpp"
+#include <map>
+#include <memory>
+
 #include "hpr/sim/simulator.hpp"
 
 namespace {
@@ -14,8 +19,8 @@ namespace {
 using namespace hpr;
 
 struct Setup {
-  Setup()
-      : cfg(Config::load(std::string(HPR_SOURCE_DIR) + "/config/toro.yaml")),
+  explicit Setup(const std::string& robot, const std::vector<std::string>& overrides)
+      : cfg(Config::load(std::string(HPR_SOURCE_DIR) + "/config/" + robot + ".yaml", overrides)),
         spec(model::RobotSpec::load(cfg.section("robot"))),
         sim_config(sim::SimConfig::load(cfg.section("sim"))) {
     command.resize(spec.model.nj);
@@ -30,8 +35,8 @@ struct Setup {
   JointCommand command;
 };
 
-void BM_SimStep(benchmark::State& st) {
-  static Setup s;
+void sim_step(benchmark::State& st, const std::string& robot, const std::vector<std::string>& overrides) {
+  const Setup s(robot, overrides);
   sim::Simulator sim(s.spec, s.sim_config);
   for (auto _ : st) {
     sim.set_command(s.command);
@@ -40,9 +45,27 @@ void BM_SimStep(benchmark::State& st) {
   }
   st.counters["realtime_factor"] = benchmark::Counter(static_cast<double>(st.iterations()) * s.sim_config.dt,
                                                       benchmark::Counter::kIsRate);
+  st.counters["joints"] = static_cast<double>(sim.simulated_model().nj);
 }
 
 }  // namespace
 
-BENCHMARK(BM_SimStep)->Unit(benchmark::kMicrosecond)->MinTime(2.0);
-BENCHMARK_MAIN();
+int main(int argc, char** argv) {
+  for (const char* robot : {"toro", "h1_2", "g1"}) {
+    benchmark::RegisterBenchmark((std::string("SimStep/") + robot).c_str(), sim_step, robot, std::vector<std::string>{})
+        ->Unit(benchmark::kMicrosecond)
+        ->MinTime(2.0);
+  }
+  for (int points : {16, 64, 256}) {
+    benchmark::RegisterBenchmark(("SimStep/g1/all_meshes/hull" + std::to_string(points)).c_str(), sim_step, "g1",
+                                 std::vector<std::string>{"sim.collisions=all",
+                                                          "robot.mesh_hull_points=" + std::to_string(points)})
+        ->Unit(benchmark::kMicrosecond)
+        ->MinTime(2.0);
+  }
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}

@@ -6,6 +6,8 @@
 #include <fstream>
 
 #include "all_types.hpp"
+#include "hpr/model/robot.hpp"
+#include "hpr/msg/state.hpp"
 #include "lcm_listener.hpp"
 #include "process_group.hpp"
 
@@ -47,6 +49,58 @@ TEST(WbcNode, StandsAndRecoversAPushInLockstep) {
   const auto w = group.wait(wbc, 1000ms);
   EXPECT_TRUE(w.exited);
   EXPECT_EQ(w.exit_code, 0);
+}
+
+// In lockstep the wbc steps with the motion optimiser's command of the same tick, except when the
+// tick only damps: an estimate flagged unusable (motion_opt then publishes nothing) is answered at
+// once, not after the wholebody timeout, so the chain runs on at full rate while the robot goes limp.
+TEST(WbcNode, AnUnusableEstimateIsAnsweredWithoutWaitingForTheMotionOptimiser) {
+  ProcessGroup group;
+  LcmListener lcm(group.lcm_url());
+  auto commands = lcm.collect<humanoid::joint_command_t>("JOINT_COMMAND");
+  auto health = lcm.collect<humanoid::health_t>("HEALTH");
+  const std::string cfg = hpr::test::source_dir() + "/config/toro.yaml";
+  const auto robot = hpr::model::RobotSpec::load(hpr::Config::load(cfg).section("robot"));
+  // wait_for_wholebody (the default) with a timeout of 5 s: 20 ticks of waiting would take 100 s.
+  const pid_t wbc = group.start("wbc", {"--config", cfg, "--set", "wbc.wholebody_timeout=5.0"});
+  hpr::EstimatedState s;
+  s.q = robot.standing_configuration();
+  s.v = Eigen::VectorXd::Zero(robot.model.nv);
+  s.tau = Eigen::VectorXd::Zero(robot.model.nj);
+  s.status = humanoid::robot_state_t::STATUS_IMPLAUSIBLE;
+  hpr::msg::RobotNames names;
+  names.joints = robot.model.joint_name;
+  humanoid::robot_state_t m{};
+  for (std::int64_t tick = 1; tick <= 20; ++tick) {
+    s.tick = tick;
+    s.time = 1e-3 * static_cast<double>(tick);
+    hpr::msg::to_message(s, names, m);
+    // Republished until answered (the wbc may not have subscribed yet at the first).
+    ASSERT_TRUE(lcm.wait_for(
+        [&] {
+          if (!commands->empty() && commands->back().tick >= tick) return true;
+          lcm.publish("ROBOT_STATE", m);
+          return false;
+        },
+        60s));
+    EXPECT_EQ(commands->back().mode, int{humanoid::joint_command_t::MODE_DAMP}) << "tick " << tick;
+  }
+  // HEALTH counts the steps that ran without a synced input after the timeout: none.
+  ASSERT_TRUE(lcm.wait_for(
+      [&] {
+        for (const auto& h : *health) {
+          if (h.node == "wbc" && h.tick >= 20) return true;
+        }
+        return false;
+      },
+      10s));
+  for (const auto& h : *health) {
+    if (h.node == "wbc") {
+      EXPECT_EQ(h.stale_inputs, 0) << "tick " << h.tick;
+    }
+  }
+  group.signal(wbc, SIGTERM);
+  EXPECT_TRUE(group.wait(wbc, 2000ms).exited);
 }
 
 }  // namespace

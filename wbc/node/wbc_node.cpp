@@ -63,12 +63,18 @@ WbcNode::WbcNode(node::Runtime& rt, const model::RobotSpec& robot, WholeBodyCont
     truth_in_ = &rt.subscribe<humanoid::sim_truth_t>("SIM_TRUTH");
     sensors_in_ = &rt.subscribe<humanoid::robot_sensors_t>(
         "ROBOT_SENSORS", [this](const humanoid::robot_sensors_t& m) { return msg::from_message(m, names_, sensors_); });
-    sync.push_back({truth_in_, 0});
+    sync.push_back({truth_in_, 0, {}});
   } else {
     state_in_ = &rt.subscribe<humanoid::robot_state_t>(
         "ROBOT_STATE", [this](const humanoid::robot_state_t& m) { return msg::from_message(m, names_, state_); });
   }
-  if (options_.wait_for_wholebody) sync.push_back({wholebody_in_, 0});
+  // The motion optimiser's command of the tick, unless this tick only damps (operator damp, or an
+  // estimate nothing may act on: motion_opt then publishes nothing).
+  if (options_.wait_for_wholebody) {
+    sync.push_back({wholebody_in_, 0, [this] {
+                      return !damping_ && (options_.use_sim_truth || (state_.status & msg::kStateUnusable) == 0);
+                    }});
+  }
   node::InputBase& primary = options_.use_sim_truth ? static_cast<node::InputBase&>(*sensors_in_) : *state_in_;
   rt.on_tick(primary, sync, options_.wait_for_wholebody ? options_.wholebody_timeout : options_.state_timeout,
              [this](const node::TickInfo& info) {

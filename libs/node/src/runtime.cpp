@@ -117,7 +117,7 @@ void Runtime::check_triggers(double now) {
     TickInfo info;
     info.tick = t.pending_tick;
     for (const auto& s : t.synced) {
-      if (s.input->tick() < t.pending_tick + s.tick_offset) info.late.push_back(s.input);
+      if (s.input->tick() < t.pending_tick + s.tick_offset && (!s.needed || s.needed())) info.late.push_back(s.input);
     }
     if (!info.late.empty()) {
       if (now < t.deadline) continue;

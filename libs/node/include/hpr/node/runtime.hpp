@@ -128,6 +128,10 @@ class Output {
 struct Sync {
   InputBase* input;
   std::int64_t tick_offset = 0;
+  /// Whether the step needs this input at the pending tick (empty: always). An input the step will
+  /// not use (a wbc that damps has no use for the motion optimiser's command) is not waited for,
+  /// so a lockstep chain runs on at full rate without it.
+  std::function<bool()> needed;
 };
 
 /// What the step is told about its tick.

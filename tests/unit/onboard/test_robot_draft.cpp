@@ -1,0 +1,108 @@
+// hpr_robot init's draft: a configuration every process loads, whose standing posture has the soles
+// flat and level, the CoM over their middle and the hips at the asked height.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <unistd.h>
+
+#include "hpr/model/algorithms.hpp"
+#include "hpr/onboard/robot_draft.hpp"
+#include "model_fixture.hpp"
+
+namespace {
+
+using namespace hpr;
+
+std::string read(const std::string& path) {
+  std::ifstream f(path);
+  std::stringstream ss;
+  ss << f.rdbuf();
+  return ss.str();
+}
+
+// Writes the draft's configuration next to the source config folder's files (so that relative
+// paths resolve as for a user's file) and loads it as the processes do.
+model::RobotSpec write_and_load(const onboard::RobotDraft& draft, const std::string& urdf, const std::string& file) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / ("hpr_draft_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const fs::path out = dir / file;
+  const std::string text = onboard::write_config(draft, read(test::source_dir() + "/config/templates/robot.yaml"),
+                                                 fs::relative(urdf, dir).string(), "test");
+  std::ofstream(out) << text;
+  const Config cfg = Config::load(out.string());
+  // Every section the processes read is there.
+  for (const char* s : {"robot", "balance", "estimator", "wbc", "reference_gen", "motion_opt", "sim"}) {
+    EXPECT_TRUE(cfg.has(s)) << s;
+  }
+  EXPECT_EQ(text.find("{{"), std::string::npos);
+  return model::RobotSpec::load(cfg.section("robot"));
+}
+
+void expect_standing_posture(const model::RobotSpec& spec, double fraction) {
+  const Eigen::VectorXd q = spec.standing_configuration();
+  model::Data data(spec.model);
+  model::forward_kinematics(spec.model, data, q);
+  model::update_frame_placements(spec.model, data);
+  const Eigen::Vector3d c = model::center_of_mass(spec.model, data, q);
+  Eigen::Vector3d mid = Eigen::Vector3d::Zero();
+  for (const auto& f : spec.feet) {
+    const model::SE3& X = data.oMf[static_cast<size_t>(f.sole_frame)];
+    EXPECT_LT((X.R - Eigen::Matrix3d::Identity()).norm(), 1e-6);  // flat and level
+    EXPECT_NEAR(X.p.z(), 0.0, 1e-9);
+    mid += 0.5 * X.p;
+    // The hip (first leg joint) at `fraction` of the straight leg's length above the sole.
+    const int hip_body = f.leg_joints.front() + 1;
+    const double height = data.oMi[static_cast<size_t>(hip_body)].p.z() - X.p.z();
+    Eigen::VectorXd q0 = spec.model.neutral();
+    model::Data d0(spec.model);
+    model::forward_kinematics(spec.model, d0, q0);
+    model::update_frame_placements(spec.model, d0);
+    const double length = (d0.oMi[static_cast<size_t>(hip_body)].p - d0.oMf[static_cast<size_t>(f.sole_frame)].p).norm();
+    EXPECT_NEAR(height / length, fraction, 2e-3);  // posture written with 4 decimals
+  }
+  EXPECT_NEAR(c.x(), mid.x(), 2e-3);
+}
+
+TEST(RobotDraft, ToroLikeFromItsUrdf) {
+  const auto robot = test::load_robot("toro");
+  onboard::DraftOptions o;
+  o.leg_height_fraction = 0.93;
+  const auto draft = onboard::draft_robot(robot.description, o);
+  EXPECT_EQ(draft.feet[0].link, "r_foot");
+  EXPECT_EQ(draft.feet[1].link, "l_foot");
+  EXPECT_NEAR(draft.com_stiffness.x(), robot.model.mass * 4.5 * 4.5, 1e-9);
+  const auto spec = write_and_load(draft, robot.description.source, "toro_draft.yaml");
+  expect_standing_posture(spec, 0.93);
+}
+
+TEST(RobotDraft, G1HoldsItsFingersAndAdjustsTorsoAndArms) {
+  const std::string urdf = test::source_dir() + "/models/unitree_g1/g1_29dof_with_hand.urdf";
+  const auto draft = onboard::draft_robot(model::load_urdf(urdf));
+  ASSERT_EQ(draft.held.size(), 14U);
+  for (const auto& [name, q] : draft.held) {
+    EXPECT_NE(name.find("_hand_"), std::string::npos) << name;
+    EXPECT_EQ(q, 0.0) << name;
+  }
+  EXPECT_EQ(draft.imu_link, "imu_in_pelvis");
+  const std::vector<std::string> adjusted = {"base_rotation", "waist_yaw_joint", "waist_roll_joint", "waist_pitch_joint",
+                                             "right_shoulder_pitch_joint", "right_shoulder_roll_joint",
+                                             "right_shoulder_yaw_joint", "right_elbow_joint", "left_shoulder_pitch_joint",
+                                             "left_shoulder_roll_joint", "left_shoulder_yaw_joint", "left_elbow_joint"};
+  EXPECT_EQ(draft.adjusted_double, adjusted);
+  EXPECT_EQ(draft.adjusted_single.back(), "swing_foot");
+  EXPECT_EQ(draft.substeps, 4);  // ankle pitch links of 0.074 kg
+  const auto spec = write_and_load(draft, urdf, "g1_draft.yaml");
+  EXPECT_EQ(spec.model.nj, 29);
+  EXPECT_EQ(spec.segments.at("torso").size(), 3U);
+  EXPECT_EQ(spec.segments.at("right_arm").size(), 7U);
+  expect_standing_posture(spec, 0.95);
+  // Shoulders out, away from the body, within the joint limits.
+  const int r = spec.model.joint_index("right_shoulder_roll_joint"), l = spec.model.joint_index("left_shoulder_roll_joint");
+  EXPECT_NEAR(spec.q_joints_stand(r), -0.15, 1e-12);
+  EXPECT_NEAR(spec.q_joints_stand(l), 0.15, 1e-12);
+}
+
+}  // namespace
