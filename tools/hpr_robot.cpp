@@ -101,7 +101,7 @@ int verify(const std::string& config, const hpr::onboard::RobotDraft& draft) {
     std::printf("verify: the robot does not stand (%s)\n", st.failure.empty() ? "fell" : st.failure.c_str());
     return 1;
   }
-  std::printf("verify: stands 10 s (CoM moved %.1f mm at most)\n", 1e3 * st.max_com_deviation);
+  std::printf("verify: stands 10 s (a 0.5 N s nudge then moved the CoM by %.1f mm at most)\n", 1e3 * st.max_com_deviation);
   const double omega = std::sqrt(9.81 / draft.com_height);
   const double d = 0.5 * draft.feet[0].sole.length;
   const double bound = draft.mass * omega * d;
