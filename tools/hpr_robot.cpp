@@ -127,12 +127,12 @@ int verify(const std::string& config, const hpr::onboard::RobotDraft& draft) {
   return 0;
 }
 
-int init(hpr::ArgReader& args) {
+// `command`: the arguments after "init" as given, for the file's header.
+int init(hpr::ArgReader& args, const std::string& command) {
   std::string urdf, out;
   bool force = false, check_stand = false;
   hpr::onboard::DraftOptions options;
   hpr::model::UrdfOptions urdf_options;
-  std::string command = "init";
   while (args.next()) {
     if (args.is("--out")) {
       out = args.value();
@@ -174,7 +174,7 @@ int init(hpr::ArgReader& args) {
     const fs::path out_dir = fs::absolute(out).parent_path();
     const std::string urdf_rel = fs::relative(fs::absolute(urdf), out_dir).string();
     const std::string text = hpr::onboard::write_config(draft, read_file(find_template()), urdf_rel,
-                                                        urdf + " --out " + out);
+                                                        command);
     {
       std::ofstream f(out);
       f << text;
@@ -239,7 +239,14 @@ int main(int argc, char** argv) {
       return argc < 2 ? 2 : 0;
     }
     if (args.is("check")) return check(args);
-    if (args.is("init")) return init(args);
+    if (args.is("init")) {
+      std::string command;
+      for (int i = 2; i < argc; ++i) {
+        const std::string a = argv[i];
+        if (a != "--force" && a != "--verify") command += (command.empty() ? "" : " ") + a;
+      }
+      return init(args, command);
+    }
     throw hpr::UsageError("unknown command '" + args.current() + "'");
   } catch (const hpr::UsageError& e) {
     std::cerr << "hpr_robot: " << e.what() << "\n\n" << kUsage;
