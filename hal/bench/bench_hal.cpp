@@ -16,7 +16,7 @@ using namespace hpr;
 void BM_HalTick(benchmark::State& state) {
   const Config cfg = Config::load(std::string(HPR_SOURCE_DIR) + "/config/toro.yaml", {"hal.udp_base_port=23400"});
   const auto robot = model::RobotSpec::load(cfg.section("robot"));
-  const auto config = hal::HalConfig::load(cfg.section("hal"), robot.model);
+  const auto config = hal::HalConfig::load(cfg.section("hal"), robot);
   hal::Hal h(config, hal::open_buses(config, false), std::make_unique<hal::MitCodec>());
   auto drives = hal::open_buses(config, true);
   hal::MitCodec codec;

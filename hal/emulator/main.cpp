@@ -22,7 +22,7 @@ using namespace hpr;
 int run(const node::CommandLine& cl, const Config& cfg) {
   const Config robot_cfg = cfg.section("robot");
   const auto robot = model::RobotSpec::load(robot_cfg);
-  const hal::HalConfig config = hal::HalConfig::load(cfg.section("hal"), robot.model);
+  const hal::HalConfig config = hal::HalConfig::load(cfg.section("hal"), robot);
   const auto options = cfg.has("emulator") ? hal::EmulatorOptions::load(cfg.section("emulator")) : hal::EmulatorOptions{};
   const Config sim_cfg = cfg.section("sim");
   const sim::SimConfig sim_config = sim::SimConfig::load(sim_cfg);

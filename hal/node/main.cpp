@@ -74,7 +74,7 @@ int run(const node::CommandLine& cl, const Config& cfg) {
   const Config robot_cfg = cfg.section("robot");
   const auto robot = model::RobotSpec::load(robot_cfg);
   const Config hal_cfg = cfg.section("hal");
-  hal::HalConfig config = hal::HalConfig::load(hal_cfg, robot.model);
+  hal::HalConfig config = hal::HalConfig::load(hal_cfg, robot);
   const bool enable_on_start = hal_cfg.boolean_or("enable_on_start", false);
   const double duration = hal_cfg.real_or("duration", 0.0, 0.0, 1e7);
   node::Runtime rt(cl.name, node::lcm_url(cl, cfg), node::runtime_options(cfg, config.period));

@@ -34,8 +34,10 @@ DriveEmulator::DriveEmulator(const HalConfig& config, sim::Simulator& sim, std::
   for (std::size_t b = 0; b < config_.buses.size(); ++b) {
     if (config_.buses[b].name == options_.bus_off_bus) bus_off_bus_ = static_cast<int>(b);
   }
-  applied_.resize(static_cast<int>(config_.drives.size()));
+  applied_.resize(config_.controlled);
   applied_.mode = JointCommand::Mode::kRun;
+  applied_held_.resize(static_cast<int>(config_.drives.size()) - config_.controlled);
+  applied_held_.mode = JointCommand::Mode::kRun;
 }
 
 bool DriveEmulator::bus_off(int bus) const {
@@ -56,9 +58,17 @@ void DriveEmulator::reply(std::size_t i, CanTransport& out) {
   const SensorSample& s = sim_.sensors();
   DriveReply r;
   r.drive_id = d.id;
-  r.p = d.sign * (s.q(j) - d.offset);
-  r.v = d.sign * s.qd(j);
-  r.t = d.sign * s.tau(j);
+  if (d.held) {
+    const auto k = j - config_.controlled;
+    const sim::TruthData& t = sim_.truth();
+    r.p = d.sign * (t.q_held(k) - d.offset);
+    r.v = d.sign * t.v_held(k);
+    r.t = d.sign * t.tau_held(k);
+  } else {
+    r.p = d.sign * (s.q(j) - d.offset);
+    r.v = d.sign * s.qd(j);
+    r.t = d.sign * s.tau(j);
+  }
   r.temperature = 35.0;
   if (static_cast<int>(i) == fault_drive_ && options_.fault_at >= 0 && sim_.time() >= options_.fault_at) {
     r.fault = static_cast<std::uint8_t>(options_.fault_code);
@@ -160,14 +170,17 @@ void DriveEmulator::step(double now) {
     } else if (faulted) {
       kd = options_.drive_damping_kd;
     }
-    applied_.kp(j) = kp;
-    applied_.kd(j) = kd;
-    applied_.q_des(j) = q_des;
-    applied_.qd_des(j) = qd_des;
-    applied_.tau_ff(j) = tau;
+    JointCommand& out = dc.held ? applied_held_ : applied_;
+    const auto k = dc.held ? j - config_.controlled : j;
+    out.kp(k) = kp;
+    out.kd(k) = kd;
+    out.q_des(k) = q_des;
+    out.qd_des(k) = qd_des;
+    out.tau_ff(k) = tau;
   }
   applied_.tick = sim_.tick();
   sim_.set_command(applied_);
+  if (applied_held_.q_des.size() > 0) sim_.set_held_command(applied_held_);
   sim_.step();
 }
 

@@ -22,10 +22,11 @@ std::pair<double, double> range(const Config& c, const std::string& key, double 
 
 }  // namespace
 
-HalConfig HalConfig::load(const Config& c, const model::Model& m) {
+HalConfig HalConfig::load(const Config& c, const model::RobotSpec& robot) {
+  const model::Model& m = robot.model;
   c.reject_unknown({"period", "reply_window", "transport", "udp_hal_host", "udp_drive_host", "udp_base_port", "enable_on_start",
                     "duration", "damping_kd", "soft_limit_margin", "soft_limit_kd", "safety", "drive_defaults", "sensors", "buses",
-                    "drives", "clock", "lockstep_timeout"});
+                    "drives", "clock", "lockstep_timeout", "held_joints"});
   HalConfig h;
   h.file = c.file();
   h.period = c.real_or("period", h.period, 1e-4, 0.1);
@@ -35,6 +36,12 @@ HalConfig HalConfig::load(const Config& c, const model::Model& m) {
   h.damping_kd = c.real_or("damping_kd", h.damping_kd, 0.0, 1e4);
   h.soft_limit_margin = c.real_or("soft_limit_margin", h.soft_limit_margin, 0.0, 1.0);
   h.soft_limit_kd = c.real_or("soft_limit_kd", h.soft_limit_kd, 0.0, 1e4);
+  if (c.has("held_joints")) {
+    const Config hj = c.section("held_joints");
+    hj.reject_unknown({"kp", "kd"});
+    h.held_kp = hj.real_or("kp", h.held_kp, 0.0, 1e5);
+    h.held_kd = hj.real_or("kd", h.held_kd, 0.0, 1e4);
+  }
   if (c.has("safety")) {
     const Config s = c.section("safety");
     s.reject_unknown({"command_max_age", "torque_off_after", "missed_replies_fault"});
@@ -89,15 +96,21 @@ HalConfig HalConfig::load(const Config& c, const model::Model& m) {
   const double v_scale = defaults.real_or("velocity_scale", 1.5, 1.0, 10.0);
   const double t_scale = defaults.real_or("torque_scale", 1.0, 0.1, 10.0);
 
-  h.drives.assign(static_cast<std::size_t>(m.nj), DriveConfig{});
+  h.controlled = m.nj;
+  h.drives.assign(static_cast<std::size_t>(m.nj) + m.held_joint_name.size(), DriveConfig{});
   std::set<std::pair<int, int>> ids;
   for (const Config& d : c.items("drives")) {
     const std::string joint = d.string("joint");
     int j = -1;
-    try {
-      j = m.joint_index(joint);
-    } catch (const std::exception&) {
-      throw ConfigError(d.file() + ": " + d.full_key("joint") + ": '" + joint + "' is not a joint of " + m.source);
+    for (std::size_t k = 0; k < m.held_joint_name.size(); ++k) {
+      if (m.held_joint_name[k] == joint) j = m.nj + static_cast<int>(k);
+    }
+    if (j < 0) {
+      try {
+        j = m.joint_index(joint);
+      } catch (const std::exception&) {
+        throw ConfigError(d.file() + ": " + d.full_key("joint") + ": '" + joint + "' is not a joint of " + m.source);
+      }
     }
     DriveConfig& dc = h.drives[static_cast<std::size_t>(j)];
     if (dc.joint_index >= 0) throw ConfigError(d.file() + ": " + d.full_key("joint") + ": joint '" + joint + "' is mapped twice");
@@ -113,18 +126,29 @@ HalConfig HalConfig::load(const Config& c, const model::Model& m) {
     if (sign != 1.0 && sign != -1.0) throw ConfigError(d.file() + ": " + d.full_key("sign") + ": " + std::to_string(sign) + " is not 1 or -1");
     dc.sign = sign;
     dc.offset = d.real_or("offset", 0.0, -10.0, 10.0);
-    const auto ju = static_cast<std::size_t>(j);
-    dc.q_lower = m.q_lower[ju];
-    dc.q_upper = m.q_upper[ju];
+    // The joint's limits: the model's, or for a held joint the URDF's.
+    double q_lower = -1e9, q_upper = 1e9, v_max = 0.0, tau_max = 0.0;
+    if (j < m.nj) {
+      const auto ju = static_cast<std::size_t>(j);
+      q_lower = m.q_lower[ju], q_upper = m.q_upper[ju], v_max = m.v_max[ju], tau_max = m.tau_max[ju];
+    } else {
+      const model::JointDesc& jd = *robot.description.find_joint(joint);
+      dc.held = true;
+      dc.held_q = m.held_q[static_cast<std::size_t>(j - m.nj)];
+      if (jd.has_limits && jd.type != model::JointType::kContinuous) q_lower = jd.lower, q_upper = jd.upper;
+      if (jd.has_limits) v_max = jd.velocity, tau_max = jd.effort;
+    }
+    dc.q_lower = q_lower;
+    dc.q_upper = q_upper;
     // Scaling defaults from the URDF limits, in drive units; the `limits` block overrides.
     DriveLimits& l = dc.limits;
-    if (std::isfinite(m.q_lower[ju]) && std::isfinite(m.q_upper[ju])) {
-      const double a = sign * (m.q_lower[ju] - margin - dc.offset), b = sign * (m.q_upper[ju] + margin - dc.offset);
+    if (std::isfinite(q_lower) && std::isfinite(q_upper) && q_lower > -1e8) {
+      const double a = sign * (q_lower - margin - dc.offset), b = sign * (q_upper + margin - dc.offset);
       l.p_min = std::min(a, b);
       l.p_max = std::max(a, b);
     }
-    if (std::isfinite(m.v_max[ju]) && m.v_max[ju] > 0) l.v_max = v_scale * m.v_max[ju], l.v_min = -l.v_max;
-    if (std::isfinite(m.tau_max[ju]) && m.tau_max[ju] > 0) l.t_max = t_scale * m.tau_max[ju], l.t_min = -l.t_max;
+    if (std::isfinite(v_max) && v_max > 0) l.v_max = v_scale * v_max, l.v_min = -l.v_max;
+    if (std::isfinite(tau_max) && tau_max > 0) l.t_max = t_scale * tau_max, l.t_min = -l.t_max;
     l.kp_min = 0.0, l.kp_max = kp_max;
     l.kd_min = 0.0, l.kd_max = kd_max;
     if (d.has("limits")) {
@@ -139,7 +163,9 @@ HalConfig HalConfig::load(const Config& c, const model::Model& m) {
   }
   for (std::size_t j = 0; j < h.drives.size(); ++j) {
     if (h.drives[j].joint_index < 0) {
-      throw ConfigError(c.file() + ": " + c.full_key("drives") + ": joint '" + m.joint_name[j] + "' has no drive");
+      const std::string name = j < static_cast<std::size_t>(m.nj) ? m.joint_name[j] : m.held_joint_name[j - static_cast<std::size_t>(m.nj)];
+      throw ConfigError(c.file() + ": " + c.full_key("drives") + ": joint '" + name + "' has no drive" +
+                        (j < static_cast<std::size_t>(m.nj) ? "" : " (a held joint: the hal holds it)"));
     }
   }
   return h;
@@ -178,9 +204,10 @@ std::vector<std::unique_ptr<CanTransport>> open_buses(const HalConfig& c, bool e
 Hal::Hal(HalConfig config, std::vector<std::unique_ptr<CanTransport>> buses, std::unique_ptr<DriveCodec> codec)
     : config_(std::move(config)), buses_(std::move(buses)), codec_(std::move(codec)), safety_(config_.safety) {
   const int n = static_cast<int>(config_.drives.size());
-  sensors_.resize(n);
+  sensors_.resize(config_.controlled);
   for (auto& w : sensors_.ft_wrench_S) w.setZero();
-  command_.resize(n);
+  command_.resize(config_.controlled);
+  held_q_ = Eigen::VectorXd::Zero(n - config_.controlled);
   drive_status_.assign(static_cast<std::size_t>(n), DriveStatus{});
   sent_.assign(static_cast<std::size_t>(n), DriveCommand{});
   drive_by_id_.assign(buses_.size(), std::vector<int>(MitCodec::kMaxDriveId + 1, -1));
@@ -194,7 +221,7 @@ Hal::Hal(HalConfig config, std::vector<std::unique_ptr<CanTransport>> buses, std
 }
 
 std::string Hal::set_command(const JointCommand& c, double now) {
-  const int n = static_cast<int>(config_.drives.size());
+  const int n = config_.controlled;
   std::string why = c.check(n);
   for (int i = 0; why.empty() && i < n; ++i) {
     const DriveConfig& d = config_.drives[static_cast<std::size_t>(i)];
@@ -286,7 +313,18 @@ void Hal::begin_tick(std::int64_t tick, double now) {
     }
     DriveCommand c = damping_command(i);
     const auto j = static_cast<Eigen::Index>(i);
-    if (mode == DriveMode::kRun && command_.mode == JointCommand::Mode::kRun) {
+    if (d.held) {
+      // A held joint: the hal's own joint impedance at its held position while running; damping
+      // and torque off as every drive.
+      if (mode == DriveMode::kRun && command_.mode == JointCommand::Mode::kRun) {
+        c = DriveCommand{};
+        c.p_des = std::clamp(d.sign * (d.held_q - d.offset), d.limits.p_min, d.limits.p_max);
+        c.kp = std::min(config_.held_kp, d.limits.kp_max);
+        c.kd = std::min(config_.held_kd, d.limits.kd_max);
+      } else if (mode == DriveMode::kRun && command_.mode == JointCommand::Mode::kOff) {
+        c = DriveCommand{};
+      }
+    } else if (mode == DriveMode::kRun && command_.mode == JointCommand::Mode::kRun) {
       c.p_des = d.sign * (command_.q_des(j) - d.offset);
       c.v_des = d.sign * command_.qd_des(j);
       c.kp = command_.kp(j);
@@ -388,6 +426,10 @@ void Hal::handle_frame(int bus, const CanFrame& f) {
   ds.missed_run = 0;
   ds.fault = r->fault;
   ds.temperature = r->temperature;
+  if (d.held) {
+    held_q_(i - config_.controlled) = d.sign * r->p + d.offset;
+    return;
+  }
   sensors_.q(i) = d.sign * r->p + d.offset;
   sensors_.qd(i) = d.sign * r->v;
   sensors_.tau(i) = d.sign * r->t;
@@ -424,7 +466,7 @@ void Hal::end_tick(double now) {
     }
     if (mode == DriveMode::kRun) bits |= SensorSample::kDriveEnabled;
     if (mode == DriveMode::kDamp) bits |= SensorSample::kDriveDamping;
-    sensors_.drive_status[i] = bits;
+    if (i < static_cast<std::size_t>(config_.controlled)) sensors_.drive_status[i] = bits;
   }
   const std::string faults = fault_conditions();
   if (!faults.empty()) safety_.fault(now, faults);

@@ -210,6 +210,7 @@ Simulator::Simulator(const model::RobotSpec& robot, SimConfig config)
   Impl& I = *impl_;
   for (const auto& name : robot.model.joint_name) joint_of_.push_back(m.joint_index(name));
   held_q_.resize(static_cast<Eigen::Index>(robot.model.held_joint_name.size()));
+  held_tau_ = VectorXd::Zero(held_q_.size());
   for (size_t k = 0; k < robot.model.held_joint_name.size(); ++k) {
     held_joint_.push_back(m.joint_index(robot.model.held_joint_name[k]));
     held_q_(static_cast<Eigen::Index>(k)) = robot.model.held_q[k];
@@ -390,15 +391,37 @@ void Simulator::apply_hold(JointCommand::Mode mode) {
   for (size_t k = 0; k < held_joint_.size(); ++k) {
     const int b = held_joint_[k];
     const auto ku = static_cast<Eigen::Index>(k);
+    const double q = mb->getJointPos(b), qd = mb->getJointVel(b);
     double tau = 0.0;
-    if (mode == JointCommand::Mode::kRun) {
-      tau = held_kp_(ku) * (held_q_(ku) - mb->getJointPos(b)) - held_kd_(ku) * mb->getJointVel(b);
+    if (held_external_) {
+      // The drives of the held joints as the hal commands them.
+      const JointCommand& c = held_command_;
+      if (c.mode == JointCommand::Mode::kRun) {
+        tau = c.tau_ff(ku) + c.kp(ku) * (c.q_des(ku) - q) + c.kd(ku) * (c.qd_des(ku) - qd);
+      } else if (c.mode == JointCommand::Mode::kDamp) {
+        tau = -c.kd(ku) * qd;
+      }
+    } else if (mode == JointCommand::Mode::kRun) {
+      tau = held_kp_(ku) * (held_q_(ku) - q) - held_kd_(ku) * qd;
     } else if (mode == JointCommand::Mode::kDamp) {
-      tau = -held_kd_(ku) * mb->getJointVel(b);
+      tau = -held_kd_(ku) * qd;
     }
     const double lim = full_.tau_max[static_cast<size_t>(b)];
-    mb->addJointTorque(b, std::clamp(tau, -lim, lim));
+    tau = std::clamp(tau, -lim, lim);
+    held_tau_(ku) = tau;
+    mb->addJointTorque(b, tau);
   }
+}
+
+bool Simulator::set_held_command(const JointCommand& c, std::string* why) {
+  const std::string reason = c.check(static_cast<int>(held_joint_.size()));
+  if (!reason.empty()) {
+    if (why != nullptr) *why = reason;
+    return false;
+  }
+  held_command_ = c;
+  held_external_ = true;
+  return true;
 }
 
 void Simulator::reset() {
@@ -407,6 +430,7 @@ void Simulator::reset() {
   tick_ = 0;
   pushes_.clear();
   have_command_ = false;
+  held_external_ = false;
   stale_ = false;
   rng_.seed(config_.noise.seed);
   gyro_bias_.setZero();
@@ -606,8 +630,14 @@ void Simulator::compute_truth() {
     t.q(7 + j) = q_full_(7 + joint_of_[static_cast<size_t>(j)]);
     t.v(6 + j) = v_full_(6 + joint_of_[static_cast<size_t>(j)]);
   }
-  t.q_held.resize(static_cast<Eigen::Index>(held_joint_.size()));
-  for (size_t k = 0; k < held_joint_.size(); ++k) t.q_held(static_cast<Eigen::Index>(k)) = q_full_(7 + held_joint_[k]);
+  const auto nh = static_cast<Eigen::Index>(held_joint_.size());
+  t.q_held.resize(nh);
+  t.v_held.resize(nh);
+  for (Eigen::Index k = 0; k < nh; ++k) {
+    t.q_held(k) = q_full_(7 + held_joint_[static_cast<size_t>(k)]);
+    t.v_held(k) = v_full_(6 + held_joint_[static_cast<size_t>(k)]);
+  }
+  t.tau_held = held_tau_;
   const SE3 X_WB = I.bullet->body_placement(0);
   t.p_WB = X_WB.p;
   t.quat_WB = quat_wxyz(X_WB.R);

@@ -3,6 +3,9 @@
 // drives' own timeout.
 #include <gtest/gtest.h>
 
+#include <fstream>
+#include <sstream>
+
 #include <cmath>
 #include <fstream>
 
@@ -72,7 +75,7 @@ struct Rig {
   explicit Rig(const std::vector<std::string>& overrides = {})
       : cfg(Config::load(test::source_dir() + "/config/toro.yaml", overrides)),
         robot(model::RobotSpec::load(cfg.section("robot"))),
-        config(hal::HalConfig::load(cfg.section("hal"), robot.model)),
+        config(hal::HalConfig::load(cfg.section("hal"), robot)),
         sim(robot, sim::SimConfig::load(cfg.section("sim"))) {
     std::vector<std::unique_ptr<hal::CanTransport>> hal_buses;
     for (std::size_t b = 0; b < config.buses.size(); ++b) {
@@ -342,6 +345,69 @@ TEST(DriveEmulator, DrivesDampByThemselvesWhenTheHalStops) {
   }
 }
 
+// Held joints (robot.held_joints) keep their drives: outside JOINT_COMMAND and ROBOT_SENSORS, held
+// by the hal's own joint impedance at their positions, damped and switched off with every drive.
+TEST(Hal, HoldsTheHeldJointsOutsideTheCommands) {
+  Rig r({"robot.held_joints={r_wrist_yaw: 0.3, neck_yaw: -0.2}", "hal.held_joints={kp: 40, kd: 1.5}"});
+  ASSERT_EQ(r.robot.model.nj, 25);
+  ASSERT_EQ(r.config.drives.size(), 27U);
+  ASSERT_EQ(r.config.controlled, 25);
+  EXPECT_EQ(r.h->sensors().q.size(), 25);
+  (void)r.h->operator_command(hal::kOperatorEnable, r.now, "test");
+  for (int k = 0; k < 1500; ++k) {
+    ASSERT_EQ(r.h->set_command(r.hold(), r.now), "");
+    r.tick_once();
+  }
+  // What went out to the held drives, and where the simulated joints are: at their held positions.
+  for (std::size_t k = 0; k < 2; ++k) {
+    const std::size_t i = 25 + k;
+    const hal::DriveConfig& d = r.config.drives[i];
+    ASSERT_TRUE(d.held);
+    const double held = r.robot.held.at(d.joint);
+    EXPECT_NEAR(d.sign * r.h->sent()[i].p_des + d.offset, held, 1e-12) << d.joint;
+    EXPECT_EQ(r.h->sent()[i].kp, 40.0);
+    EXPECT_EQ(r.h->sent()[i].kd, 1.5);
+    const auto h = static_cast<Eigen::Index>(k);
+    ASSERT_EQ(r.robot.model.held_joint_name[k], d.joint);
+    EXPECT_NEAR(r.sim.truth().q_held(h), held, 0.02) << d.joint;
+    const double resolution = (d.limits.p_max - d.limits.p_min) / 65535.0;
+    EXPECT_NEAR(r.h->held_positions()(h), r.sim.truth().q_held(h), 0.02 + resolution) << d.joint;
+  }
+  EXPECT_FALSE(r.sim.truth().fallen);
+  // Damping reaches the held drives too: no stiffness, only damping.
+  (void)r.h->operator_command(hal::kOperatorDamp, r.now, "test");
+  r.tick_once();
+  for (std::size_t i = 25; i < 27; ++i) {
+    EXPECT_EQ(r.h->sent()[i].kp, 0.0);
+    EXPECT_GT(r.h->sent()[i].kd, 0.0);
+  }
+}
+
+TEST(HalConfig, AHeldJointWithoutADriveIsNamed) {
+  Config c = Config::load(test::source_dir() + "/config/toro.yaml", {"robot.held_joints={neck_yaw: 0.0}"});
+  const auto robot = model::RobotSpec::load(c.section("robot"));
+  // Remove neck_yaw's drive: the hal must refuse, naming the joint.
+  std::string yaml;
+  {
+    std::ifstream f(test::source_dir() + "/config/toro.yaml");
+    std::stringstream ss;
+    ss << f.rdbuf();
+    yaml = ss.str();
+  }
+  const auto at = yaml.find("    - {joint: neck_yaw");
+  ASSERT_NE(at, std::string::npos);
+  yaml.erase(at, yaml.find('\n', at) - at + 1);
+  const Config edited = Config::parse(yaml, "edited.yaml");
+  try {
+    (void)hal::HalConfig::load(edited.section("hal"), robot);
+    FAIL() << "accepted";
+  } catch (const ConfigError& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("neck_yaw"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("held joint"), std::string::npos) << msg;
+  }
+}
+
 TEST(HalConfig, ErrorsNameTheFileKeyAndValue) {
   // A copy of the configuration with one line changed (the URDF path made absolute).
   std::ifstream in(test::source_dir() + "/config/toro.yaml");
@@ -355,7 +421,7 @@ TEST(HalConfig, ErrorsNameTheFileKeyAndValue) {
     std::ofstream(path) << t;
     const Config c = Config::load(path, {"robot.urdf=" + test::source_dir() + "/models/toro/toro.urdf"});
     const auto robot = model::RobotSpec::load(c.section("robot"));
-    return hal::HalConfig::load(c.section("hal"), robot.model);
+    return hal::HalConfig::load(c.section("hal"), robot);
   };
   EXPECT_NO_THROW((void)load("{joint: r_knee, bus: can1, id: 1}", "{joint: r_knee, bus: can1, id: 1}"));
   try {

@@ -68,7 +68,8 @@ class DriveEmulator {
   std::vector<Drive> drives_;
   std::vector<std::vector<int>> drive_by_id_;
   int fault_drive_ = -1, bus_off_bus_ = -1;
-  JointCommand applied_;
+  JointCommand applied_;       ///< to the simulator: the controlled joints
+  JointCommand applied_held_;  ///< the held joints
   std::mt19937_64 rng_;
   std::uniform_real_distribution<double> uniform_{0.0, 1.0};
   std::int64_t ignored_ = 0;

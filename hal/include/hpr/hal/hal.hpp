@@ -16,7 +16,7 @@
 #include "hpr/hal/can.hpp"
 #include "hpr/hal/mit_codec.hpp"
 #include "hpr/hal/safety.hpp"
-#include "hpr/model/model.hpp"
+#include "hpr/model/robot.hpp"
 
 namespace hpr::hal {
 
@@ -36,6 +36,8 @@ struct DriveConfig {
   double sign = 1.0, offset = 0.0;
   DriveLimits limits;
   double q_lower = -1e9, q_upper = 1e9;  ///< hard joint limits [rad] (soft-limit damping near them)
+  bool held = false;      ///< a held joint (robot.held_joints): outside the commands, held by the hal
+  double held_q = 0.0;    ///< its position [rad]
 };
 
 struct HalConfig {
@@ -49,14 +51,19 @@ struct HalConfig {
   bool lockstep = false;
   double lockstep_timeout = 0.5;    ///< [s, wall]
   std::vector<BusConfig> buses;
-  std::vector<DriveConfig> drives;  ///< one per model joint, in model order
+  /// One per model joint, in model order, then one per held joint (model.held_joint_name order).
+  std::vector<DriveConfig> drives;
+  int controlled = 0;               ///< drives of model joints: the first `controlled` of `drives`
+  double held_kp = 50.0;            ///< [Nm/rad] joint impedance holding the held joints (capped per drive)
+  double held_kd = 1.0;             ///< [Nm s/rad]
   int sensor_bus = -1;              ///< bus of the IMU and F/T sensors (-1: none)
   SafetyConfig safety;
   double damping_kd = 10.0;         ///< [Nm s/rad] damping mode, capped at each drive's kd_max
   double soft_limit_margin = 0.05;  ///< [rad] inside the hard limits where damping is added
   double soft_limit_kd = 20.0;      ///< [Nm s/rad] added at the hard limit, ramping from 0 at the margin
-  /// Reads and validates the `hal` section against the model (every joint mapped once, ids unique per bus).
-  static HalConfig load(const Config& hal_section, const model::Model& m);
+  /// Reads and validates the `hal` section against the robot (every joint, held ones included,
+  /// mapped to a drive once; ids unique per bus).
+  static HalConfig load(const Config& hal_section, const model::RobotSpec& robot);
 };
 
 /// Opens the transports of the configured buses. `emulator_side` swaps local and remote for udp.
@@ -95,6 +102,8 @@ class Hal {
   void end_tick(double now);
 
   [[nodiscard]] const SensorSample& sensors() const { return sensors_; }
+  /// Positions the held joints' drives last reported [rad] (HalConfig::drives order after `controlled`).
+  [[nodiscard]] const Eigen::VectorXd& held_positions() const { return held_q_; }
   [[nodiscard]] const SafetyMachine& safety() const { return safety_; }
   /// Acknowledges a state change (after HAL_STATUS went out for it).
   void clear_changed() { safety_.clear_changed(); }
@@ -124,6 +133,7 @@ class Hal {
   SensorSample sensors_;
   std::vector<DriveStatus> drive_status_;
   std::vector<DriveCommand> sent_;
+  Eigen::VectorXd held_q_;
   std::vector<std::vector<int>> drive_by_id_;  ///< per bus: drive id → drive index (-1)
   std::vector<CanFrame> rx_;
   int sensor_frames_ = 0, sensor_frames_expected_ = 0;

@@ -102,6 +102,8 @@ struct TruthData {
   bool fallen = false;
   Eigen::VectorXd q, v;  ///< Bullet's state in the controlled model's coordinates (held joints left out)
   Eigen::VectorXd q_held;  ///< positions of the held joints, in the order of RobotSpec::model.held_joint_name
+  Eigen::VectorXd v_held;  ///< their velocities
+  Eigen::VectorXd tau_held;  ///< the torques their drives applied in the last sub-step
 };
 
 class Simulator {
@@ -121,6 +123,10 @@ class Simulator {
   /// Takes a joint command after validating it; returns false (and counts it) when it is rejected
   /// (wrong size, non-finite value, negative gains), keeping the last valid command.
   bool set_command(const JointCommand& command, std::string* why = nullptr);
+  /// Drives the held joints (RobotSpec::model.held_joint_name order) with `command` from now on,
+  /// instead of the simulator's own hold: a drive emulator passes on what the hal sends them.
+  /// Returns false (and keeps the previous) when it is malformed.
+  bool set_held_command(const JointCommand& command, std::string* why = nullptr);
   /// Schedules a push (start time in simulation time; negative: now).
   void add_push(Push push);
   /// Advances one control period.
@@ -156,7 +162,9 @@ class Simulator {
   model::Model full_;                 ///< what Bullet integrates (robot_->full_model())
   std::vector<int> joint_of_;         ///< full_ joint of each controlled joint
   std::vector<int> held_joint_;       ///< full_ joints held by impedance
-  Eigen::VectorXd held_q_, held_kp_, held_kd_;
+  Eigen::VectorXd held_q_, held_kp_, held_kd_, held_tau_;
+  JointCommand held_command_;         ///< the hal's command of the held joints (emulator)
+  bool held_external_ = false;
   std::array<int, 2> sole_frame_{}, ft_frame_{};  ///< in full_
   int imu_frame_ = -1;                ///< in full_
   Eigen::VectorXd q_full_, v_full_;   ///< get_state workspace
