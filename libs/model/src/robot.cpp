@@ -73,6 +73,24 @@ RobotSpec RobotSpec::load(const Config& c) {
   } catch (const ModelError& e) {
     c.fail(std::string(e.what()).find("held joint") != std::string::npos ? "held_joints" : "urdf", e.what());
   }
+  // A controlled joint needs its limits: the controllers bound torques and velocities by them and the
+  // drives' scaling comes from them (an effort of 0 would silently leave a joint without a motor).
+  for (int j = 0; j < r.model.nj; ++j) {
+    const auto ju = static_cast<size_t>(j);
+    const model::JointDesc& jd = *r.description.find_joint(r.model.joint_name[ju]);
+    std::string why;
+    if (!jd.has_limits) {
+      why = "has no <limit>";
+    } else if (!(jd.effort > 0.0)) {
+      why = fmt::format("has <limit effort=\"{}\">: a controlled joint needs a positive effort", jd.effort);
+    } else if (!(jd.velocity > 0.0)) {
+      why = fmt::format("has <limit velocity=\"{}\">: a controlled joint needs a positive velocity", jd.velocity);
+    }
+    if (!why.empty()) {
+      c.fail("urdf", fmt::format("{}: joint '{}' {} (hold it with robot.held_joints if the balance controller does not "
+                                 "use it)", urdf, jd.name, why));
+    }
+  }
   auto add_frame = [&r](const std::string& name, const std::string& link, const SE3& X_LF) {
     r.added_frames.push_back(AddedFrame{name, link, X_LF});
     return r.model.add_frame(name, link, X_LF);
@@ -83,13 +101,13 @@ RobotSpec RobotSpec::load(const Config& c) {
     const Config f = feet.section(side);
     FootSpec& fs = r.feet[static_cast<size_t>(k)];
     fs.link = f.string("link");
-    if (!r.model.has_frame(fs.link)) f.fail("link", "no such link in the URDF");
+    if (!r.model.has_frame(fs.link)) f.fail("link", fmt::format("no such link in {}", urdf));
     fs.sole_frame = add_frame(side + "_sole", fs.link, pose_from(f, "sole_xyz", "sole_rpy"));
     const auto size = f.reals("sole_size", 2, 0.01, 1.0);
     fs.length = size[0];
     fs.width = size[1];
     fs.ft_link = f.string_or("ft_link", fs.link);
-    if (!r.model.has_frame(fs.ft_link)) f.fail("ft_link", "no such link in the URDF");
+    if (!r.model.has_frame(fs.ft_link)) f.fail("ft_link", fmt::format("no such link in {}", urdf));
     fs.ft_frame = add_frame(side + "_ft", fs.ft_link, pose_from(f, "ft_xyz", "ft_rpy"));
     fs.leg_joints = r.model.support[static_cast<size_t>(r.model.frames[static_cast<size_t>(fs.sole_frame)].body)];
     if (fs.leg_joints.size() != 6) {
@@ -105,7 +123,7 @@ RobotSpec RobotSpec::load(const Config& c) {
 
   const Config imu = c.section("imu");
   const std::string imu_link = imu.string("link");
-  if (!r.model.has_frame(imu_link)) imu.fail("link", "no such link in the URDF");
+  if (!r.model.has_frame(imu_link)) imu.fail("link", fmt::format("no such link in {}", urdf));
   r.imu_frame = add_frame("imu", imu_link, pose_from(imu, "xyz", "rpy"));
 
   r.q_joints_stand = Eigen::VectorXd::Zero(r.model.nj);

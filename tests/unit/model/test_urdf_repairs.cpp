@@ -4,6 +4,8 @@
 
 #include <Eigen/Eigenvalues>
 #include <filesystem>
+#include <fstream>
+#include <sstream>
 
 #include "hpr/mesh/mesh.hpp"
 #include "hpr/model/algorithms.hpp"
@@ -235,6 +237,59 @@ TEST(HeldJoints, ConfigurationNamesTheKeyOfAnUnknownOrOutOfRangeJoint) {
       EXPECT_NE(msg.find(expect), std::string::npos) << msg;
     }
   }
+}
+
+TEST(RobotConfiguration, NamesWhatTheUrdfLacksOrCannotDrive) {
+  const std::string cfg = test::source_dir() + "/config/toro.yaml";
+  auto error_of = [&](const std::vector<std::string>& overrides) -> std::string {
+    try {
+      (void)model::RobotSpec::load(Config::load(cfg, overrides).section("robot"));
+    } catch (const ConfigError& e) {
+      return e.what();
+    }
+    return "";
+  };
+  // A link the URDF lacks: the key, the value and the URDF.
+  std::string msg = error_of({"robot.feet.left.link=no_such_foot"});
+  EXPECT_NE(msg.find("robot.feet.left.link"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("no_such_foot"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("toro.urdf"), std::string::npos) << msg;
+  // A joint the URDF lacks.
+  msg = error_of({"robot.segments.torso=[waist_yaw, no_such_joint]"});
+  EXPECT_NE(msg.find("robot.segments.torso"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("no_such_joint"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("toro.urdf"), std::string::npos) << msg;
+}
+
+TEST(RobotConfiguration, AControlledJointWithoutEffortIsRefused) {
+  // The TORO-like URDF with effort="0" on the right elbow, next to the original.
+  namespace fs = std::filesystem;
+  const std::string dir = test::temp_dir("effort0");
+  std::ifstream in(test::source_dir() + "/models/toro/toro.urdf");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  std::string urdf = ss.str();
+  const auto j = urdf.find("<joint name=\"r_elbow\"");
+  ASSERT_NE(j, std::string::npos);
+  const auto e = urdf.find("effort=\"", j) + 8;
+  urdf = urdf.substr(0, e) + "0" + urdf.substr(urdf.find('"', e));
+  std::ofstream(dir + "/toro.urdf") << urdf;
+  const std::string cfg = test::source_dir() + "/config/toro.yaml";
+  try {
+    (void)model::RobotSpec::load(Config::load(cfg, {"robot.urdf=" + dir + "/toro.urdf"}).section("robot"));
+    FAIL() << "accepted";
+  } catch (const ConfigError& ex) {
+    const std::string msg = ex.what();
+    EXPECT_NE(msg.find("r_elbow"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("effort=\"0\""), std::string::npos) << msg;
+  }
+  // Held, the same joint is fine.
+  const auto spec = model::RobotSpec::load(
+      Config::load(cfg, {"robot.urdf=" + dir + "/toro.urdf", "robot.held_joints={r_elbow: -0.4}",
+                         "robot.standing_posture={r_hip_pitch: -0.25, r_knee: 0.5, r_ankle_pitch: -0.25, l_hip_pitch: -0.25, "
+                         "l_knee: 0.5, l_ankle_pitch: -0.25}"})
+          .section("robot"));
+  EXPECT_EQ(spec.model.nj, 26);
 }
 
 }  // namespace
