@@ -17,7 +17,6 @@
 
 #include "hpr/common/args.hpp"
 #include "hpr/experiments/trial.hpp"
-#include "hpr/launch/process_group.hpp"
 #include "hpr/model/model.hpp"
 #include "hpr/model/robot.hpp"
 #include "hpr/onboard/robot_check.hpp"
@@ -63,20 +62,6 @@ mass and inertia; the rest is the stack's defaults (config/templates/robot.yaml)
 Exit status: 0 the description loads (init: and with --verify the robot stands), 1 it does not (the
 error names the file, element and value), 2 bad arguments.
 )";
-
-std::string find_template() {
-  namespace fs = std::filesystem;
-  std::vector<fs::path> dirs;
-  if (const char* env = std::getenv("HPR_CONFIG_DIR")) dirs.emplace_back(env);
-  const fs::path exe = hpr::launch::executable_dir();
-  dirs.push_back(exe / ".." / ".." / "config");
-  dirs.push_back(exe / ".." / "share" / "hpr" / "config");
-  for (const auto& d : dirs) {
-    const fs::path p = d / "templates" / "robot.yaml";
-    if (fs::exists(p)) return fs::canonical(p).string();
-  }
-  throw std::runtime_error("config/templates/robot.yaml not found (set HPR_CONFIG_DIR to the config folder)");
-}
 
 std::string read_file(const std::string& path) {
   std::ifstream f(path);
@@ -173,7 +158,7 @@ int init(hpr::ArgReader& args, const std::string& command) {
     const auto draft = hpr::onboard::draft_robot(description, options);
     const fs::path out_dir = fs::absolute(out).parent_path();
     const std::string urdf_rel = fs::relative(fs::absolute(urdf), out_dir).string();
-    const std::string text = hpr::onboard::write_config(draft, read_file(find_template()), urdf_rel,
+    const std::string text = hpr::onboard::write_config(draft, read_file(hpr::experiments::find_in_config_dirs("templates/robot.yaml")), urdf_rel,
                                                         command);
     {
       std::ofstream f(out);

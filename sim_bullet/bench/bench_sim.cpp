@@ -6,12 +6,16 @@
 //                                sensors, truth) with the configuration's collisions (the feet)
 // SimStep/g1/all_meshes/hullN    the G1 with every link's mesh colliding with the ground as a convex
 //                                hull of at most N points (16, 64, 256)
-// The counter realtime_factor is simulated seconds per wall second.
+// The counter realtime_factor is simulated seconds per wall second; for the hull variants,
+// hull_gap_max_mm and hull_gap_mean_mm say how far inside the exact convex hull of each collision
+// mesh the simplified hull lies at worst (over 2000 directions), the largest and the mean over the
+// meshes.
 #include <benchmark/benchmark.h>
 
 #include <map>
 #include <memory>
 
+#include "hpr/mesh/mesh.hpp"
 #include "hpr/sim/simulator.hpp"
 
 namespace {
@@ -35,8 +39,30 @@ struct Setup {
   JointCommand command;
 };
 
+// The simplified hulls' worst gap to the exact ones over every collision mesh [m]: (max, mean).
+std::pair<double, double> hull_gaps(const model::RobotSpec& spec) {
+  double worst = 0.0, sum = 0.0;
+  int n = 0;
+  for (const auto& link : spec.description.links) {
+    for (const auto& g : link.collisions) {
+      if (g.type != model::Geometry::Type::kMesh) continue;
+      const auto points = mesh::load(g.mesh, g.mesh_scale).vertices;
+      const double gap = mesh::hull_gap(points, mesh::hull_points(points, spec.mesh_hull_points));
+      worst = std::max(worst, gap);
+      sum += gap;
+      ++n;
+    }
+  }
+  return {worst, n > 0 ? sum / n : 0.0};
+}
+
 void sim_step(benchmark::State& st, const std::string& robot, const std::vector<std::string>& overrides) {
   const Setup s(robot, overrides);
+  if (s.sim_config.feet_only_collisions == false) {
+    const auto [worst, mean] = hull_gaps(s.spec);
+    st.counters["hull_gap_max_mm"] = 1e3 * worst;
+    st.counters["hull_gap_mean_mm"] = 1e3 * mean;
+  }
   sim::Simulator sim(s.spec, s.sim_config);
   for (auto _ : st) {
     sim.set_command(s.command);

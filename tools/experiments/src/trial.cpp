@@ -25,11 +25,7 @@ namespace hpr::experiments {
 namespace fs = std::filesystem;
 using namespace std::chrono_literals;
 
-std::string find_config(const std::string& robot) {
-  if (robot.find('/') != std::string::npos || robot.ends_with(".yaml")) {
-    if (fs::exists(robot)) return fs::absolute(robot).string();
-    throw std::runtime_error("configuration file '" + robot + "' not found");
-  }
+std::string find_in_config_dirs(const std::string& relative) {
   std::vector<fs::path> dirs;
   if (const char* env = std::getenv("HPR_CONFIG_DIR")) dirs.emplace_back(env);
   const fs::path exe = launch::executable_dir();
@@ -37,11 +33,23 @@ std::string find_config(const std::string& robot) {
   dirs.push_back(exe / ".." / "share" / "hpr" / "config");  // installed: prefix/bin
   std::string searched;
   for (const auto& d : dirs) {
-    const fs::path p = d / (robot + ".yaml");
+    const fs::path p = d / relative;
     if (fs::exists(p)) return fs::canonical(p).string();
     searched += " " + p.lexically_normal().string();
   }
-  throw std::runtime_error("no configuration for robot '" + robot + "' (looked for" + searched + ")");
+  throw std::runtime_error("no " + relative + " (looked for" + searched + ")");
+}
+
+std::string find_config(const std::string& robot) {
+  if (robot.find('/') != std::string::npos || robot.ends_with(".yaml")) {
+    if (fs::exists(robot)) return fs::absolute(robot).string();
+    throw std::runtime_error("configuration file '" + robot + "' not found");
+  }
+  try {
+    return find_in_config_dirs(robot + ".yaml");
+  } catch (const std::runtime_error& e) {
+    throw std::runtime_error("no configuration for robot '" + robot + "': " + e.what());
+  }
 }
 
 double TrialSpec::push_duration() const {

@@ -34,6 +34,10 @@ Strategy strategy_from_string(const std::string& s);
 /// tree next to the build and the installed share directory. Throws std::runtime_error with the
 /// places searched when not found.
 std::string find_config(const std::string& robot_or_path);
+/// A file of the configuration folder ($HPR_CONFIG_DIR, the source tree next to the build, the
+/// installed share directory), e.g. "templates/robot.yaml". Throws std::runtime_error naming the
+/// places searched.
+std::string find_in_config_dirs(const std::string& relative);
 
 struct TrialSpec {
   std::string config;                 ///< configuration file (find_config)
