@@ -50,6 +50,10 @@ Model Model::build(const RobotDescription& d, const ModelOptions& options) {
       throw ModelError(fmt::format("{}: held joint '{}' does not move (it is not revolute, continuous or prismatic)",
                                    d.source, name));
     }
+    if (!j->mimic.empty()) {
+      throw ModelError(fmt::format("{}: held joint '{}' mimics '{}' and is locked with it; hold '{}' instead", d.source,
+                                   name, j->mimic, j->mimic));
+    }
     if (!std::isfinite(q) || (j->has_limits && j->type != JointType::kContinuous && (q < j->lower || q > j->upper))) {
       throw ModelError(fmt::format("{}: held joint '{}': position {} is outside its limits [{}, {}]", d.source, name, q,
                                    j->lower, j->upper));
@@ -61,7 +65,10 @@ Model Model::build(const RobotDescription& d, const ModelOptions& options) {
     if (j.mimic.empty() || depth > 32) return std::numeric_limits<double>::quiet_NaN();
     const JointDesc* leader = d.find_joint(j.mimic);
     double q_leader = leader != nullptr ? fixed_position(*leader, depth + 1) : 0.0;
-    if (std::isnan(q_leader)) q_leader = 0.0;
+    if (std::isnan(q_leader)) {
+      const auto it = options.leader_positions.find(j.mimic);
+      q_leader = it != options.leader_positions.end() ? it->second : 0.0;
+    }
     return j.mimic_multiplier * q_leader + j.mimic_offset;
   };
   std::string base = options.base_link;
@@ -108,12 +115,15 @@ Model Model::build(const RobotDescription& d, const ModelOptions& options) {
         continue;
       }
       if (const double q_fixed = fixed_position(*j, 0); !std::isnan(q_fixed)) {
-        m.held_joint_name.push_back(j->name);
-        m.held_q.push_back(q_fixed);
-        if (!options.held.count(j->name)) {
+        const bool held = options.held.count(j->name) != 0;
+        (held ? m.held_joint_name : m.locked_joint_name).push_back(j->name);
+        (held ? m.held_q : m.locked_q).push_back(q_fixed);
+        if (!held) {
           m.warnings.push_back(fmt::format("joint '{}' mimics '{}' and is locked at {:.4g} (its position with the "
                                            "leader at {})", j->name, j->mimic, q_fixed,
-                                           options.held.count(j->mimic) ? "its held position" : "zero"));
+                                           options.held.count(j->mimic) || options.leader_positions.count(j->mimic)
+                                               ? "its held position"
+                                               : "zero"));
         }
         walk(j->child, body, X_BJ * joint_motion(*j, q_fixed));
         continue;

@@ -157,6 +157,7 @@ Model RobotSpec::full_model() const {
   ModelOptions options;
   options.base_link = model.body_name.front();
   options.physical_inertia = true;
+  options.leader_positions = held;
   Model full = Model::build(description, options);
   for (const auto& f : added_frames) full.add_frame(f.name, f.link, f.X_LF);
   return full;

@@ -164,8 +164,8 @@ std::string check_report(const model::RobotDescription& d, const model::Model& m
   for (const auto& [t, n] : types) type_list += (type_list.empty() ? "" : ", ") + fmt::format("{} {}", n, t);
   line(fmt::format("robot '{}' ({})", d.name, d.source));
   line(fmt::format("  {} links, {} joints: {}", d.links.size(), d.joints.size(), type_list));
-  line(fmt::format("  model: floating base '{}', {} joints ({} held or locked), {} bodies", m.body_name.front(), m.nj,
-                   m.held_joint_name.size(), m.nb));
+  line(fmt::format("  model: floating base '{}', {} joints ({} held, {} locked), {} bodies", m.body_name.front(), m.nj,
+                   m.held_joint_name.size(), m.locked_joint_name.size(), m.nb));
 
   model::Data data(m);
   Eigen::VectorXd q = m.neutral();

@@ -111,13 +111,33 @@ TEST(UrdfRepairs, MimicJointIsLockedAndSaidSo) {
   EXPECT_EQ(m.nj, 1);
   EXPECT_EQ(m.joint_name.front(), "left_finger_joint");
   EXPECT_TRUE(mentions(m.warnings, "joint 'right_finger_joint'", "locked at 0.1"));
+  EXPECT_TRUE(m.held_joint_name.empty());  // locked, not held: no drive holds it
+  ASSERT_EQ(m.locked_joint_name.size(), 1U);
+  EXPECT_NEAR(m.locked_q[0], 0.1, 1e-15);
   // Held leader: the follower is locked where the leader's held position puts it.
   ModelOptions o;
   o.held["left_finger_joint"] = 0.3;
   const Model held = Model::build(d, o);
   EXPECT_EQ(held.nj, 0);
-  ASSERT_EQ(held.held_q.size(), 2U);
-  EXPECT_NEAR(held.held_q[1], -0.3 + 0.1, 1e-15);
+  ASSERT_EQ(held.held_q.size(), 1U);
+  ASSERT_EQ(held.locked_q.size(), 1U);
+  EXPECT_NEAR(held.locked_q[0], -0.3 + 0.1, 1e-15);
+  // A simulator's model keeps the leader free and locks the follower at the same place.
+  model::ModelOptions sim;
+  sim.leader_positions = o.held;
+  const Model full = Model::build(d, sim);
+  EXPECT_EQ(full.nj, 1);
+  ASSERT_EQ(full.locked_q.size(), 1U);
+  EXPECT_NEAR(full.locked_q[0], -0.3 + 0.1, 1e-15);
+  // The follower cannot be held itself.
+  model::ModelOptions bad;
+  bad.held["right_finger_joint"] = 0.0;
+  try {
+    (void)Model::build(d, bad);
+    FAIL() << "accepted";
+  } catch (const ModelError& e) {
+    EXPECT_NE(std::string(e.what()).find("hold 'left_finger_joint' instead"), std::string::npos) << e.what();
+  }
 }
 
 TEST(UrdfRepairs, MeshesResolveFromPackageAndRelativePaths) {

@@ -34,6 +34,9 @@ struct ModelOptions {
   /// Joints removed from the model as fixed joints at the given position [rad or m] (Pinocchio's
   /// reduced model): fingers, head, grippers that the balance controller does not use.
   std::map<std::string, double> held;
+  /// Positions at which free leaders lock their `<mimic>` followers (default 0): a simulator's model
+  /// keeps the held joints free but locks their followers where the controllers' model has them.
+  std::map<std::string, double> leader_positions;
   /// Use the links' physically consistent inertias (a simulator's model); otherwise the file's, except
   /// for a body that would not be positive definite without the repair.
   bool physical_inertia = false;
@@ -76,9 +79,12 @@ class Model {
   std::vector<double> v_max, tau_max;    ///< velocity and effort limits (inf when absent)
   std::vector<double> damping, friction; ///< from <dynamics>
 
-  // Joints of the description that are not joints of the model: held (configured) and locked (mimic).
+  // Joints of the description that are not joints of the model: held (configured; a simulator and
+  // the hal hold them) and locked (<mimic>; fixed everywhere).
   std::vector<std::string> held_joint_name;
-  std::vector<double> held_q;            ///< their fixed positions [rad or m]
+  std::vector<double> held_q;            ///< their positions [rad or m]
+  std::vector<std::string> locked_joint_name;
+  std::vector<double> locked_q;
   std::vector<std::string> warnings;     ///< what the build decided that a user should know (one line each)
 
   std::vector<Frame> frames;
