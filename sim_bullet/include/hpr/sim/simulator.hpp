@@ -2,7 +2,10 @@
 /// \file
 /// The Bullet physics stand-in for the robot (no LCM here; the node does the I/O).
 ///
-/// A btMultiBody built from the shared model stands on a flat ground. Every physics sub-step each
+/// A btMultiBody of the whole description (RobotSpec::full_model(): every joint free, held ones
+/// included, physically consistent inertias) stands on a flat ground; commands and sensors carry the
+/// controlled joints only, and the held joints are held by a stiff joint impedance (or, behind a
+/// drive emulator, by what the hal commands them). Every physics sub-step each
 /// joint gets the torque of a torque-controlled drive,
 ///     τ = sat(τ_ff + kp (q_des − q) + kd (q̇_des − q̇)),
 /// saturated at the joint's effort limit (modes: run, damp = kd only towards rest, off). Sensors are
