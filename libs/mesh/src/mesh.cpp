@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <assimp/Importer.hpp>
+#include <assimp/config.h>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 #include <cmath>
@@ -46,6 +47,8 @@ TriangleMesh load(const std::string& path, const Eigen::Vector3d& scale) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec)) throw MeshError(fmt::format("{}: mesh file not found", path));
   Assimp::Importer importer;
+  // A COLLADA file keeps its own axes (as URDF tools read it), whatever its <up_axis> says.
+  importer.SetPropertyBool(AI_CONFIG_IMPORT_COLLADA_IGNORE_UP_DIRECTION, true);
   // Identical vertices joined (an STL repeats each vertex per facet), polygons split into triangles.
   const aiScene* scene = importer.ReadFile(path, aiProcess_Triangulate | aiProcess_JoinIdenticalVertices |
                                                      aiProcess_SortByPType);

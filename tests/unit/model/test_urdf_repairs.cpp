@@ -152,8 +152,10 @@ TEST(UrdfRepairs, MeshesResolveFromPackageAndRelativePaths) {
   EXPECT_NEAR(base.visuals[0].rgba(2), 0.8, 1e-6);  // the material defined at the top level (float in urdfdom)
   const auto& foot = *d.find_link("foot");
   EXPECT_TRUE(fs::equivalent(foot.collisions[0].mesh, fixture("mesh_robot/meshes/box.stl")));
-  // STL and OBJ read by the mesh library give the same box; the scale applies per axis.
-  for (const auto& g : {base.collisions[0], base.visuals[0], foot.collisions[0]}) {
+  ASSERT_EQ(foot.visuals.size(), 1U);
+  // STL, OBJ and COLLADA (declared Z_UP: kept in its own axes, as URDF tools read it) give the
+  // same box, z the long side; the scale applies per axis.
+  for (const auto& g : {base.collisions[0], base.visuals[0], foot.collisions[0], foot.visuals[0]}) {
     const auto mesh = mesh::load(g.mesh, g.mesh_scale);
     Eigen::Vector3d lo = mesh.vertices.front(), hi = lo;
     for (const auto& v : mesh.vertices) {
