@@ -3,4 +3,6 @@
 // allocation_counter.cpp), for tests that check a hot path allocates nothing.
 namespace hpr::test {
 long allocations();
+/// Bytes requested from operator new so far (never decreases).
+long allocated_bytes();
 }
