@@ -7,6 +7,7 @@
 #include <thread>
 
 #include "all_types.hpp"
+#include "shell.hpp"
 #include "lcm_listener.hpp"
 #include "process_group.hpp"
 
@@ -125,6 +126,22 @@ TEST(Transport, MissingMulticastRouteGivesOneMessageWithTheFix) {
   EXPECT_NE(out.find("no multicast route"), std::string::npos) << out;
   EXPECT_NE(out.find("ip route add 239.0.0.0/8 dev lo"), std::string::npos) << out;
   EXPECT_EQ(std::count(out.begin(), out.end(), '\n'), 1) << "expected exactly one line:\n" << out;
+}
+
+// A misspelt option stops a node before it joins any LCM group: `--lcm_url` for `--lcm-url` must not
+// run it on the default URL, among another robot's traffic.
+TEST(NodeCommandLine, AnUnknownOptionStopsTheNodeNamingTheNearestOne) {
+  const std::string cfg = hpr::test::source_dir() + "/config/toro.yaml";
+  for (const char* node : {"estimator", "wbc", "sim_bullet"}) {
+    const auto r = hpr::test::run_command({hpr::test::bin_dir() + "/" + node, "--config", cfg, "--lcm_url",
+                                           "udpm://239.255.76.99:7699?ttl=0"},
+                                          "2>&1");
+    EXPECT_EQ(r.exit_code, 2) << node << ": " << r.out;
+    EXPECT_NE(r.out.find("unknown option --lcm_url (did you mean '--lcm-url'?)"), std::string::npos) << node << ": " << r.out;
+    const auto p = hpr::test::run_command({hpr::test::bin_dir() + "/" + node, "--config", cfg, "stray"}, "2>&1");
+    EXPECT_EQ(p.exit_code, 2) << node << ": " << p.out;
+    EXPECT_NE(p.out.find("unexpected argument 'stray'"), std::string::npos) << node << ": " << p.out;
+  }
 }
 
 }  // namespace

@@ -1,10 +1,13 @@
 #include "hpr/common/args.hpp"
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
 #include <limits>
 #include <stdexcept>
+
+#include "hpr/common/text.hpp"
 
 namespace hpr {
 
@@ -39,9 +42,15 @@ int ArgReader::integer() {
 
 std::vector<std::string> ArgReader::list() { return split_list(value()); }
 
+bool ArgReader::is(std::string_view option) const {
+  if (std::find(options_.begin(), options_.end(), option) == options_.end()) options_.emplace_back(option);
+  return current() == option;
+}
+
 void ArgReader::unknown() const {
   if (positional()) throw UsageError("unexpected argument '" + current() + "'");
-  throw UsageError("unknown option " + current());
+  const std::string name = current().substr(0, current().find('='));
+  throw UsageError("unknown option " + current() + did_you_mean(name, options_));
 }
 
 double parse_number(const std::string& text, const std::string& what) {

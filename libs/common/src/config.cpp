@@ -1,4 +1,5 @@
 #include "hpr/common/config.hpp"
+#include "hpr/common/text.hpp"
 
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
@@ -185,7 +186,7 @@ void Config::reject_unknown(const std::vector<std::string>& known) const {
     if (std::find(known.begin(), known.end(), k) == known.end()) {
       std::string list;
       for (const auto& s : known) list += (list.empty() ? "" : ", ") + s;
-      fail(k, fmt::format("unknown key (expected one of: {})", list));
+      fail(k, fmt::format("unknown key{} (expected one of: {})", did_you_mean(k, known), list));
     }
   }
 }

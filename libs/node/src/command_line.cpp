@@ -6,6 +6,8 @@
 #include <cstdlib>
 #include <string_view>
 
+#include "hpr/common/text.hpp"
+
 namespace hpr::node {
 
 CommandLine CommandLine::parse(int argc, char** argv, const std::string& process, const std::string& summary,
@@ -45,7 +47,17 @@ CommandLine CommandLine::parse(int argc, char** argv, const std::string& process
     } else if (a == "--name") {
       cl.name = value(a);
     } else {
-      cl.extra.emplace_back(a);
+      // Nothing else is read here: a typo must not run a node with defaults (--lcm_url for
+      // --lcm-url would join another robot's LCM group).
+      const std::string name(a.substr(0, a.find('=')));
+      if (a.rfind("-", 0) == 0) {
+        fmt::print(stderr, "{}: unknown option {}{}\n", process, a,
+                   did_you_mean(name, {"--config", "--set", "--lcm-url", "--name", "--help"}));
+      } else {
+        fmt::print(stderr, "{}: unexpected argument '{}'\n", process, a);
+      }
+      fmt::print(stderr, "(run {} --help for the options)\n", process);
+      std::exit(2);
     }
   }
   if (config_required && cl.config_path.empty()) {

@@ -4,6 +4,7 @@
 #include <stdexcept>
 
 #include "hpr/common/args.hpp"
+#include "hpr/common/text.hpp"
 
 namespace {
 
@@ -54,6 +55,26 @@ TEST(ArgReader, RefusesMalformedValuesNamingOptionAndValue) {
   EXPECT_EQ(error_of({"--jobs", "99999999999"}, integer), "--jobs: '99999999999' is not an integer");
   EXPECT_EQ(error_of({"--bogus"}, [](ArgReader& a) { a.unknown(); }), "unknown option --bogus");
   EXPECT_EQ(error_of({"extra"}, [](ArgReader& a) { a.unknown(); }), "unexpected argument 'extra'");
+}
+
+TEST(ArgReader, AnUnknownOptionNamesTheNearestKnownOne) {
+  const auto parse = [](ArgReader& a) {
+    if (a.is("--impulse") || a.is("--lcm-url") || a.is("--direction")) return;
+    a.unknown();
+  };
+  EXPECT_EQ(error_of({"--impuls"}, parse), "unknown option --impuls (did you mean '--impulse'?)");
+  EXPECT_EQ(error_of({"--lcm_url"}, parse), "unknown option --lcm_url (did you mean '--lcm-url'?)");
+  EXPECT_EQ(error_of({"--directon=90"}, parse), "unknown option --directon=90 (did you mean '--direction'?)");
+  EXPECT_EQ(error_of({"--verbose"}, parse), "unknown option --verbose");  // nothing near
+}
+
+TEST(Text, NearestIsAMisspellingOrNothing) {
+  EXPECT_EQ(hpr::edit_distance("stiffness", "stifness"), 1);
+  EXPECT_EQ(hpr::edit_distance("lcm_url", "lcm-url"), 0);  // '-' and '_' alike
+  EXPECT_EQ(hpr::edit_distance("", "abc"), 3);
+  EXPECT_EQ(hpr::nearest("stifness", {"damping", "stiffness", "mass"}), "stiffness");
+  EXPECT_EQ(hpr::nearest("friction", {"damping", "stiffness"}), "");
+  EXPECT_EQ(hpr::did_you_mean("dampng", {"damping"}), " (did you mean 'damping'?)");
 }
 
 TEST(SplitList, DropsEmptyItems) {

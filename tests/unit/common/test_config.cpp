@@ -78,6 +78,9 @@ TEST(Config, UnknownKeysAreRejected) {
   const std::string msg = error_of([&] { c.section("wbc").reject_unknown({"com", "mode"}); });
   EXPECT_NE(msg.find("wbc.enabled"), std::string::npos) << msg;
   EXPECT_NE(msg.find("unknown key"), std::string::npos) << msg;
+  // A misspelt key names the one meant.
+  const std::string typo = error_of([&] { c.section("wbc").reject_unknown({"com", "mode", "enable"}); });
+  EXPECT_NE(typo.find("did you mean 'enable'?"), std::string::npos) << typo;
 }
 
 TEST(Config, OverridesApplyBeforeValidation) {

@@ -33,7 +33,8 @@ class ArgReader {
   /// Advances to the next argument; false after the last.
   bool next();
   [[nodiscard]] const std::string& current() const { return args_[i_]; }
-  [[nodiscard]] bool is(std::string_view option) const { return current() == option; }
+  /// The current argument is `option` (which is remembered for unknown()'s suggestion).
+  [[nodiscard]] bool is(std::string_view option) const;
   [[nodiscard]] bool is(std::string_view option, std::string_view alias) const { return is(option) || is(alias); }
   /// The current argument is not an option (does not start with '-', or is "-" itself).
   [[nodiscard]] bool positional() const;
@@ -47,11 +48,13 @@ class ArgReader {
   /// The value as a comma-separated list ("a,b,,c" gives a, b, c).
   std::vector<std::string> list();
 
-  /// Throws "unknown option X" for an option, "unexpected argument X" for anything else.
+  /// Throws "unknown option X (did you mean Y?)" for an option, "unexpected argument X" for
+  /// anything else; Y is the nearest option is() was asked about.
   [[noreturn]] void unknown() const;
 
  private:
   std::vector<std::string> args_;
+  mutable std::vector<std::string> options_;  ///< every option is() was asked about
   std::size_t i_ = static_cast<std::size_t>(-1);
 };
 

@@ -12,9 +12,9 @@ struct CommandLine {
   std::vector<std::string> overrides;  ///< --set key=value, applied to the YAML before validation
   std::string lcm_url;                 ///< --lcm-url, else lcm.url in the file, else LCM_DEFAULT_URL
   std::string name;                    ///< --name: node instance name in HEALTH (default: the process)
-  std::vector<std::string> extra;      ///< arguments not recognised here, for the process itself
 
-  /// Parses argv. Prints usage and exits 0 on --help; exits 2 with a message on a malformed line.
+  /// Parses argv. Prints usage and exits 0 on --help; exits 2 with a message on a malformed line,
+  /// an unknown option (with the nearest known one) or an unexpected argument.
   static CommandLine parse(int argc, char** argv, const std::string& process, const std::string& summary,
                            bool config_required = true);
 };
