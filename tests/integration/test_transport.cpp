@@ -84,7 +84,13 @@ TEST(Transport, GarbageIsCountedInHealthAndTheNodeKeepsRunning) {
   EXPECT_EQ(h.node, "echo");
   ASSERT_GE(h.num_faults, 1);
   EXPECT_NE(h.faults[0].find("ROBOT_SENSORS"), std::string::npos) << h.faults[0];
+  EXPECT_EQ(h.state, int{humanoid::health_t::STATE_DEGRADED});
   EXPECT_TRUE(group.running(pid));
+  // Quiet again: the fault clears after lcm's decode_fault_quiet_s (2 s); the count stays.
+  EXPECT_TRUE(lcm.wait_for([&] { return health->back().num_faults == 0 && health->back().state == humanoid::health_t::STATE_OK; },
+                           6s))
+      << "the decode fault never cleared";
+  EXPECT_GE(health->back().decode_errors, 4);
   // Still works.
   auto echoed = lcm.collect<humanoid::robot_sensors_t>("ROBOT_SENSORS_ECHO");
   EXPECT_TRUE(lcm.wait_for([&] {

@@ -108,7 +108,7 @@ void Runtime::on_reject(InputBase& in, std::size_t bytes, const std::string& why
     log::warn("{}: rejected a message of {} bytes: {} ({} rejected so far)", in.channel(), bytes, why,
               in.errors());
   }
-  set_fault("decode:" + in.channel(), in.channel() + ": " + why);
+  set_fault("decode:" + in.channel(), in.channel() + ": " + why, false, options_.decode_fault_quiet_s);
 }
 
 void Runtime::check_triggers(double now) {
@@ -206,12 +206,13 @@ bool Runtime::spin_until(const std::function<bool()>& done, double timeout_s) {
   return true;
 }
 
-void Runtime::set_fault(const std::string& key, const std::string& text, bool fatal) {
+void Runtime::set_fault(const std::string& key, const std::string& text, bool fatal, double clear_after_s) {
+  const Fault f{text, fatal, std::isfinite(clear_after_s) ? monotonic_s() + clear_after_s : clear_after_s};
   auto it = faults_.find(key);
   if (it == faults_.end()) {
-    faults_.emplace(key, Fault{text, fatal});
+    faults_.emplace(key, f);
   } else {
-    it->second = Fault{text, fatal};
+    it->second = f;
   }
 }
 
@@ -234,6 +235,15 @@ void Runtime::publish_health() {
   h.node = name_;
   h.host = host;
   h.pid = static_cast<int32_t>(::getpid());
+  // Faults that clear by themselves (a channel quiet again after malformed messages).
+  for (auto it = faults_.begin(); it != faults_.end();) {
+    if (now >= it->second.expires) {
+      log::info("fault cleared after a quiet period: {}", it->second.text);
+      it = faults_.erase(it);
+    } else {
+      ++it;
+    }
+  }
   bool fatal = false;
   for (const auto& [key, f] : faults_) {
     h.faults.push_back(f.text);

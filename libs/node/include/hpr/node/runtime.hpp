@@ -17,6 +17,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <map>
 #include <memory>
 #include <string>
@@ -145,6 +146,9 @@ struct RuntimeOptions {
   std::string channel_prefix;   ///< prepended to every channel name
   double health_period_s = 0.1; ///< HEALTH rate
   double deadline_s = 1e-3;     ///< a step longer than this counts as a deadline miss
+  /// A channel's decode fault clears this long after its last rejected message (the count in
+  /// HEALTH.decode_errors stays).
+  double decode_fault_quiet_s = 2.0;
 };
 
 /// An OPERATOR request answered on PARAMS.
@@ -206,8 +210,10 @@ class Runtime {
   void record_step(std::int64_t tick, double seconds);
   /// Counts a step that ran without a fresh input.
   void count_stale() { ++stale_inputs_; }
-  /// Sets or clears a named fault shown in HEALTH; a fault makes the state DEGRADED (or FAULT).
-  void set_fault(const std::string& key, const std::string& text, bool fatal = false);
+  /// Sets or clears a named fault shown in HEALTH; a fault makes the state DEGRADED (or FAULT). One
+  /// set with `clear_after_s` clears by itself that long after its last set (monotonic time).
+  void set_fault(const std::string& key, const std::string& text, bool fatal = false,
+                 double clear_after_s = std::numeric_limits<double>::infinity());
   void clear_fault(const std::string& key);
   [[nodiscard]] bool has_fault(const std::string& key) const { return faults_.count(key) != 0; }
   void publish_health();
@@ -258,6 +264,7 @@ class Runtime {
   struct Fault {
     std::string text;
     bool fatal;
+    double expires;  ///< monotonic time at which it clears by itself (inf: never)
   };
   std::map<std::string, Fault> faults_;
   std::vector<std::uint8_t> health_buffer_;
