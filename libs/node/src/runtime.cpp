@@ -341,6 +341,7 @@ RuntimeOptions runtime_options(const Config& cfg, double deadline_s) {
     const Config l = cfg.section("lcm");
     o.channel_prefix = l.string_or("channel_prefix", "");
     o.health_period_s = 1.0 / l.real_or("health_rate_hz", 10.0, 0.1, 1000.0);
+    o.decode_fault_quiet_s = l.real_or("decode_fault_quiet_s", o.decode_fault_quiet_s, 0.0, 3600.0);
   }
   return o;
 }
