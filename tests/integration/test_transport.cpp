@@ -144,6 +144,8 @@ TEST(NodeCommandLine, AnUnknownOptionStopsTheNodeNamingTheNearestOne) {
                                           "2>&1");
     EXPECT_EQ(r.exit_code, 2) << node << ": " << r.out;
     EXPECT_NE(r.out.find("unknown option --lcm_url (did you mean '--lcm-url'?)"), std::string::npos) << node << ": " << r.out;
+    const auto eq = hpr::test::run_command({hpr::test::bin_dir() + "/" + node, "--config=" + cfg, "--lcm_url=udpm://x"}, "2>&1");
+    EXPECT_NE(eq.out.find("unknown option --lcm_url=udpm://x (did you mean '--lcm-url'?)"), std::string::npos) << eq.out;
     const auto p = hpr::test::run_command({hpr::test::bin_dir() + "/" + node, "--config", cfg, "stray"}, "2>&1");
     EXPECT_EQ(p.exit_code, 2) << node << ": " << p.out;
     EXPECT_NE(p.out.find("unexpected argument 'stray'"), std::string::npos) << node << ": " << p.out;

@@ -25,8 +25,12 @@ CommandLine CommandLine::parse(int argc, char** argv, const std::string& process
                process, summary, process);
   };
   for (int i = 1; i < argc; ++i) {
-    const std::string_view a = argv[i];
+    const std::string_view arg = argv[i];
+    // --option value, or --option=value.
+    const auto eq = arg.rfind("--", 0) == 0 ? arg.find('=') : std::string_view::npos;
+    const std::string_view a = arg.substr(0, eq);
     auto value = [&](std::string_view flag) -> std::string {
+      if (eq != std::string_view::npos) return std::string(arg.substr(eq + 1));
       if (i + 1 >= argc) {
         fmt::print(stderr, "{}: {} needs a value\n", process, flag);
         std::exit(2);
@@ -38,8 +42,6 @@ CommandLine CommandLine::parse(int argc, char** argv, const std::string& process
       std::exit(0);
     } else if (a == "--config") {
       cl.config_path = value(a);
-    } else if (a.rfind("--config=", 0) == 0) {
-      cl.config_path = std::string(a.substr(9));
     } else if (a == "--set") {
       cl.overrides.push_back(value(a));
     } else if (a == "--lcm-url") {
@@ -49,12 +51,11 @@ CommandLine CommandLine::parse(int argc, char** argv, const std::string& process
     } else {
       // Nothing else is read here: a typo must not run a node with defaults (--lcm_url for
       // --lcm-url would join another robot's LCM group).
-      const std::string name(a.substr(0, a.find('=')));
-      if (a.rfind("-", 0) == 0) {
-        fmt::print(stderr, "{}: unknown option {}{}\n", process, a,
-                   did_you_mean(name, {"--config", "--set", "--lcm-url", "--name", "--help"}));
+      if (arg.rfind("-", 0) == 0) {
+        fmt::print(stderr, "{}: unknown option {}{}\n", process, arg,
+                   did_you_mean(a, {"--config", "--set", "--lcm-url", "--name", "--help"}));
       } else {
-        fmt::print(stderr, "{}: unexpected argument '{}'\n", process, a);
+        fmt::print(stderr, "{}: unexpected argument '{}'\n", process, arg);
       }
       fmt::print(stderr, "(run {} --help for the options)\n", process);
       std::exit(2);
