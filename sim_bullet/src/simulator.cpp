@@ -124,10 +124,10 @@ std::vector<Push> load_scenario(const std::string& path) {
     Push push;
     push.id = id++;
     push.link = p.string("link");
-    push.point_L = p.vec3_or("point", Vector3d::Zero());
-    push.force_W = p.vec3("force", -1e4, 1e4);
-    push.start = p.real("start", 0.0, 1e6);
-    push.duration = p.real("duration", 1e-3, 60.0);
+    push.point_L = p.vec3_or("point", Vector3d::Zero(), -Push::kMaxPoint, Push::kMaxPoint);
+    push.force_W = p.vec3("force", -Push::kMaxForce, Push::kMaxForce);
+    push.start = p.real("start", 0.0, Push::kMaxStart);
+    push.duration = p.real("duration", Push::kMinDuration, Push::kMaxDuration);
     push.profile = p.choice_or("profile", "half_sine", {"half_sine", "rectangle"}) == "rectangle"
                        ? Push::Profile::kRectangle
                        : Push::Profile::kHalfSine;

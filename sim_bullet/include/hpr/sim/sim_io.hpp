@@ -14,8 +14,8 @@ namespace hpr::sim {
 
 void to_message(const TruthData& t, const std::array<std::string, 2>& feet, humanoid::sim_truth_t& m);
 
-/// The push a PUSH message asks for, or nullopt (with `why`) when its link is unknown or its force
-/// or duration invalid.
+/// The push a PUSH message asks for, or nullopt (with `why`, naming the field and value) when its
+/// link is unknown, or a value is non-finite or outside Push's limits, or its profile is unknown.
 std::optional<Push> from_message(const humanoid::push_t& p, const model::Model& m, std::string* why);
 
 }  // namespace hpr::sim

@@ -74,6 +74,10 @@ using SensorData = hpr::SensorSample;
 
 /// An external force profile on a link.
 struct Push {
+  /// What a push may ask for, from a scenario file or a PUSH message: each force component within
+  /// ±kMaxForce [N], the point within kMaxPoint [m] of the link frame, a duration in
+  /// [kMinDuration, kMaxDuration] [s], a start before kMaxStart [s].
+  static constexpr double kMaxForce = 1e4, kMaxPoint = 10.0, kMinDuration = 1e-3, kMaxDuration = 60.0, kMaxStart = 1e6;
   enum class Profile { kHalfSine, kRectangle };
   std::int64_t id = 0;
   std::string link;                             ///< URDF link
