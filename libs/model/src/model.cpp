@@ -34,6 +34,19 @@ SE3 joint_motion(const JointDesc& j, double q) {
 }
 }  // namespace
 
+std::string check_held_joint(const RobotDescription& d, const std::string& name, double q) {
+  const JointDesc* j = d.find_joint(name);
+  if (j == nullptr) return "not a joint of the URDF";
+  if (j->type == JointType::kFixed || j->type == JointType::kFloating || j->type == JointType::kPlanar) {
+    return "does not move (it is not revolute, continuous or prismatic)";
+  }
+  if (!j->mimic.empty()) return fmt::format("mimics '{}' and is locked with it; hold '{}' instead", j->mimic, j->mimic);
+  if (!std::isfinite(q) || (j->has_limits && j->type != JointType::kContinuous && (q < j->lower || q > j->upper))) {
+    return fmt::format("position {} is outside its limits [{}, {}]", q, j->lower, j->upper);
+  }
+  return "";
+}
+
 Model Model::build(const RobotDescription& d, const std::string& base_link_in) {
   ModelOptions options;
   options.base_link = base_link_in;
@@ -44,19 +57,8 @@ Model Model::build(const RobotDescription& d, const ModelOptions& options) {
   Model m;
   m.source = d.source;
   for (const auto& [name, q] : options.held) {
-    const JointDesc* j = d.find_joint(name);
-    if (j == nullptr) throw ModelError(fmt::format("{}: held joint '{}' is not a joint of the URDF", d.source, name));
-    if (j->type == JointType::kFixed || j->type == JointType::kFloating || j->type == JointType::kPlanar) {
-      throw ModelError(fmt::format("{}: held joint '{}' does not move (it is not revolute, continuous or prismatic)",
-                                   d.source, name));
-    }
-    if (!j->mimic.empty()) {
-      throw ModelError(fmt::format("{}: held joint '{}' mimics '{}' and is locked with it; hold '{}' instead", d.source,
-                                   name, j->mimic, j->mimic));
-    }
-    if (!std::isfinite(q) || (j->has_limits && j->type != JointType::kContinuous && (q < j->lower || q > j->upper))) {
-      throw ModelError(fmt::format("{}: held joint '{}': position {} is outside its limits [{}, {}]", d.source, name, q,
-                                   j->lower, j->upper));
+    if (const std::string why = check_held_joint(d, name, q); !why.empty()) {
+      throw ModelError(fmt::format("{}: held joint '{}': {}", d.source, name, why));
     }
   }
   // The fixed position of a held or locked joint, or NaN for a joint of the model.

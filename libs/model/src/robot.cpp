@@ -68,10 +68,18 @@ RobotSpec RobotSpec::load(const Config& c) {
   } catch (const ModelError& e) {
     c.fail("urdf", e.what());
   }
+  if (c.has("held_joints")) {
+    const Config h = c.section("held_joints");
+    for (const auto& [name, q] : model_options.held) {
+      if (const std::string why = check_held_joint(r.description, name, q); !why.empty()) {
+        h.fail(name, fmt::format("{} ({})", why, urdf));
+      }
+    }
+  }
   try {
     r.model = Model::build(r.description, model_options);
   } catch (const ModelError& e) {
-    c.fail(std::string(e.what()).find("held joint") != std::string::npos ? "held_joints" : "urdf", e.what());
+    c.fail("urdf", e.what());
   }
   // A controlled joint needs its limits: the controllers bound torques and velocities by them and the
   // drives' scaling comes from them (an effort of 0 would silently leave a joint without a motor).

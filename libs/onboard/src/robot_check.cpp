@@ -139,7 +139,7 @@ std::array<FootCandidate, 2> find_feet(const model::Model& m, const model::Robot
     const double y = data.oMi[static_cast<size_t>(c.body)].p.y();
     const int side = y < 0 ? 0 : 1;  // right: −y
     if (found[static_cast<size_t>(side)]) continue;
-    // The lowest body of that side, unless it is in the subtree of one already taken.
+    // The lowest candidate on each side of the base's x-z plane.
     feet[static_cast<size_t>(side)] = c;
     found[static_cast<size_t>(side)] = true;
   }

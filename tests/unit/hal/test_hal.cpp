@@ -3,9 +3,6 @@
 // drives' own timeout.
 #include <gtest/gtest.h>
 
-#include <fstream>
-#include <sstream>
-
 #include <cmath>
 #include <fstream>
 
@@ -14,6 +11,7 @@
 #include "hpr/hal/memory_transport.hpp"
 #include "hpr/model/urdf.hpp"
 #include "process_group.hpp"
+#include "shell.hpp"
 
 namespace {
 
@@ -387,13 +385,7 @@ TEST(HalConfig, AHeldJointWithoutADriveIsNamed) {
   Config c = Config::load(test::source_dir() + "/config/toro.yaml", {"robot.held_joints={neck_yaw: 0.0}"});
   const auto robot = model::RobotSpec::load(c.section("robot"));
   // Remove neck_yaw's drive: the hal must refuse, naming the joint.
-  std::string yaml;
-  {
-    std::ifstream f(test::source_dir() + "/config/toro.yaml");
-    std::stringstream ss;
-    ss << f.rdbuf();
-    yaml = ss.str();
-  }
+  std::string yaml = test::read_file(test::source_dir() + "/config/toro.yaml");
   const auto at = yaml.find("    - {joint: neck_yaw");
   ASSERT_NE(at, std::string::npos);
   yaml.erase(at, yaml.find('\n', at) - at + 1);

@@ -5,12 +5,12 @@
 #include <Eigen/Eigenvalues>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 
 #include "hpr/mesh/mesh.hpp"
 #include "hpr/model/algorithms.hpp"
 #include "hpr/model/model.hpp"
 #include "model_fixture.hpp"
+#include "shell.hpp"
 
 namespace {
 
@@ -252,10 +252,12 @@ TEST(HeldJoints, ConfigurationNamesTheKeyOfAnUnknownOrOutOfRangeJoint) {
       FAIL() << set;
     } catch (const ConfigError& e) {
       const std::string msg = e.what();
-      // An unknown or out-of-range held joint names robot.held_joints; a held joint that the
+      // An unknown or out-of-range held joint names its key under robot.held_joints; a held joint that the
       // standing posture still lists names robot.standing_posture.r_elbow.
-      EXPECT_NE(msg.find(std::string(expect) == "is held" ? "robot.standing_posture.r_elbow" : "robot.held_joints"),
-                std::string::npos) << msg;
+      const std::string key = std::string(expect) == "is held"       ? "robot.standing_posture.r_elbow"
+                              : std::string(expect) == "no_such_joint" ? "robot.held_joints.no_such_joint"
+                                                                       : "robot.held_joints.r_wrist_yaw";
+      EXPECT_NE(msg.find(key), std::string::npos) << msg;
       EXPECT_NE(msg.find(expect), std::string::npos) << msg;
     }
   }
@@ -285,12 +287,8 @@ TEST(RobotConfiguration, NamesWhatTheUrdfLacksOrCannotDrive) {
 
 TEST(RobotConfiguration, AControlledJointWithoutEffortIsRefused) {
   // The TORO-like URDF with effort="0" on the right elbow, next to the original.
-  namespace fs = std::filesystem;
   const std::string dir = test::temp_dir("effort0");
-  std::ifstream in(test::source_dir() + "/models/toro/toro.urdf");
-  std::stringstream ss;
-  ss << in.rdbuf();
-  std::string urdf = ss.str();
+  std::string urdf = test::read_file(test::source_dir() + "/models/toro/toro.urdf");
   const auto j = urdf.find("<joint name=\"r_elbow\"");
   ASSERT_NE(j, std::string::npos);
   const auto e = urdf.find("effort=\"", j) + 8;

@@ -4,23 +4,16 @@
 
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 #include <unistd.h>
 
 #include "hpr/model/algorithms.hpp"
 #include "hpr/onboard/robot_draft.hpp"
 #include "model_fixture.hpp"
+#include "shell.hpp"
 
 namespace {
 
 using namespace hpr;
-
-std::string read(const std::string& path) {
-  std::ifstream f(path);
-  std::stringstream ss;
-  ss << f.rdbuf();
-  return ss.str();
-}
 
 // Writes the draft's configuration next to the source config folder's files (so that relative
 // paths resolve as for a user's file) and loads it as the processes do.
@@ -29,7 +22,7 @@ model::RobotSpec write_and_load(const onboard::RobotDraft& draft, const std::str
   const fs::path dir = fs::temp_directory_path() / ("hpr_draft_" + std::to_string(::getpid()));
   fs::create_directories(dir);
   const fs::path out = dir / file;
-  const std::string text = onboard::write_config(draft, read(test::source_dir() + "/config/templates/robot.yaml"),
+  const std::string text = onboard::write_config(draft, test::read_file(test::source_dir() + "/config/templates/robot.yaml"),
                                                  fs::relative(urdf, dir).string(), "test");
   std::ofstream(out) << text;
   const Config cfg = Config::load(out.string());

@@ -42,6 +42,10 @@ struct ModelOptions {
   bool physical_inertia = false;
 };
 
+/// Empty when joint `name` of `description` can be held at `q` (it moves, is no <mimic> follower,
+/// `q` is within its limits), else the reason.
+std::string check_held_joint(const RobotDescription& description, const std::string& name, double q);
+
 class Model {
  public:
   /// Builds the tree from a validated description, the floating base at `base_link` (default: the
