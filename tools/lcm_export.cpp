@@ -64,6 +64,7 @@ void fill(Row& r, const humanoid::sim_truth_t& m) {
   r.vec("foot_tilt", m.foot_tilt, m.foot_name);
   r.add("push_active", m.push_active ? 1 : 0);
   r.arr("push_force_W", m.push_force_W);
+  r.arr("push_point_W", m.push_point_W);
   r.arr("push_impulse_W", m.push_impulse_W);
   r.add("fallen", m.fallen ? 1 : 0);
 }

@@ -4,14 +4,23 @@
 // Exit status: 0 recovered, 1 not recovered, 2 bad arguments or configuration, 3 inconclusive (the run
 // ended before 5 s after the push with nothing decided: --after below 5, or the stack stopped), 4 the
 // run failed.
+#include <spawn.h>
+#include <sys/wait.h>
+
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <iostream>
 #include <string>
+#include <vector>
 
 #include "hpr/common/args.hpp"
 #include "hpr/common/config.hpp"
 #include "hpr/experiments/trial.hpp"
+
+#include <fmt/format.h>
+
+extern "C" char** environ;
 
 namespace {
 
@@ -30,6 +39,8 @@ tilt, maximum sole slip, peak CAM per axis, minimum CoP margin, time to return t
   --log FILE            record the LCM log of the run
   --work-dir DIR        keep the processes' output there
   --json FILE           also write the JSON object to FILE
+  --video FILE          render the run to an MP4 with the 3D viewer (headless Chromium, ffmpeg)
+  --video-label TEXT    caption written on the video (default: the strategy and the push)
   --quiet               no progress on stderr
 )");
   std::fputs(hpr::experiments::kPushOptionsUsage, out);
@@ -39,13 +50,38 @@ tilt, maximum sole slip, peak CAM per axis, minimum CoP margin, time to return t
              out);
 }
 
+/// tools/render-video next to this build (build/bin/../../tools) or installed as hpr-render-video.
+std::string find_render_video() {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::path exe = fs::read_symlink("/proc/self/exe", ec).parent_path();
+  for (const fs::path& p : {exe / ".." / ".." / "tools" / "render-video", exe / "hpr-render-video"}) {
+    if (fs::exists(p, ec)) return fs::weakly_canonical(p, ec).string();
+  }
+  throw std::runtime_error("--video: tools/render-video not found next to " + exe.string());
+}
+
+/// Renders `log` to `video`; returns the script's exit status.
+int render_video(const std::string& log, const std::string& video, const std::string& robot, const std::string& label) {
+  std::vector<std::string> a{find_render_video(), log, video, "--robot", robot, "--label", label};
+  std::vector<char*> argv;
+  for (auto& s : a) argv.push_back(s.data());
+  argv.push_back(nullptr);
+  pid_t pid = 0;
+  if (posix_spawn(&pid, argv[0], nullptr, nullptr, argv.data(), environ) != 0) return 127;
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0) {
+  }
+  return WIFEXITED(status) ? WEXITSTATUS(status) : 128;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   using namespace hpr::experiments;
   TrialSpec spec;
   spec.config = "toro";
-  std::string json_file;
+  std::string json_file, video_file, video_label;
   bool quiet = false;
   try {
     hpr::ArgReader args(argc, argv);
@@ -69,6 +105,10 @@ int main(int argc, char** argv) {
         spec.work_dir = args.value();
       } else if (args.is("--json")) {
         json_file = args.value();
+      } else if (args.is("--video")) {
+        video_file = args.value();
+      } else if (args.is("--video-label")) {
+        video_label = args.value();
       } else if (args.is("--quiet")) {
         quiet = true;
       } else if (!read_push_option(args, spec)) {
@@ -82,6 +122,9 @@ int main(int argc, char** argv) {
       throw std::invalid_argument("the push needs --peak > 0 and a positive --impulse or --duration");
     }
     spec.config = find_config(spec.config);
+    if (!video_file.empty() && spec.log_file.empty()) {
+      spec.log_file = (std::filesystem::path(video_file).replace_extension(".lcm")).string();
+    }
   } catch (const std::exception& e) {
     std::fprintf(stderr, "push_trial: %s\n", e.what());
     usage(stderr);
@@ -109,6 +152,17 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "push_trial: %s%s (%.1f s simulated in %.1f s)\n",
                    r.recovered ? "recovered" : (r.inconclusive ? "INCONCLUSIVE: " : "NOT recovered: "), r.failure.c_str(), r.sim_time,
                    r.wall_time);
+    }
+    if (!video_file.empty()) {
+      if (video_label.empty()) {
+        video_label = fmt::format("{}, {:.3g} N s at {:.0f} deg", spec.strategy == Strategy::kCam ? "CAM strategy" : "ankle strategy alone",
+                                  spec.impulse, spec.direction_deg);
+      }
+      const int rc = render_video(spec.log_file, video_file, spec.config, video_label);
+      if (rc != 0) {
+        std::fprintf(stderr, "push_trial: rendering %s failed (tools/render-video exited with %d)\n", video_file.c_str(), rc);
+        return 4;
+      }
     }
     return r.recovered ? 0 : (r.inconclusive ? 3 : 1);
   } catch (const hpr::ConfigError& e) {

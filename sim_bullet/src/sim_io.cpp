@@ -19,6 +19,7 @@ void to_message(const TruthData& t, const std::array<std::string, 2>& feet, huma
     m.l_WCom[k] = t.l_WCom(k);
     m.push_force_W[k] = t.push_force_W(k);
     m.push_impulse_W[k] = t.push_impulse_W(k);
+    m.push_point_W[k] = t.push_point_W(k);
   }
   for (int k = 0; k < 4; ++k) m.quat_WB[k] = t.quat_WB(k);
   m.num_feet = 2;

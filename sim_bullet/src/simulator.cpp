@@ -559,6 +559,7 @@ void Simulator::physics_substep(double h) {
       mb->addLinkTorque(body - 1, to_bt(torque));
     }
     truth_.push_impulse_W += F * h;
+    truth_.push_point_W = point;
   }
   I.world->stepSimulation(h, 0, h);
   I.refresh_kinematics();

@@ -132,7 +132,7 @@ class Filler {
     arr(m.p_WCom); arr(m.v_WCom); arr(m.h_lin_W); arr(m.l_WCom);
     m.num_feet = 2; m.foot_name = names(2); m.p_WF = mat(2, 3); m.quat_WF = mat(2, 4); m.contact_wrench_W = mat(2, 6);
     m.foot_contact = gen<int8_t>(2, [&] { return static_cast<int8_t>(b()); }); m.foot_tilt = vec(2);
-    m.push_id = i64(); m.push_active = b(); arr(m.push_force_W); arr(m.push_impulse_W); m.fallen = b(); m.sim_time = r();
+    m.push_id = i64(); m.push_active = b(); arr(m.push_force_W); arr(m.push_impulse_W); arr(m.push_point_W); m.fallen = b(); m.sim_time = r();
   }
   void fill(humanoid::health_t& m) {
     m.tick = i64(); m.utime = i64(); m.node = s(); m.host = s(); m.pid = i32(); m.state = i8(); m.steps = i64();

@@ -59,6 +59,40 @@ TEST(Simulator, PushedFreeFloatingBodyGainsTheImpulse) {
   }
 }
 
+// SIM_TRUTH's point of application is the pushed link's point, placed by the model library's
+// forward kinematics from the truth's own configuration.
+TEST(Simulator, TruthPushPointIsThePushedPointOfTheLink) {
+  Robot r("toro");
+  r.sim_config.gravity.setZero();
+  sim::Simulator s(*r.spec, r.sim_config);
+  VectorXd q = r.spec->standing_configuration();
+  q(2) = 5.0;
+  s.set_state(q, VectorXd::Zero(r.spec->model.nv));
+  sim::Push p;
+  p.id = 3;
+  p.link = "torso";
+  p.point_L = Vector3d(-0.1, 0.05, 0.2);
+  p.force_W = Vector3d(200.0, 0.0, 0.0);
+  p.duration = 0.5;
+  p.start = -1.0;
+  p.profile = sim::Push::Profile::kRectangle;
+  s.add_push(p);
+  model::Data data(r.spec->model);
+  const int torso = r.spec->model.frame_index("torso");
+  model::forward_kinematics(r.spec->model, data, q);
+  const Vector3d start_W = model::update_frame_placement(r.spec->model, data, torso).act(p.point_L);
+  for (int k = 0; k < 200; ++k) s.step();  // the body has turned and moved by now
+  ASSERT_TRUE(s.truth().push_active);
+  model::forward_kinematics(r.spec->model, data, s.truth().q);
+  const Vector3d expected_W = model::update_frame_placement(r.spec->model, data, torso).act(p.point_L);
+  // The truth holds the point of the tick's last sub-step, before its integration: it may lag by
+  // what the point moves in one tick.
+  const double lag = (s.truth().v_WB.norm() + s.truth().omega_WB.norm() * 1.0) * r.sim_config.dt;
+  EXPECT_LT((s.truth().push_point_W - expected_W).norm(), lag + 1e-9)
+      << s.truth().push_point_W.transpose() << " vs " << expected_W.transpose();
+  EXPECT_GT((expected_W - start_W).norm(), 0.05) << "the body moved";
+}
+
 // SIM_TRUTH's momentum comes from Bullet's link states; the model library computes A_G v.
 TEST(Simulator, TruthMomentumMatchesTheModelLibrary) {
   for (const char* name : {"toro", "h1_2"}) {

@@ -106,6 +106,7 @@ struct TruthData {
   bool push_active = false;
   Eigen::Vector3d push_force_W = Eigen::Vector3d::Zero();
   Eigen::Vector3d push_impulse_W = Eigen::Vector3d::Zero();
+  Eigen::Vector3d push_point_W = Eigen::Vector3d::Zero();  ///< where the current or last push acts [m]
   bool fallen = false;
   Eigen::VectorXd q, v;  ///< Bullet's state in the controlled model's coordinates (held joints left out)
   Eigen::VectorXd q_held;  ///< positions of the held joints, in the order of RobotSpec::model.held_joint_name
