@@ -88,10 +88,10 @@ nlohmann::json pose_json(const SE3& X) {
 }  // namespace
 
 model::Vector3d rpy_of(const model::Matrix3d& R) {
-  const double pitch = std::asin(std::clamp(-R(2, 0), -1.0, 1.0));
-  if (std::abs(R(2, 0)) < 1.0 - 1e-12) {
-    return {std::atan2(R(2, 1), R(2, 2)), pitch, std::atan2(R(1, 0), R(0, 0))};
-  }
+  // cos(pitch) from the first column's norm, not asin(-R(2,0)), which loses half the digits near ±90°.
+  const double c = std::hypot(R(0, 0), R(1, 0));
+  const double pitch = std::atan2(-R(2, 0), c);
+  if (c > 1e-12) return {std::atan2(R(2, 1), R(2, 2)), pitch, std::atan2(R(1, 0), R(0, 0))};
   // Gimbal lock: only roll - yaw (pitch = +90°) or roll + yaw (pitch = -90°) is defined; yaw = 0.
   return {std::atan2(-R(1, 2), R(1, 1)), pitch, 0.0};
 }
