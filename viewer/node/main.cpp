@@ -43,6 +43,7 @@ class Sampler {
       slots_[c].index = c;
       // HEALTH (one per node) and PUSH (rare) are forwarded message by message.
       slots_[c].every_message = chans[c].name == "HEALTH" || chans[c].name == "PUSH";
+      // Room for a display period of messages at 1 kHz (the loop below reads them in batches).
       rt.lcm().subscribe(rt.channel(chans[c].name), &Slot::handle, &slots_[c])->setQueueCapacity(1000);
       slots_[c].sampler = this;
     }
@@ -126,7 +127,8 @@ int main(int argc, char** argv) {
   return node::run_main(argc, argv, "viewer", "3D viewer: web page and Foxglove WebSocket server", [](const node::CommandLine& cl,
                                                                                                          const Config& cfg) {
     const Config section = cfg.has("viewer") ? cfg.section("viewer") : Config::parse("{}", cfg.file() + " (viewer)");
-    section.reject_unknown({"port", "bind", "rate_hz", "log", "log_fps", "web_dir", "max_client_buffer_kb"});
+    section.reject_unknown({"port", "bind", "rate_hz", "log", "log_fps", "web_dir", "max_client_buffer_kb", "mesh_max_triangles",
+                            "mesh_max_error"});
     viewer::ServerOptions opt;
     opt.port = static_cast<int>(section.integer_or("port", 8765, 0, 65535));
     opt.bind = section.string_or("bind", "127.0.0.1");
@@ -139,7 +141,15 @@ int main(int argc, char** argv) {
                                           "`npm ci --prefix {}` (tools/install-deps does)", opt.web_dir, opt.web_dir));
     }
     const auto robot = model::RobotSpec::load(cfg.section("robot"));
-    auto display = viewer::display_robot(robot);
+    viewer::DisplayOptions display_options;
+    display_options.mesh_max_triangles = static_cast<std::size_t>(section.integer_or("mesh_max_triangles", 1500, 0, 10'000'000));
+    display_options.mesh_max_error = section.real_or("mesh_max_error", 0.002, 0.0, 0.1);
+    auto display = viewer::display_robot(robot, display_options);
+    if (display.triangles_in > 0) {
+      log::info("viewer: {} meshes, {} triangles shown of {} (viewer.mesh_max_triangles {} per mesh, mesh_max_error {} m)",
+                display.mesh_files.size(), display.triangles_out, display.triangles_in, display_options.mesh_max_triangles,
+                display_options.mesh_max_error);
+    }
 
     if (section.has("log")) {
       const std::string path = section.string("log");
@@ -177,6 +187,18 @@ int main(int argc, char** argv) {
       if (s.dropped > 0) rt.set_fault("clients", fmt::format("{} messages dropped for slow clients", s.dropped), false, 5.0);
     });
     announce(server.port(), opt.bind, "live");
-    return rt.run();
+    // Messages are read in batches at the display rate rather than one wake-up per message: the
+    // viewer keeps only the latest of each channel, and a 1 kHz stack would otherwise wake it
+    // thousands of times a second.
+    const auto period = std::chrono::duration<double>(1.0 / rate);
+    auto next = std::chrono::steady_clock::now();
+    while (!rt.stop_requested()) {
+      next += std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
+      const auto now = std::chrono::steady_clock::now();
+      if (next < now) next = now;
+      std::this_thread::sleep_until(next);
+      rt.spin_once(0.0);
+    }
+    return 0;
   });
 }

@@ -190,13 +190,7 @@ struct Server::Impl {
       const std::string name = path.substr(12);
       for (std::size_t i = 0; i < robot.mesh_urls.size(); ++i) {
         if (robot.mesh_urls[i] == path) {
-          std::string body;
-          if (read_file(robot.mesh_files[i], body)) {
-            reply(con, ok, content_type(robot.mesh_files[i]), std::move(body));
-          } else {
-            reply(con, websocketpp::http::status_code::internal_server_error, "text/plain",
-                  "cannot read " + robot.mesh_files[i] + "\n");
-          }
+          reply(con, ok, content_type(path), robot.mesh_data[i]);
           return;
         }
       }

@@ -4,9 +4,13 @@
 #include <cctype>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <map>
+#include <sstream>
 
 #include <fmt/format.h>
+
+#include "hpr/mesh/mesh.hpp"
 
 namespace hpr::viewer {
 namespace {
@@ -69,11 +73,26 @@ class Writer {
       std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
       it = index_.emplace(file, out.mesh_files.size()).first;
       out.mesh_files.push_back(file);
+      if (options.mesh_max_triangles > 0 && (ext == ".stl" || ext == ".obj")) {
+        const auto full = mesh::load(file);
+        const auto light = mesh::simplify(full, options.mesh_max_triangles, options.mesh_max_error);
+        out.triangles_in += full.triangles.size();
+        out.triangles_out += light.triangles.size();
+        out.mesh_data.push_back(mesh::to_binary_stl(light));
+        ext = ".stl";
+      } else {
+        std::ifstream in(file, std::ios::binary);
+        std::ostringstream bytes;
+        bytes << in.rdbuf();
+        if (!in) throw mesh::MeshError(fmt::format("{}: cannot read the mesh file", file));
+        out.mesh_data.push_back(bytes.str());
+      }
       out.mesh_urls.push_back(fmt::format("/robot/mesh/{}{}", it->second, ext));
     }
     return out.mesh_urls[it->second];
   }
 
+  DisplayOptions options;
   DisplayRobot out;
 
  private:
@@ -96,9 +115,10 @@ model::Vector3d rpy_of(const model::Matrix3d& R) {
   return {std::atan2(-R(1, 2), R(1, 1)), pitch, 0.0};
 }
 
-DisplayRobot display_robot(const model::RobotSpec& robot) {
+DisplayRobot display_robot(const model::RobotSpec& robot, const DisplayOptions& options) {
   const auto& d = robot.description;
   Writer w;
+  w.options = options;
   std::string x = fmt::format("<?xml version=\"1.0\"?>\n<robot name=\"{}\">\n", xml_escape(d.name));
   for (const auto& link : d.links) {
     x += fmt::format("  <link name=\"{}\">\n", xml_escape(link.name));
@@ -151,7 +171,8 @@ DisplayRobot display_robot(const model::RobotSpec& robot) {
                 {"held", held},
                 {"locked", locked},
                 {"feet", feet},
-                {"meshes", w.out.mesh_files.size()}};
+                {"meshes", w.out.mesh_files.size()},
+                {"mesh_triangles", {{"file", w.out.triangles_in}, {"shown", w.out.triangles_out}}}};
   return std::move(w.out);
 }
 

@@ -1,5 +1,9 @@
 #include "hpr/mesh/mesh.hpp"
 
+#include <meshoptimizer.h>
+
+#include <Eigen/Geometry>
+
 #include <fmt/format.h>
 
 #include <assimp/Importer.hpp>
@@ -60,6 +64,79 @@ TriangleMesh load(const std::string& path, const Eigen::Vector3d& scale) {
   if (out.vertices.empty()) throw MeshError(fmt::format("{}: the mesh has no vertices", path));
   for (const auto& v : out.vertices) {
     if (!v.allFinite()) throw MeshError(fmt::format("{}: the mesh has a non-finite vertex", path));
+  }
+  return out;
+}
+
+TriangleMesh simplify(const TriangleMesh& mesh, std::size_t max_triangles, double max_error) {
+  if (mesh.triangles.size() <= max_triangles || mesh.vertices.empty()) return mesh;
+  std::vector<float> positions;
+  positions.reserve(3 * mesh.vertices.size());
+  Eigen::Vector3d lo = mesh.vertices.front(), hi = lo;
+  for (const auto& v : mesh.vertices) {
+    for (int k = 0; k < 3; ++k) positions.push_back(static_cast<float>(v(k)));
+    lo = lo.cwiseMin(v);
+    hi = hi.cwiseMax(v);
+  }
+  std::vector<unsigned> indices;
+  indices.reserve(3 * mesh.triangles.size());
+  for (const auto& t : mesh.triangles) {
+    for (int k : t) indices.push_back(static_cast<unsigned>(k));
+  }
+  // Vertices at the same position welded (a file's reader keeps one per facet normal, which would
+  // leave every facet a border that cannot collapse).
+  std::vector<unsigned> remap(mesh.vertices.size());
+  const std::size_t welded = meshopt_generateVertexRemap(remap.data(), indices.data(), indices.size(), positions.data(),
+                                                         mesh.vertices.size(), 3 * sizeof(float));
+  std::vector<float> welded_positions(3 * welded);
+  meshopt_remapVertexBuffer(welded_positions.data(), positions.data(), mesh.vertices.size(), 3 * sizeof(float), remap.data());
+  meshopt_remapIndexBuffer(indices.data(), indices.data(), indices.size(), remap.data());
+  std::vector<std::size_t> original(welded);  // a vertex of `mesh` at each welded position
+  for (std::size_t v = 0; v < remap.size(); ++v) original[remap[v]] = v;
+  // meshoptimizer's error is relative to the mesh's extent (the radius of its bounding box).
+  const double extent = std::max(0.5 * (hi - lo).norm(), 1e-9);
+  std::vector<unsigned> out(indices.size());
+  float achieved = 0.0F;
+  const std::size_t n = meshopt_simplify(out.data(), indices.data(), indices.size(), welded_positions.data(), welded,
+                                         3 * sizeof(float), 3 * max_triangles, static_cast<float>(max_error / extent), 0, &achieved);
+  TriangleMesh r;
+  std::vector<int> map(welded, -1);
+  for (std::size_t i = 0; i + 2 < n; i += 3) {
+    std::array<int, 3> t{};
+    for (int k = 0; k < 3; ++k) {
+      const unsigned v = out[i + static_cast<std::size_t>(k)];
+      if (map[v] < 0) {
+        map[v] = static_cast<int>(r.vertices.size());
+        r.vertices.push_back(mesh.vertices[original[v]]);
+      }
+      t[static_cast<std::size_t>(k)] = map[v];
+    }
+    r.triangles.push_back(t);
+  }
+  return r;
+}
+
+std::string to_binary_stl(const TriangleMesh& mesh) {
+  std::string out(80, '\0');
+  const std::string header = "hpr display mesh";
+  std::copy(header.begin(), header.end(), out.begin());
+  auto put = [&out](const void* p, std::size_t n) { out.append(static_cast<const char*>(p), n); };
+  const auto count = static_cast<std::uint32_t>(mesh.triangles.size());
+  put(&count, 4);
+  for (const auto& t : mesh.triangles) {
+    const Eigen::Vector3d& a = mesh.vertices[static_cast<std::size_t>(t[0])];
+    const Eigen::Vector3d& b = mesh.vertices[static_cast<std::size_t>(t[1])];
+    const Eigen::Vector3d& c = mesh.vertices[static_cast<std::size_t>(t[2])];
+    Eigen::Vector3d nrm = (b - a).cross(c - a);
+    if (nrm.norm() > 0) nrm.normalize();
+    for (const Eigen::Vector3d* v : std::array<const Eigen::Vector3d*, 4>{&nrm, &a, &b, &c}) {
+      for (int k = 0; k < 3; ++k) {
+        const auto f = static_cast<float>((*v)(k));
+        put(&f, 4);
+      }
+    }
+    const std::uint16_t attributes = 0;
+    put(&attributes, 2);
   }
   return out;
 }

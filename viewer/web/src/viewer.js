@@ -33,8 +33,18 @@ const STATES = ['starting', 'ok', 'degraded', 'FAULT', 'stopping'];
 // Scene
 // ---------------------------------------------------------------------------------------------
 const container = document.getElementById('view');
-const renderer = new THREE.WebGLRenderer({ antialias: true, preserveDrawingBuffer: renderMode });
-renderer.setPixelRatio(renderMode ? 1 : Math.min(window.devicePixelRatio, 2));
+/// Whether WebGL runs on the CPU (SwiftShader, llvmpipe): then the live view skips antialiasing,
+/// which halves its frame time there. Videos keep it.
+function softwareGL() {
+  const gl = document.createElement('canvas').getContext('webgl2');
+  const ext = gl?.getExtension('WEBGL_debug_renderer_info');
+  const name = ext ? gl.getParameter(ext.UNMASKED_RENDERER_WEBGL) : '';
+  gl?.getExtension('WEBGL_lose_context')?.loseContext();
+  return /SwiftShader|llvmpipe|softpipe|Software/i.test(name);
+}
+const software = softwareGL();
+const renderer = new THREE.WebGLRenderer({ antialias: renderMode || !software, preserveDrawingBuffer: renderMode });
+renderer.setPixelRatio(renderMode || software ? 1 : Math.min(window.devicePixelRatio, 2));
 renderer.setSize(window.innerWidth, window.innerHeight);
 container.appendChild(renderer.domElement);
 
@@ -262,6 +272,7 @@ function draw() {
     comGround.position.set(com[0], com[1], 0.003);
     comLine.geometry.setFromPoints([comMarker.position, comGround.position]);
     comLine.computeLineDistances();
+    if (!framed) frameRobot(com);
     if (!controls) { target.set(com[0], com[1], 0.8 * com[2]); }
   }
   // CAM vectors from the CoM.
@@ -306,6 +317,21 @@ function draw() {
     copCmdMarker.position.copy(vstanceToWorld(bal, bal.cop_V));
   }
   drawStatus();
+}
+
+/// Once, at the first CoM: the camera's distance scaled to the robot (the CoM of a 1.3 m G1 stands
+/// lower than a 1.8 m TORO's), looking at the CoM.
+let framed = false;
+function frameRobot(com) {
+  framed = true;
+  const scale = Math.min(1.5, Math.max(0.4, com[2] / 0.9));
+  viewOffset.multiplyScalar(scale);
+  renderPan *= scale;
+  if (controls) {
+    controls.target.set(com[0], com[1], 0.8 * com[2]);
+    camera.position.copy(controls.target).add(viewOffset);
+    controls.update();
+  }
 }
 
 function fmt(x, d = 2) { return x === null || x === undefined ? '–' : Number(x).toFixed(d); }

@@ -39,6 +39,14 @@ std::vector<Eigen::Vector3d> hull_points(const std::vector<Eigen::Vector3d>& poi
 double hull_gap(const std::vector<Eigen::Vector3d>& points, const std::vector<Eigen::Vector3d>& simplified,
                 int directions = 2000);
 
+/// A lighter mesh for display: edge collapses (meshoptimizer's quadric simplifier) down to at most
+/// `max_triangles`, stopping earlier where the next collapse would move the surface by more than
+/// `max_error` [m]. Vertices the simplified mesh keeps are vertices of `mesh`; unused ones are dropped.
+TriangleMesh simplify(const TriangleMesh& mesh, std::size_t max_triangles, double max_error);
+
+/// The mesh as a binary STL file (80-byte header, facet normals from the vertex order).
+std::string to_binary_stl(const TriangleMesh& mesh);
+
 /// `n` unit vectors spread evenly over the sphere (a Fibonacci lattice).
 std::vector<Eigen::Vector3d> sphere_directions(int n);
 
