@@ -5,6 +5,7 @@
 #include <websocketpp/server.hpp>
 
 #include <chrono>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -208,6 +209,17 @@ struct Server::Impl {
       reply(con, ok, "application/json", s.dump());
     } else if (timeline && path == "/api/log") {
       reply(con, ok, "application/json", summary_text());
+    } else if (timeline && starts("/api/frames/")) {
+      // /api/frames/<first>/<count>: up to 120 consecutive frames in one reply (playback prefetch).
+      int first = -1, count = 0;
+      if (std::sscanf(path.c_str() + 12, "%d/%d", &first, &count) != 2 || first < 0 || first >= timeline->num_frames() ||
+          count < 1 || count > 120) {
+        reply(con, not_found, "text/plain", fmt::format("expected /api/frames/<first 0 to {}>/<count 1 to 120>\n", timeline->num_frames() - 1));
+      } else {
+        nlohmann::json frames = nlohmann::json::array();
+        for (int i = first; i < std::min(first + count, timeline->num_frames()); ++i) frames.push_back(timeline->frame(i));
+        reply(con, ok, "application/json", frames.dump());
+      }
     } else if (timeline && starts("/api/frame/")) {
       int i = -1;
       try {

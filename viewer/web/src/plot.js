@@ -37,10 +37,28 @@ export class TimePlot {
     this.cursor = t;
     if (!this._scheduled) { this._scheduled = true; requestAnimationFrame(() => { this._scheduled = false; this.draw(); }); }
   }
+  /// Redraws: the series into a cached image when they changed, then the cursor over it.
   draw() {
-    const { ctx, canvas } = this, W = canvas.width, H = canvas.height, d = this.data;
+    const { ctx, canvas } = this, W = canvas.width, H = canvas.height;
+    const key = `${this.data.t.length}:${this.data.t[this.data.t.length - 1]}:${this.axis}:${W}x${H}`;
+    if (key !== this._key || !this._cache) {
+      this._cache ??= document.createElement('canvas');
+      this._cache.width = W; this._cache.height = H;
+      this._x = this.drawSeries(this._cache.getContext('2d'), W, H);
+      this._key = key;
+    }
     ctx.clearRect(0, 0, W, H);
-    if (!d.t.length) return;
+    ctx.drawImage(this._cache, 0, 0);
+    if (this._x && this.cursor !== null) {
+      const x = this._x(this.cursor);
+      ctx.strokeStyle = '#1d232a'; ctx.lineWidth = 1; ctx.beginPath();
+      ctx.moveTo(x, 4); ctx.lineTo(x, H - 14); ctx.stroke();
+    }
+  }
+  drawSeries(ctx, W, H) {
+    const d = this.data;
+    ctx.clearRect(0, 0, W, H);
+    if (!d.t.length) return null;
     const t0 = d.t[0], t1 = Math.max(d.t[d.t.length - 1], t0 + 1e-3);
     const left = 44, right = 6, ph = (H - 30) / 2;
     const x = (t) => left + (t - t0) / (t1 - t0) * (W - left - right);
@@ -77,9 +95,6 @@ export class TimePlot {
     ctx.fillStyle = '#4a525c';
     ctx.fillText(`${(0).toFixed(1)} s`, left, H - 3);
     ctx.fillText(`${(t1 - t0).toFixed(1)} s`, W - right - 30, H - 3);
-    if (this.cursor !== null && this.cursor >= t0) {
-      ctx.strokeStyle = '#1d232a'; ctx.lineWidth = 1; ctx.beginPath();
-      ctx.moveTo(x(this.cursor), 4); ctx.lineTo(x(this.cursor), H - 14); ctx.stroke();
-    }
+    return (t) => Math.min(Math.max(x(t), left), W - right);
   }
 }

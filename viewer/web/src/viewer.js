@@ -381,11 +381,13 @@ function onResize() {
 window.addEventListener('resize', onResize);
 
 let mode = 'live';
+let dirty = false;  // live: new messages since the last drawing
 let log = null;  // log mode: summary, frame cache, playback state
 function loop(now) {
   ++frames;
   if (now - fpsStart > 1000) { fps = frames * 1000 / (now - fpsStart); frames = 0; fpsStart = now; }
   if (mode === 'log' && log.playing && !renderMode) log.advance(now);
+  if (dirty) { dirty = false; draw(); }
   controls?.update();
   renderNow();
   requestAnimationFrame(loop);
@@ -407,7 +409,7 @@ function startLive() {
       const b = state.channels.BALANCE_STATUS, w = state.channels.WHOLEBODY_COMMAND, c = state.channels.CAM_REFERENCE;
       plot.push(msg.utime * 1e-6, b?.tau_ankle_V, b?.tau_hip_V, c?.l_ref_W, w?.l_cmd_W, msg.l_WCom);
     }
-    draw();
+    dirty = true;  // drawn once at the next animation frame, however many messages came
   };
   client.onStatus = (text) => { statusEl.textContent = text; };
   client.connect();
@@ -451,11 +453,18 @@ class LogPlayer {
     if (this.cache.size > 600) this.cache.delete(this.cache.keys().next().value);
     return f;
   }
+  /// Keeps the next second of frames in the cache, fetched 60 at a time.
   prefetch(i) {
-    for (let k = i; k < Math.min(i + 20, this.s.num_frames); ++k) {
-      if (this.cache.has(k) || this.pending.has(k)) continue;
-      this.pending.add(k);
-      this.fetchFrame(k).finally(() => this.pending.delete(k));
+    const chunk = 60;
+    for (let start = i; start < Math.min(i + chunk, this.s.num_frames); ++start) {
+      if (this.cache.has(start) || this.pending.has(start)) continue;
+      const count = Math.min(chunk, this.s.num_frames - start);
+      for (let k = start; k < start + count; ++k) this.pending.add(k);
+      fetch(`/api/frames/${start}/${count}`).then((r) => r.json()).then((frames) => {
+        for (const f of frames) this.cache.set(f.i, f);
+        while (this.cache.size > 900) this.cache.delete(this.cache.keys().next().value);
+      }).finally(() => { for (let k = start; k < start + count; ++k) this.pending.delete(k); });
+      break;
     }
   }
   apply(f) {
@@ -480,8 +489,9 @@ class LogPlayer {
     let i = Math.round(this.t * this.s.fps);
     if (i >= this.s.num_frames - 1) { i = this.s.num_frames - 1; this.playing = false; this.updateButton(); }
     this.prefetch(i);
+    if (i === this.index && this.cache.has(i)) return;  // the display outruns the frames: nothing new
     if (this.cache.has(i)) this.apply(this.cache.get(i));
-    else this.fetchFrame(i).then((f) => this.apply(f));
+    else if (!this.pending.has(i)) this.fetchFrame(i).then((f) => this.apply(f));
   }
   async seek(t) {
     this.playing = false;
