@@ -6,6 +6,7 @@
 
 #include <humanoid/robot_state_t.hpp>
 
+#include <array>
 #include <cmath>
 #include <nlohmann/json.hpp>
 #include <thread>
@@ -31,9 +32,10 @@ humanoid::robot_state_t state_at(std::int64_t k, int joints = 3) {
   m.quat_WB[0] = 1.0;
   m.p_WB[2] = 0.9;
   m.num_joints = joints;
+  static const std::array<const char*, 3> kToro{"l_hip_roll", "l_hip_pitch", "l_hip_yaw"};
   for (int j = 0; j < joints; ++j) {
-    std::string name = "j";
-    name += std::to_string(j);
+    std::string name = j < 3 ? kToro[static_cast<std::size_t>(j)] : "j";
+    if (j >= 3) name += std::to_string(j);
     m.joint_name.push_back(name);
     m.q.push_back(q_of(k, static_cast<std::size_t>(j)));
   }
@@ -129,6 +131,24 @@ TEST(ViewerNode, FoxgloveHandshakeAdvertisementAndADecodedMessageFromALog) {
   EXPECT_NE(hpr::test::http_get(port, "/robot/robot.urdf").find("<robot name=\"toro\">"), std::string::npos);
   EXPECT_EQ(hpr::test::http_get(port, "/app/../../CMakeLists.txt").rfind("HTTP/1.1 404", 0), 0U) << "nothing outside the page's folder";
   EXPECT_EQ(hpr::test::http_get(port, "/api/frame/100000").rfind("HTTP/1.1 404", 0), 0U);
+}
+
+TEST(ViewerNode, ALogOfAnotherRobotIsRefusedNamingAJointAndTheFix) {
+  const std::string dir = hpr::test::temp_dir("viewer_other_robot");
+  {
+    hpr::test::LogWriter log(dir + "/run.lcm");
+    for (std::int64_t k = 0; k < 10; ++k) log.write("ROBOT_STATE", state_at(k), 1000 * k);  // TORO's joints
+  }
+  hpr::test::ProcessGroup group;
+  const pid_t pid = group.start("viewer",
+                                {"--config", hpr::test::source_dir() + "/config/h1_2.yaml", "--set", "viewer.port=0", "--set",
+                                 "viewer.log=" + dir + "/run.lcm"},
+                                {}, dir + "/viewer.log");
+  const auto r = group.wait(pid, 30s);
+  const std::string out = hpr::test::read_text(dir + "/viewer.log");
+  EXPECT_TRUE(r.exited && r.exit_code != 0) << out;
+  EXPECT_NE(out.find("l_hip_roll"), std::string::npos) << out;
+  EXPECT_NE(out.find("--robot"), std::string::npos) << out;
 }
 
 TEST(ViewerNode, RefusesAWebSocketWithoutTheFoxgloveSubprotocol) {

@@ -7,6 +7,7 @@
 //   viewer --config config/toro.yaml --set viewer.log=run.lcm  a recorded run, with a time slider
 #include <lcm/lcm-cpp.hpp>
 
+#include <algorithm>
 #include <chrono>
 #include <csignal>
 #include <cstdio>
@@ -116,6 +117,27 @@ std::vector<viewer::LogEvent> read_log(const std::string& path) {
   return events;
 }
 
+/// A log recorded with another robot cannot be shown: its first ROBOT_STATE must name joints of
+/// `robot` (controlled, held or locked).
+void check_joints(const viewer::Timeline& timeline, const model::RobotSpec& robot, const std::string& config,
+                  const std::string& log_path) {
+  const auto frame = timeline.frame(0);
+  if (!frame["channels"].contains("ROBOT_STATE")) return;
+  const auto& m = robot.model;
+  std::vector<std::string> unknown;
+  for (const auto& name : frame["channels"]["ROBOT_STATE"]["joint_name"]) {
+    const auto n = name.get<std::string>();
+    auto has = [&n](const std::vector<std::string>& v) { return std::find(v.begin(), v.end(), n) != v.end(); };
+    if (!has(m.joint_name) && !has(m.held_joint_name) && !has(m.locked_joint_name)) unknown.push_back(n);
+  }
+  if (!unknown.empty()) {
+    throw std::runtime_error(fmt::format("{}: ROBOT_STATE names {} joint(s) that robot '{}' ({}) does not have ({}{}): view the "
+                                         "log with the robot it was recorded with (tools/view LOG --robot NAME)",
+                                         log_path, unknown.size(), robot.name, config, unknown.front(),
+                                         unknown.size() > 1 ? ", ..." : ""));
+  }
+}
+
 void announce(int port, const std::string& bind, const std::string& what) {
   std::printf("viewer: %s at http://%s:%d/\n", what.c_str(), bind.c_str(), port);
   std::fflush(stdout);
@@ -158,6 +180,7 @@ int main(int argc, char** argv) {
       log::info("viewer: {}: {} messages shown, {:.2f} s, {} frames at {} Hz{}", path, timeline.num_events(),
                 timeline.duration(), timeline.num_frames(), timeline.fps(),
                 timeline.skipped() ? fmt::format(", {} malformed skipped", timeline.skipped()) : "");
+      check_joints(timeline, robot, cfg.file(), path);
       viewer::Server server(opt, std::move(display), &timeline);
       announce(server.port(), opt.bind, "playing " + path);
       sigset_t set;

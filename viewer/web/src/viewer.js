@@ -198,11 +198,13 @@ const truthBox = document.getElementById('show-truth');
 const plotAxis = document.getElementById('plot-axis');
 plotAxis.addEventListener('change', () => { plot.axis = Number(plotAxis.value); plot.draw(); });
 
+const unknownJoints = new Set();  // ROBOT_STATE joints this robot does not have (another robot's traffic)
 function setJoints(r, msg) {
   if (!msg || !msg.joint_name) return;
   for (let i = 0; i < msg.joint_name.length; ++i) {
     const j = r.joints[msg.joint_name[i]];
-    if (j && msg.q[i] !== null) j.setJointValue(msg.q[i]);
+    if (!j) unknownJoints.add(msg.joint_name[i]);
+    else if (msg.q[i] !== null) j.setJointValue(msg.q[i]);
   }
 }
 
@@ -345,6 +347,7 @@ function drawStatus() {
   if (cam) parts.push(`phase x ${PHASES[cam.phase[0]]}, y ${PHASES[cam.phase[1]]}, z ${PHASES[cam.phase[2]]}`);
   if (truth?.push_active) parts.push(`push ${fmt(Math.hypot(...truth.push_force_W), 0)} N`);
   if (truth?.fallen) parts.push('FALLEN');
+  if (unknownJoints.size) parts.push(`${unknownJoints.size} ROBOT_STATE joints unknown to ${info.name}: another robot? (tools/view --robot)`);
   let line2 = '';
   const nodes = Object.values(state.health).sort((a, b) => a.node.localeCompare(b.node));
   if (nodes.length) {
