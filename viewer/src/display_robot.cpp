@@ -10,6 +10,8 @@
 
 #include <fmt/format.h>
 
+#include <Eigen/Eigenvalues>
+
 #include "hpr/mesh/mesh.hpp"
 
 namespace hpr::viewer {
@@ -106,6 +108,24 @@ nlohmann::json pose_json(const SE3& X) {
 
 }  // namespace
 
+Geometry inertia_box(const model::LinkDesc& link) {
+  // Principal axes and moments of the (physically consistent) inertia about the CoM; a uniform box
+  // of mass m and sides a, b, c has I_x = m (b² + c²) / 12, so a² = 6 (I_y + I_z - I_x) / m, ...
+  const Eigen::SelfAdjointEigenSolver<model::Matrix3d> eig(link.inertia_physical);
+  model::Matrix3d R = eig.eigenvectors();
+  if (R.determinant() < 0) R.col(2) = -R.col(2);
+  const model::Vector3d I = eig.eigenvalues();
+  Geometry g;
+  g.type = Geometry::Type::kBox;
+  for (int k = 0; k < 3; ++k) {
+    const double s2 = 6.0 * (I.sum() - 2.0 * I(k)) / link.mass;
+    g.size(k) = std::sqrt(std::max(s2, 1e-6));
+  }
+  g.X_LG.R = R;
+  g.X_LG.p = link.com;
+  return g;
+}
+
 model::Vector3d rpy_of(const model::Matrix3d& R) {
   // cos(pitch) from the first column's norm, not asin(-R(2,0)), which loses half the digits near ±90°.
   const double c = std::hypot(R(0, 0), R(1, 0));
@@ -120,9 +140,16 @@ DisplayRobot display_robot(const model::RobotSpec& robot, const DisplayOptions& 
   Writer w;
   w.options = options;
   std::string x = fmt::format("<?xml version=\"1.0\"?>\n<robot name=\"{}\">\n", xml_escape(d.name));
+  std::size_t inertia_boxes = 0;
   for (const auto& link : d.links) {
     x += fmt::format("  <link name=\"{}\">\n", xml_escape(link.name));
     const bool own = !link.visuals.empty();
+    if (link.visuals.empty() && link.collisions.empty() && link.mass > 0.0) {
+      const Geometry box = inertia_box(link);
+      x += fmt::format("    <visual>{}<geometry>{}</geometry><material name=\"\"><color rgba=\"0.74 0.77 0.82 1\"/></material>"
+                       "</visual>\n", origin(box.X_LG), w.geometry(box));
+      ++inertia_boxes;
+    }
     for (const auto& geo : own ? link.visuals : link.collisions) {
       x += fmt::format("    <visual>{}<geometry>{}</geometry>", origin(geo.X_LG), w.geometry(geo));
       const auto& c = own ? geo.rgba : Eigen::Vector4d(0.62, 0.66, 0.72, 1.0);
@@ -172,6 +199,7 @@ DisplayRobot display_robot(const model::RobotSpec& robot, const DisplayOptions& 
                 {"locked", locked},
                 {"feet", feet},
                 {"meshes", w.out.mesh_files.size()},
+                {"inertia_boxes", inertia_boxes},
                 {"mesh_triangles", {{"file", w.out.triangles_in}, {"shown", w.out.triangles_out}}}};
   return std::move(w.out);
 }

@@ -212,11 +212,24 @@ void expect_same_tree(const std::string& robot) {
       EXPECT_EQ(y->upper, x.upper) << x.name;
     }
   }
-  std::size_t meshes = 0;
+  std::size_t meshes = 0, inertia_boxes = 0;
   for (const auto& link : a.links) {
     const auto* l = back.find_link(link.name);
     ASSERT_NE(l, nullptr) << link.name;
     const auto& shown = link.visuals.empty() ? link.collisions : link.visuals;
+    if (shown.empty() && link.mass > 0) {
+      // No geometry at all: one box whose uniform-density inertia is the link's.
+      ASSERT_EQ(l->visuals.size(), 1U) << link.name;
+      const auto& box = l->visuals[0];
+      ASSERT_EQ(box.type, model::Geometry::Type::kBox) << link.name;
+      const model::Vector3d& a2 = box.size.cwiseProduct(box.size);
+      const model::Matrix3d I_G = (link.mass / 12.0) * model::Vector3d(a2.y() + a2.z(), a2.x() + a2.z(), a2.x() + a2.y()).asDiagonal();
+      const model::Matrix3d I_L = box.X_LG.R * I_G * box.X_LG.R.transpose();
+      EXPECT_LT((I_L - link.inertia_physical).norm(), 1e-9 * link.inertia_physical.norm()) << link.name;
+      EXPECT_LT((box.X_LG.p - link.com).norm(), 1e-12) << link.name;
+      ++inertia_boxes;
+      continue;
+    }
     ASSERT_EQ(l->visuals.size(), shown.size()) << link.name << ": drawn with its visual, else its collision geometry";
     for (std::size_t k = 0; k < shown.size(); ++k) {
       EXPECT_EQ(l->visuals[k].type, shown[k].type) << link.name;
@@ -238,6 +251,10 @@ void expect_same_tree(const std::string& robot) {
   for (std::size_t k = 0; k < 2; ++k) {
     EXPECT_EQ(d.info["feet"][k]["link"], spec.feet[k].link);
     EXPECT_EQ(d.info["feet"][k]["length"].get<double>(), spec.feet[k].length);
+  }
+  EXPECT_EQ(d.info["inertia_boxes"].get<std::size_t>(), inertia_boxes);
+  if (robot == "h1_2") {
+    EXPECT_GT(inertia_boxes, 20U) << "the H1-2 file has geometry for its feet only";
   }
   if (robot == "g1") {
     EXPECT_GT(meshes, 30U) << "the G1 is drawn with its meshes";

@@ -2,7 +2,7 @@
 /// \file
 /// What the browser needs to draw a robot: a URDF for display written from the loaded description
 /// (every mesh renamed to a URL the viewer serves; links without visual geometry drawn with their
-/// collision geometry; `<mimic>` kept so followers move with their leaders), the mesh files behind
+/// collision geometry, links without either as their inertia's equivalent box; `<mimic>` kept so followers move with their leaders), the mesh files behind
 /// the URLs, and a JSON summary (base link, feet and soles, held and locked joints).
 
 #include <string>
@@ -34,6 +34,11 @@ struct DisplayRobot {
 /// Writes the display description of `robot` and prepares its meshes. Throws mesh::MeshError naming
 /// a mesh file that cannot be read.
 DisplayRobot display_robot(const model::RobotSpec& robot, const DisplayOptions& options = {});
+
+/// The box of uniform density with the link's mass and inertia about its centre of mass (its
+/// physically consistent one), at the centre of mass along the principal axes: how a link without
+/// any geometry is drawn.
+model::Geometry inertia_box(const model::LinkDesc& link);
 
 /// Roll, pitch, yaw of a rotation, URDF convention R = Rz(yaw) Ry(pitch) Rx(roll).
 model::Vector3d rpy_of(const model::Matrix3d& R);
