@@ -138,6 +138,15 @@ void check_joints(const viewer::Timeline& timeline, const model::RobotSpec& robo
   }
 }
 
+/// The page's folder: the source tree's when this is the build tree's viewer, else the installed one
+/// (prefix/bin/viewer -> prefix/share/hpr/viewer/web).
+std::string default_web_dir() {
+  std::error_code ec;
+  if (fs::exists(HPR_VIEWER_WEB_DIR, ec)) return HPR_VIEWER_WEB_DIR;
+  const fs::path exe = fs::read_symlink("/proc/self/exe", ec).parent_path();
+  return (exe / ".." / "share" / "hpr" / "viewer" / "web").lexically_normal().string();
+}
+
 void announce(int port, const std::string& bind, const std::string& what) {
   std::printf("viewer: %s at http://%s:%d/\n", what.c_str(), bind.c_str(), port);
   std::fflush(stdout);
@@ -157,7 +166,7 @@ int main(int argc, char** argv) {
     const double rate = section.real_or("rate_hz", 30.0, 1.0, 120.0);
     opt.playback_rate_hz = rate;
     opt.max_client_buffer = static_cast<std::size_t>(section.integer_or("max_client_buffer_kb", 1024, 16, 1 << 20)) * 1024;
-    opt.web_dir = section.has("web_dir") ? section.file_path("web_dir") : std::string(HPR_VIEWER_WEB_DIR);
+    opt.web_dir = section.has("web_dir") ? section.file_path("web_dir") : default_web_dir();
     if (!fs::exists(fs::path(opt.web_dir) / "node_modules" / "three" / "build" / "three.module.js")) {
       section.fail("web_dir", fmt::format("'{}' lacks node_modules/three: install the page's packages with "
                                           "`npm ci --prefix {}` (tools/install-deps does)", opt.web_dir, opt.web_dir));
