@@ -34,13 +34,19 @@ sim::JointCommand hold_command(const Robot& r, double kp = 1500, double kd = 30)
   return c;
 }
 
+/// The standing robot 5 m up, without gravity: a free-floating body at rest.
+VectorXd float_at_rest(Robot& r, sim::Simulator& s) {
+  VectorXd q = r.spec->standing_configuration();
+  q(2) = 5.0;
+  s.set_state(q, VectorXd::Zero(r.spec->model.nv));
+  return q;
+}
+
 TEST(Simulator, PushedFreeFloatingBodyGainsTheImpulse) {
   Robot r("toro");
   r.sim_config.gravity.setZero();
   sim::Simulator s(*r.spec, r.sim_config);
-  VectorXd q = r.spec->standing_configuration();
-  q(2) = 5.0;
-  s.set_state(q, VectorXd::Zero(r.spec->model.nv));
+  float_at_rest(r, s);
   for (auto profile : {sim::Push::Profile::kRectangle, sim::Push::Profile::kHalfSine}) {
     const Vector3d h0 = s.truth().h_lin_W;
     sim::Push p;
@@ -65,9 +71,7 @@ TEST(Simulator, TruthPushPointIsThePushedPointOfTheLink) {
   Robot r("toro");
   r.sim_config.gravity.setZero();
   sim::Simulator s(*r.spec, r.sim_config);
-  VectorXd q = r.spec->standing_configuration();
-  q(2) = 5.0;
-  s.set_state(q, VectorXd::Zero(r.spec->model.nv));
+  const VectorXd q = float_at_rest(r, s);
   sim::Push p;
   p.id = 3;
   p.link = "torso";
