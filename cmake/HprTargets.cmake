@@ -4,7 +4,10 @@ function(hpr_set_warnings target)
   target_compile_options(${target} PRIVATE
     -Wall -Wextra -Wpedantic -Wshadow -Wnon-virtual-dtor -Wold-style-cast -Wcast-align
     -Woverloaded-virtual -Wdouble-promotion -Wformat=2 -Wimplicit-fallthrough
-    -Wmisleading-indentation -Wduplicated-cond -Wlogical-op)
+    -Wmisleading-indentation)
+  if(CMAKE_CXX_COMPILER_ID STREQUAL "GNU")
+    target_compile_options(${target} PRIVATE -Wduplicated-cond -Wlogical-op)
+  endif()
   if(HPR_WERROR)
     target_compile_options(${target} PRIVATE -Werror)
   endif()
@@ -18,6 +21,10 @@ function(hpr_set_options target)
   if(HPR_SANITIZE)
     target_compile_options(${target} PRIVATE -fsanitize=address,undefined -fno-omit-frame-pointer)
     target_link_options(${target} PRIVATE -fsanitize=address,undefined)
+  endif()
+  if(HPR_BUILD_FUZZERS)
+    # Coverage feedback for libFuzzer from every library the targets call.
+    target_compile_options(${target} PRIVATE -fsanitize=fuzzer-no-link)
   endif()
 endfunction()
 

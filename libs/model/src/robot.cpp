@@ -99,9 +99,9 @@ RobotSpec RobotSpec::load(const Config& c) {
                                  "use it)", urdf, jd.name, why));
     }
   }
-  auto add_frame = [&r](const std::string& name, const std::string& link, const SE3& X_LF) {
-    r.added_frames.push_back(AddedFrame{name, link, X_LF});
-    return r.model.add_frame(name, link, X_LF);
+  auto add_frame = [&r](const std::string& frame_name, const std::string& link, const SE3& X_LF) {
+    r.added_frames.push_back(AddedFrame{frame_name, link, X_LF});
+    return r.model.add_frame(frame_name, link, X_LF);
   };
   const Config feet = c.section("feet");
   for (int k = 0; k < 2; ++k) {

@@ -298,11 +298,11 @@ RobotDescription convert(const urdf::ModelInterface& m, const std::string& sourc
       Geometry g = to_geometry(*v->geometry, v->origin);
       if (v->material) {
         const auto& c = v->material->color;
-        g.rgba = Eigen::Vector4d(c.r, c.g, c.b, c.a);
+        g.rgba = Eigen::Vector4f(c.r, c.g, c.b, c.a).cast<double>();
         // urdfdom leaves a material defined at the top level by name only on the visual.
         if (auto it = m.materials_.find(v->material_name); it != m.materials_.end() && it->second) {
           const auto& mc = it->second->color;
-          g.rgba = Eigen::Vector4d(mc.r, mc.g, mc.b, mc.a);
+          g.rgba = Eigen::Vector4f(mc.r, mc.g, mc.b, mc.a).cast<double>();
         }
       }
       l.visuals.push_back(g);

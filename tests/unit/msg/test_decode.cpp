@@ -64,4 +64,26 @@ TEST(Decode, AHugeJointCountInA92ByteMessageAllocatesNothingLarge) {
   EXPECT_LT(hpr::test::allocated_bytes() - before, 4096);
 }
 
+// A string must end at its terminator: a NUL inside it, or a last byte that is not NUL, makes the
+// message malformed. (lcm-gen's encoder writes a string up to its first NUL, so a decoded string
+// holding one would be re-published as a different, shifted message.)
+TEST(Decode, AStringWithANulInsideOrNoTerminatorIsRefused) {
+  humanoid::health_t m{};
+  m.node = "wbc";
+  m.host = "robot";
+  const auto good = hpr::test::encode(m);
+  humanoid::health_t out{};
+  ASSERT_EQ(out.decode(good.data(), 0, static_cast<int>(good.size())), static_cast<int>(good.size()));
+  EXPECT_EQ(out.node, "wbc");
+  // The node name's bytes follow the hash (8), tick (8), utime (8) and its length (4).
+  const std::size_t at = 8 + 8 + 8 + 4;
+  ASSERT_EQ(good[at], 'w');
+  auto inside = good;
+  inside[at + 1] = 0;  // "w\0c"
+  EXPECT_EQ(out.decode(inside.data(), 0, static_cast<int>(inside.size())), -1);
+  auto unterminated = good;
+  unterminated[at + 3] = 'x';  // "wbcx" where the NUL should be
+  EXPECT_EQ(out.decode(unterminated.data(), 0, static_cast<int>(unterminated.size())), -1);
+}
+
 }  // namespace
