@@ -1,6 +1,6 @@
 // Fuzz target: the YAML configuration loader and the validating loaders of the sections that need
 // no other file. Any text is accepted or refused with ConfigError (naming file, key and value);
-// no other exception escapes, and what is accepted is finite.
+// no other exception escapes, and no number read is NaN.
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
@@ -41,7 +41,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         if (cfg.is_scalar(k)) {
           (void)cfg.string(k);
           refused_only_with_config_error([&] {
-            if (!std::isfinite(cfg.real(k))) std::abort();
+            if (std::isnan(cfg.real(k))) std::abort();  // ±.inf is YAML's own spelling, accepted where the range allows
           });
         }
       }

@@ -177,7 +177,13 @@ std::vector<Config> Config::items(std::string_view key) const {
 std::vector<std::string> Config::keys() const {
   std::vector<std::string> out;
   if (!node_->IsMap()) return out;
-  for (const auto& kv : *node_) out.push_back(kv.first.as<std::string>());
+  for (const auto& kv : *node_) {
+    // A key must be a plain name: YAML allows lists and mappings as keys ("? [a, b]: 1").
+    if (!kv.first.IsScalar()) {
+      throw ConfigError(fmt::format("{}: {}: a key that is not a plain name", where(kv.first), prefix_.empty() ? "(top level)" : prefix_));
+    }
+    out.push_back(kv.first.Scalar());
+  }
   return out;
 }
 

@@ -347,6 +347,36 @@ RobotDescription convert(const urdf::ModelInterface& m, const std::string& sourc
   return d;
 }
 
+/// Where `text` stops being UTF-8 without NUL bytes (npos when it is). TinyXML 2.6 trusts a UTF-8
+/// lead byte's length and reads past the end of the text when the bytes that follow are missing
+/// (found by fuzzing), so only valid text reaches the XML parsers.
+std::size_t first_invalid_utf8(const std::string& text) {
+  const auto* p = reinterpret_cast<const unsigned char*>(text.data());
+  const std::size_t n = text.size();
+  for (std::size_t i = 0; i < n;) {
+    const unsigned char c = p[i];
+    std::size_t len = 0;
+    if (c == 0) return i;
+    if (c < 0x80) {
+      len = 1;
+    } else if ((c & 0xE0) == 0xC0 && c >= 0xC2) {
+      len = 2;
+    } else if ((c & 0xF0) == 0xE0) {
+      len = 3;
+    } else if ((c & 0xF8) == 0xF0 && c <= 0xF4) {
+      len = 4;
+    } else {
+      return i;
+    }
+    if (i + len > n) return i;
+    for (std::size_t k = 1; k < len; ++k) {
+      if ((p[i + k] & 0xC0) != 0x80) return i;
+    }
+    i += len;
+  }
+  return std::string::npos;
+}
+
 // The link and joint names and the parent/child links of every joint, read with TinyXML before
 // urdfdom builds its tree, so that a loop or a link with two parents gets a message naming the joints.
 RobotDescription extract_structure(const std::string& xml, const std::string& source) {
@@ -498,6 +528,11 @@ double RobotDescription::total_mass() const {
 }
 
 RobotDescription parse_urdf(const std::string& xml, const std::string& source, const UrdfOptions& options) {
+  if (const std::size_t bad = first_invalid_utf8(xml); bad != std::string::npos) {
+    const auto line = 1 + std::count(xml.begin(), xml.begin() + static_cast<std::ptrdiff_t>(bad), '\n');
+    throw ModelError(fmt::format("{}:{}: byte {} (0x{:02x}) is not UTF-8 text", source, line, bad,
+                                 static_cast<unsigned>(static_cast<unsigned char>(xml[bad]))));
+  }
   // Structure first, on a tolerant extraction, so that loops and double parents name the joints.
   check_structure(extract_structure(xml, source));
   CaptureHandler capture;

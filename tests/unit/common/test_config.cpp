@@ -47,6 +47,15 @@ TEST(Config, WrongTypeNamesKeyValueAndLine) {
   EXPECT_NE(msg.find("expected a number"), std::string::npos) << msg;
 }
 
+// YAML allows a list or a mapping as a key; a configuration key must be a name (found by fuzzing:
+// the YAML library's conversion error escaped the loader).
+TEST(Config, AKeyThatIsNotANameIsAConfigurationError) {
+  const Config c = Config::parse("wbc:\n  ? [a, b]\n  : 1\n", "stack.yaml");
+  const std::string msg = error_of([&] { c.section("wbc").reject_unknown({"kp"}); });
+  EXPECT_NE(msg.find("stack.yaml:2"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("wbc: a key that is not a plain name"), std::string::npos) << msg;
+}
+
 TEST(Config, OutOfRangeNamesTheRange) {
   const Config c = Config::parse(kYaml, "stack.yaml");
   const std::string msg = error_of([&] { (void)c.section("reference_gen").real("alpha", 0.0, 1.0); });

@@ -60,6 +60,20 @@ TEST(Urdf, ToroHeightAndSoles) {
   EXPECT_NEAR(top - sole_z, 1.74, 0.01);
 }
 
+// Text that is not UTF-8 (a truncated multi-byte character, a NUL) is refused before any XML
+// parser reads it, naming the line and byte (found by fuzzing: TinyXML read past such text's end).
+TEST(Urdf, TextThatIsNotUtf8IsRejectedNamingLineAndByte) {
+  const std::string good = robot(link("base", inertial(1)));
+  EXPECT_EQ(error_of(good), "");
+  EXPECT_EQ(error_of(robot("<!-- caf\xc3\xa9 \xe2\x82\xac -->\n" + link("base", inertial(1)))), "") << "valid UTF-8 is fine";
+  const std::string truncated = robot("\n<link name=\"b\xf3\xf3\">");
+  std::string msg = error_of(truncated);
+  EXPECT_NE(msg.find("test.urdf:3: byte 31"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("(0xf3) is not UTF-8"), std::string::npos) << msg;
+  msg = error_of(robot(std::string("<link name=\"a\0b\"/>", 17)));
+  EXPECT_NE(msg.find("(0x00) is not UTF-8"), std::string::npos) << msg;
+}
+
 TEST(Urdf, MovingLinkWithoutInertiaIsRejected) {
   const std::string msg = error_of(robot(link("base", inertial(1)) + link("arm", "") + joint("j1", "revolute", "base", "arm")));
   EXPECT_NE(msg.find("link 'arm'"), std::string::npos) << msg;
