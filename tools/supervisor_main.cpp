@@ -132,6 +132,7 @@ const char* health_text(int s) {
     case humanoid::health_t::STATE_DEGRADED: return "degraded";
     case humanoid::health_t::STATE_FAULT: return "FAULT";
     case humanoid::health_t::STATE_STOPPING: return "stopping";
+    case humanoid::supervisor_status_t::HEALTH_HUNG: return "HUNG";
     default: return "-";
   }
 }
@@ -163,7 +164,7 @@ std::string render(const std::vector<Status>& hosts) {
                          h.health_state[i] >= 0 ? std::to_string(h.deadline_misses[i]) : "-", health_text(h.health_state[i]), h.detail[i]);
     }
   }
-  out << "(* critical: its death commands OPERATOR damp)\n";
+  out << "(* critical: its death, or a HEALTH silence longer than its hung_after, commands OPERATOR damp)\n";
   return out.str();
 }
 
@@ -184,11 +185,13 @@ Status make_status(const launch::Supervisor& sup, std::int64_t seq, const std::s
     m.uptime_s.push_back(p.pid > 0 ? now - p.started_at : 0.0);
     m.restarts.push_back(p.restarts);
     m.critical.push_back(p.critical ? 1 : 0);
-    m.health_state.push_back(static_cast<int8_t>(p.health_state));
+    m.health_state.push_back(p.hung ? humanoid::supervisor_status_t::HEALTH_HUNG : static_cast<int8_t>(p.health_state));
     m.rate_hz.push_back(p.rate_hz);
     m.deadline_misses.push_back(p.deadline_misses);
     // A running process's detail is what its HEALTH reports wrong; an ended one's how it ended.
-    m.detail.push_back(p.detail.empty() ? p.faults : p.faults.empty() ? p.detail : p.detail + "; " + p.faults);
+    std::string detail = p.detail.empty() ? p.faults : p.faults.empty() ? p.detail : p.detail + "; " + p.faults;
+    if (p.hung) detail = "no HEALTH: stopped, stuck or starved" + (detail.empty() ? "" : "; last: " + detail);
+    m.detail.push_back(detail);
   }
   m.num_processes = static_cast<int32_t>(m.name.size());
   return m;
@@ -227,13 +230,18 @@ class Subscription {
 };
 
 /// Handles LCM messages for up to `timeout_s`.
+/// Handles messages for `timeout_s`, and always whatever is already queued: a supervisor that was
+/// not scheduled for a while reads the HEALTH sent meanwhile before it judges any node hung.
 void handle_for(lcm::LCM& lcm, double timeout_s) {
   const double end = monotonic_s() + timeout_s;
   while (!g_stop) {
-    const double left = end - monotonic_s();
-    if (left <= 0) break;
+    const double left = std::max(0.0, end - monotonic_s());
     pollfd p{lcm.getFileno(), POLLIN, 0};
-    if (poll_for({&p, 1}, left) > 0 && (p.revents & POLLIN) != 0) lcm.handle();
+    if (poll_for({&p, 1}, left) > 0 && (p.revents & POLLIN) != 0) {
+      lcm.handle();
+    } else if (left <= 0) {
+      break;
+    }
   }
 }
 
@@ -320,7 +328,7 @@ int run_supervisor(const launch::GroupSpec& group, const Options& o, const std::
       last_event = line;
       changed = true;
       using K = launch::SupervisorEvent::Kind;
-      if (e.kind == K::kCriticalDied && !down_started) publish_damp(e.text);
+      if ((e.kind == K::kCriticalDied || e.kind == K::kCriticalHung) && !down_started) publish_damp(e.text);
       if (e.kind == K::kGroupUp) notify("up\n" + render({make_status(sup, seq, last_event, now)}));
       if (e.kind == K::kGroupFailed) {
         failed = true;

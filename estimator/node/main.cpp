@@ -59,6 +59,7 @@ int main(int argc, char** argv) {
         std::string last_kind;  // what a refusal is about (text before ':'), for the log
         double last_warn = -1e9;
         int unlogged = 0;
+        rt.on_restart(sensors, [&] { est.reset(); });
         rt.on_tick(sensors, {}, 0.0, [&](const node::TickInfo&) {
           const EstimatedState& s = est.update(sample);
           if (stale) {

@@ -94,6 +94,7 @@ int run(const node::CommandLine& cl, const Config& cfg) {
     if (why.empty()) why = h.set_command(command, hal_now());
     return why;  // rejected commands are counted by the runtime and by the hal, never sent
   });
+  command_in.follow_ticks();  // a forged or corrupted tick is held back, never applied
   rt.subscribe<humanoid::operator_t>("OPERATOR", {}, [&](const humanoid::operator_t& m) {
     const std::string what = h.operator_command(m.command, hal_now(), m.source.empty() ? "operator" : m.source);
     if (!what.empty()) log::info("OPERATOR {}: {}{}", m.command, what, m.reason.empty() ? "" : " (" + m.reason + ")");

@@ -70,7 +70,11 @@ int main(int argc, char** argv) {
         auto out = rt.advertise<humanoid::wholebody_command_t>("WHOLEBODY_COMMAND");
         humanoid::wholebody_command_t msg{};
         std::vector<node::Sync> sync;
-        if (wait) sync.push_back({&cam_in, 0, {}});
+        if (wait) sync.push_back({&cam_in, 0, {}, true});  // optional: without it, the posture task only
+        rt.on_restart(state_in, [&] {
+          reference.reset();
+          opt.reset();
+        });
         rt.on_tick(state_in, sync, timeout, [&](const node::TickInfo& info) {
           if (!reference.started()) {
             // The posture reference starts from the first usable estimate; nothing goes out before it

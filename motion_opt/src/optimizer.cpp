@@ -327,4 +327,13 @@ const MotionOptOutput& MotionOptimizer::step(const VectorXd& q, const VectorXd& 
   return out_;
 }
 
+void MotionOptimizer::reset() {
+  delta_.setZero();
+  delta_dot_.setZero();
+  delta_dot_prev_.setZero();
+  delta_acc_.setZero();
+  l_cmd_prev_.setZero();
+  last_set_.clear();
+}
+
 }  // namespace hpr::motion_opt

@@ -99,7 +99,8 @@ int main(int argc, char** argv) {
         auto out = rt.advertise<humanoid::cam_reference_t>("CAM_REFERENCE");
         humanoid::cam_reference_t msg{};
         std::vector<node::Sync> sync;
-        if (wait) sync.push_back({&balance, -1, {}});
+        if (wait) sync.push_back({&balance, -1, {}, true});  // optional: without it, the reference ramps to zero
+        rt.on_restart(state, [&] { gen.reset(); });
         rt.on_tick(state, sync, timeout, [&](const node::TickInfo& info) {
           const auto& s = state.latest();
           const double t = static_cast<double>(s.utime) * 1e-6;

@@ -127,6 +127,8 @@ ReferenceGenerator::ReferenceGenerator(GeneratorConfig config) : config_(config)
   for (int i = 0; i < 3; ++i) axes_[static_cast<size_t>(i)] = AxisGenerator(config_.axes[static_cast<size_t>(i)]);
 }
 
+void ReferenceGenerator::reset() { *this = ReferenceGenerator(config_); }
+
 void ReferenceGenerator::set_axis_params(int i, AxisParams p) {
   config_.axes[static_cast<size_t>(i)] = p;
   axes_[static_cast<size_t>(i)].params() = p;

@@ -32,6 +32,7 @@ SimNode::SimNode(node::Runtime& rt, Simulator& sim, SimNodeOptions options)
         if (!sim_.set_command(c, &refused)) return refused;
         return std::string();
       });
+  command_in_->follow_ticks();  // a forged or corrupted tick is held back, never applied
   rt.subscribe<humanoid::push_t>("PUSH", {}, [this](const humanoid::push_t& p) {
     std::string why;
     const auto push = from_message(p, sim_.robot().model, &why);
@@ -71,8 +72,14 @@ int SimNode::run() {
   return rc;
 }
 
+void SimNode::report_fall() {
+  if (!sim_.truth().fallen || fallen_reported_) return;
+  fallen_reported_ = true;
+  log::warn("the robot fell at t = {:.3f} s", sim_.time());
+  rt_.set_fault("fallen", fmt::format("the robot fell at t = {:.3f} s", sim_.time()));
+}
+
 int SimNode::run_lockstep() {
-  bool fallen_reported = false;
   while (!rt_.stop_requested()) {
     if (options_.duration > 0 && sim_.time() >= options_.duration - 1e-9) break;
     publish();
@@ -89,10 +96,7 @@ int SimNode::run_lockstep() {
     const double t0 = monotonic_s();
     sim_.step();
     rt_.record_step(k, monotonic_s() - t0);
-    if (sim_.truth().fallen && !fallen_reported) {
-      fallen_reported = true;
-      log::warn("the robot fell at t = {:.3f} s", sim_.time());
-    }
+    report_fall();
   }
   return node::kExitOk;
 }
@@ -105,6 +109,7 @@ int SimNode::run_realtime() {
     sim_.step();
     publish();
     rt_.record_step(sim_.tick(), monotonic_s() - t0);
+    report_fall();
     clock.next();  // far behind (0.1 s): the clock restarts rather than bursting
     if (clock.left() < 0) ++late_;  // the step overran into the next period
     // Handle messages until the next period starts.

@@ -35,6 +35,8 @@ class SimNode {
 
  private:
   void publish();
+  /// Logs the first fall (once), in every mode, and shows it in HEALTH.
+  void report_fall();
   int run_lockstep();
   int run_realtime();
 
@@ -49,6 +51,7 @@ class SimNode {
   humanoid::sim_truth_t truth_msg_;
   JointCommand command_;
   std::int64_t missed_ = 0, late_ = 0;
+  bool fallen_reported_ = false;
 };
 
 }  // namespace hpr::sim

@@ -71,11 +71,19 @@ WbcNode::WbcNode(node::Runtime& rt, const model::RobotSpec& robot, WholeBodyCont
   // The motion optimiser's command of the tick, unless this tick only damps (operator damp, or an
   // estimate nothing may act on: motion_opt then publishes nothing).
   if (options_.wait_for_wholebody) {
-    sync.push_back({wholebody_in_, 0, [this] {
-                      return !damping_ && (options_.use_sim_truth || (state_.status & msg::kStateUnusable) == 0);
-                    }});
+    // Optional: with the motion optimiser gone, the wbc runs its own posture reference (the ankle
+    // strategy) at full rate.
+    sync.push_back({wholebody_in_, 0,
+                    [this] { return !damping_ && (options_.use_sim_truth || (state_.status & msg::kStateUnusable) == 0); },
+                    true});
   }
   node::InputBase& primary = options_.use_sim_truth ? static_cast<node::InputBase&>(*sensors_in_) : *state_in_;
+  rt.on_restart(primary, [this] {
+    // The posture reference starts again from the next usable estimate; an operator damp stays.
+    reference_.reset();
+    bad_state_count_ = 0;
+    have_wholebody_ = false;
+  });
   rt.on_tick(primary, sync, options_.wait_for_wholebody ? options_.wholebody_timeout : options_.state_timeout,
              [this](const node::TickInfo& info) {
                if (options_.use_sim_truth) {

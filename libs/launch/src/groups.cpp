@@ -17,7 +17,7 @@ namespace {
 const std::vector<std::string> kProcessKeys = {
     "command", "args",          "env",     "host",    "depends_on", "ready",        "health_node",
     "ready_timeout", "restart", "backoff", "backoff_max", "max_restarts", "stop_signal", "stop_timeout",
-    "cpus", "rt_priority", "critical"};
+    "cpus", "rt_priority", "critical", "hung_after"};
 
 /// ${name} → its value from `vars`, else the environment; an unknown name fails naming `key` of `where`.
 std::string expand(const std::string& text, const std::map<std::string, std::string>& vars, const Config& where,
@@ -100,6 +100,15 @@ ProcessSpec parse_process(const std::string& name, const Config& p, const std::o
   }
   if (const Config* c = src.of("rt_priority")) s.rt_priority = static_cast<int>(c->integer("rt_priority", 0, 99));
   if (const Config* c = src.of("critical")) s.critical = c->boolean("critical");
+  if (const Config* c = src.of("hung_after")) {
+    s.hung_after_s = c->real("hung_after", 0.0, 3600.0);
+    if (s.hung_after_s > 0 && s.ready_on != ReadyOn::kHealth) {
+      // The default does not apply to a process that sends no HEALTH; its own key is a mistake.
+      if (c == &p) c->fail("hung_after", "needs ready: health (a process that sends no HEALTH cannot be watched)");
+      s.hung_after_s = 0.0;
+    }
+    if (s.hung_after_s > 0 && s.hung_after_s < 0.01) c->fail("hung_after", "must be 0 (not watched) or at least 0.01 s");
+  }
   return s;
 }
 
@@ -163,7 +172,7 @@ GroupsFile GroupsFile::load(const std::string& path, const std::map<std::string,
   std::map<std::string, std::vector<std::string>> includes;
   for (const auto& gname : groups.keys()) {
     const Config g = groups.section(gname);
-    g.reject_unknown({"description", "default_host", "include", "processes"});
+    g.reject_unknown({"description", "default_host", "include", "processes", "overrides"});
     GroupSpec spec;
     spec.name = gname;
     spec.description = g.string_or("description", "");
@@ -201,6 +210,19 @@ GroupsFile GroupsFile::load(const std::string& path, const std::map<std::string,
     mark[gname] = 2;
   };
   for (const auto& gname : f.names) resolve(gname);
+
+  // A group's overrides apply to every process it runs, its own and the included ones (a lockstep
+  // variant of a group runs the same processes without real-time priorities).
+  for (const auto& gname : f.names) {
+    const Config g = groups.section(gname);
+    if (!g.has("overrides")) continue;
+    const Config o = g.section("overrides");
+    o.reject_unknown({"rt_priority", "hung_after"});
+    for (auto& p : f.groups[gname].processes) {
+      if (o.has("rt_priority")) p.rt_priority = static_cast<int>(o.integer("rt_priority", 0, 99));
+      if (o.has("hung_after") && p.hung_after_s > 0) p.hung_after_s = o.real("hung_after", 0.01, 3600.0);
+    }
+  }
 
   // Dependencies: known names, no cycles; processes put in start order (stable otherwise).
   for (const auto& gname : f.names) {

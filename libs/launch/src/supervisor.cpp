@@ -9,6 +9,8 @@
 #include <fstream>
 #include <stdexcept>
 
+#include <fmt/format.h>
+
 namespace hpr::launch {
 
 const char* to_string(ProcessState s) {
@@ -129,6 +131,11 @@ void Supervisor::on_health(const std::string& node, int state, double rate_hz, s
     status_[i].deadline_misses = deadline_misses;
     status_[i].faults.clear();
     for (const auto& f : faults) status_[i].faults += (status_[i].faults.empty() ? "" : "; ") + f;
+    if (status_[i].hung) {
+      status_[i].hung = false;
+      emit(SupervisorEvent::Kind::kWarning, status_[i].name,
+           fmt::format("answering again after {:.3f} s without HEALTH (a damp it caused stays until an enable)", now - slots_[i].health_seen_at));
+    }
     slots_[i].health_seen_at = now;
   }
 }
@@ -142,6 +149,8 @@ void Supervisor::start(std::size_t i, double now) {
   o.append_log = true;
   o.cpus = p.cpus;
   o.rt_priority = p.rt_priority;
+  // A watched node must report often enough to be judged within hung_after.
+  if (p.hung_after_s > 0) o.env["HPR_HEALTH_RATE_HZ"] = fmt::format("{:.1f}", kHealthPerHungTime / p.hung_after_s);
   {
     // A header per start, so that a restart is visible in the process's log.
     std::ofstream log(o.log_file, std::ios::app);
@@ -165,6 +174,7 @@ void Supervisor::start(std::size_t i, double now) {
   s.health_state = -1;
   s.rate_hz = 0;
   s.faults.clear();
+  s.hung = false;
   slots_[i].health_seen_at = -1;
   slots_[i].killed = false;
   slots_[i].restart_after_stop = false;
@@ -192,6 +202,7 @@ void Supervisor::handle_end(std::size_t i, const ProcessResult& r, double now) {
   s.health_state = -1;
   s.rate_hz = 0;
   s.faults.clear();
+  s.hung = false;
   if (s.state == ProcessState::kStopping) {
     if (slot.failed_readiness) {
       s.state = ProcessState::kFailed;
@@ -227,6 +238,23 @@ void Supervisor::step(double now) {
     if (!running_state(status_[i].state) || status_[i].pid <= 0) continue;
     if (launcher_.running(status_[i].pid)) continue;
     handle_end(i, launcher_.wait(status_[i].pid, std::chrono::milliseconds(0)), now);
+  }
+  // Watched processes whose HEALTH stopped: hung (stopped, stuck in a step, or starved). Judged only
+  // when this supervisor itself ran a moment ago: after it was not scheduled for a while, the HEALTH
+  // sent meanwhile is still queued, and a silence it measures now would be its own.
+  const bool awake = last_step_ >= 0 && now - last_step_ <= kMaxJudgingGap;
+  last_step_ = now;
+  for (std::size_t i = 0; i < status_.size() && awake; ++i) {
+    ProcessStatus& s = status_[i];
+    const Slot& slot = slots_[i];
+    const double after = slot.spec->hung_after_s;
+    if (after <= 0 || s.hung || s.state != ProcessState::kReady || s.pid <= 0 || slot.health_seen_at < s.started_at) continue;
+    if (now - slot.health_seen_at <= after) continue;
+    s.hung = true;
+    const std::string text = fmt::format("{}hung: no HEALTH for {:.0f} ms (hung_after {:.0f} ms)", s.critical ? "(critical) " : "",
+                                         (now - slot.health_seen_at) * 1e3, after * 1e3);
+    emit(s.critical ? SupervisorEvent::Kind::kCriticalHung : SupervisorEvent::Kind::kWarning, s.name,
+         s.critical ? s.name + " " + text : text);
   }
   // Stops that outlast their grace period.
   for (std::size_t i = 0; i < status_.size(); ++i) {
@@ -302,7 +330,7 @@ void Supervisor::update_group_state() {
     }
     emit(SupervisorEvent::Kind::kGroupFailed, "", "group '" + group_.name + "' failed to come up: " + why);
   } else if (std::all_of(status_.begin(), status_.end(), [](const ProcessStatus& s) { return s.state == ProcessState::kReady; })) {
-    const bool unhealthy = any([](const ProcessStatus& s) { return s.health_state >= 2 && s.health_state <= 3; });
+    const bool unhealthy = any([](const ProcessStatus& s) { return s.hung || (s.health_state >= 2 && s.health_state <= 3); });
     state_ = unhealthy && announced_up_ ? GroupState::kDegraded : GroupState::kUp;
     if (!announced_up_) {
       announced_up_ = true;

@@ -9,10 +9,13 @@
 #include <cerrno>
 #include <cmath>
 #include <csignal>
+#include <cstdlib>
 #include <cstring>
 #include <humanoid/health_t.hpp>
 #include <humanoid/operator_t.hpp>
 #include <humanoid/params_t.hpp>
+
+#include <fmt/format.h>
 
 #include "hpr/node/command_line.hpp"
 #include "hpr/node/lcm_url.hpp"
@@ -53,9 +56,11 @@ std::string host_name() {
 }  // namespace
 
 void InputBase::accept(std::int64_t tick) {
+  receive_time_ = monotonic_s();
+  // A repeated tick (a source republishing while it waits) does not show that its clock runs.
+  if (tick > tick_ || tick_ < 0) advance_time_ = receive_time_;
   tick_ = tick;
   ++count_;
-  receive_time_ = monotonic_s();
   runtime_.on_input(*this);
 }
 
@@ -65,9 +70,53 @@ void InputBase::reject(std::size_t bytes, const std::string& why) {
   runtime_.on_reject(*this, bytes, why);
 }
 
+bool InputBase::in_window(std::int64_t tick) const {
+  return tick_ < 0 || (tick >= tick_ && tick - tick_ <= runtime_.options_.tick_window);
+}
+
+void InputBase::hold(std::size_t bytes, std::int64_t tick) {
+  const double now = monotonic_s();
+  held_ = true;
+  held_tick_ = tick;
+  ++out_of_window_;
+  const std::string where = tick > tick_ ? fmt::format("{} ahead of", tick - tick_) : fmt::format("{} behind", tick_ - tick);
+  reject(bytes, fmt::format("tick {} is {} the last tick {} (window {}): held until the stream is quiet for {} s",
+                            tick, where, tick_, runtime_.options_.tick_window, runtime_.options_.source_quiet_s));
+  follow_if_quiet(now);
+}
+
+double InputBase::follow_time() const {
+  if (!held_) return std::numeric_limits<double>::infinity();
+  return advance_time_ + runtime_.options_.source_quiet_s;
+}
+
+void InputBase::follow_if_quiet(double now) {
+  if (!held_ || now < follow_time()) return;
+  const std::int64_t old_tick = tick_, new_tick = held_tick_;
+  const double quiet = now - advance_time_;
+  restart_stream();
+  ++follows_;
+  log::warn("{}: following tick {} (no tick near {} for {:.3f} s: the source restarted or its clock jumped)", channel_,
+            new_tick, old_tick, quiet);
+  runtime_.on_follow(*this, old_tick, new_tick);
+  adopt_held();
+}
+
+void InputBase::restart_stream() { tick_ = -1; }
+
 Runtime::Runtime(std::string node_name, const std::string& lcm_url, RuntimeOptions options)
     : name_(std::move(node_name)), options_(std::move(options)) {
   install_signal_handlers();
+  // A supervisor that watches this node for hangs asks for HEALTH often enough to judge it.
+  if (const char* env = std::getenv("HPR_HEALTH_RATE_HZ")) {
+    char* end = nullptr;
+    const double hz = std::strtod(env, &end);
+    if (end != env && *end == '\0' && std::isfinite(hz) && hz >= 0.1 && hz <= 1000.0) {
+      options_.health_period_s = std::min(options_.health_period_s, 1.0 / hz);
+    } else {
+      log::warn("HPR_HEALTH_RATE_HZ='{}' ignored: expected a rate in [0.1, 1000] Hz", env);
+    }
+  }
   lcm_ = open_lcm(lcm_url);
   start_time_ = monotonic_s();
   last_health_ = start_time_ - options_.health_period_s;  // first HEALTH at once
@@ -78,7 +127,16 @@ Runtime::~Runtime() = default;
 bool Runtime::stop_requested() const { return stop_ || g_signalled.load(); }
 
 void Runtime::on_tick(InputBase& primary, std::vector<Sync> synced, double timeout_s, StepFn step) {
-  triggers_.push_back(Trigger{&primary, std::move(synced), timeout_s, std::move(step)});
+  primary.follow_ticks();
+  for (auto& s : synced) s.input->follow_ticks();
+  const std::size_t n = synced.size();
+  Trigger t{&primary, std::move(synced), timeout_s, std::move(step), -1, -1, 0.0, std::vector<char>(n, 0)};
+  triggers_.push_back(std::move(t));
+}
+
+void Runtime::on_restart(InputBase& primary, std::function<void()> reset) {
+  primary.follow_ticks();
+  restarts_.emplace_back(&primary, std::move(reset));
 }
 
 void Runtime::every(double period_s, std::function<void()> fn) {
@@ -88,6 +146,13 @@ void Runtime::every(double period_s, std::function<void()> fn) {
 void Runtime::on_input(InputBase& in) {
   const double now = monotonic_s();
   for (auto& t : triggers_) {
+    for (std::size_t i = 0; i < t.synced.size(); ++i) {
+      if (t.synced[i].input == &in && t.absent[i] != 0) {
+        t.absent[i] = 0;
+        clear_fault("absent:" + in.channel());
+        log::info("{} is back at tick {}: waited for again", in.channel(), in.tick());
+      }
+    }
     if (t.primary == &in && in.tick() > t.last_tick && in.tick() != t.pending_tick) {
       // A newer primary tick while one is still waiting for its synced inputs: the robot's clock has
       // moved on, so the newest tick is served at once with the inputs at hand (timed_out) rather
@@ -111,18 +176,61 @@ void Runtime::on_reject(InputBase& in, std::size_t bytes, const std::string& why
   set_fault("decode:" + in.channel(), in.channel() + ": " + why, false, options_.decode_fault_quiet_s);
 }
 
+void Runtime::on_follow(InputBase& in, std::int64_t old_tick, std::int64_t new_tick) {
+  for (auto& t : triggers_) {
+    if (t.primary != &in) continue;
+    // The clock this trigger stepped on is gone: step the new one from its tick, and take the
+    // synced inputs' next ticks as they come (their sources restarted too, or will).
+    t.last_tick = -1;
+    t.pending_tick = -1;
+    for (auto& s : t.synced) {
+      if (s.input->tick() > new_tick + s.tick_offset) s.input->restart_stream();
+      s.input->follow_if_quiet(std::numeric_limits<double>::infinity());
+    }
+  }
+  for (auto& [input, reset] : restarts_) {
+    if (input == &in) reset();
+  }
+  set_fault("follow:" + in.channel(), fmt::format("{} followed a new tick stream at tick {} (was {})", in.channel(), new_tick, old_tick),
+            false, options_.decode_fault_quiet_s);
+}
+
+void Runtime::mark_absent(Trigger& t, std::size_t i) {
+  t.absent[i] = 1;
+  const InputBase& in = *t.synced[i].input;
+  const std::string text = fmt::format("{} absent since tick {}: stepping without it", in.channel(), t.pending_tick);
+  log::warn("{} (no message within {} s)", text, t.timeout_s);
+  set_fault("absent:" + in.channel(), text);
+}
+
+void Runtime::follow_quiet_streams(double now) {
+  for (auto& in : inputs_) in->follow_if_quiet(now);
+}
+
 void Runtime::check_triggers(double now) {
   for (auto& t : triggers_) {
     if (t.pending_tick < 0 || t.pending_tick <= t.last_tick) continue;
     TickInfo info;
     info.tick = t.pending_tick;
-    for (const auto& s : t.synced) {
-      if (s.input->tick() < t.pending_tick + s.tick_offset && (!s.needed || s.needed())) info.late.push_back(s.input);
+    bool waiting = false;
+    for (std::size_t i = 0; i < t.synced.size(); ++i) {
+      const Sync& s = t.synced[i];
+      if (s.input->tick() < t.pending_tick + s.tick_offset && (!s.needed || s.needed())) {
+        info.late.push_back(s.input);
+        // An optional input silent for a whole timeout is absent, however the steps were released.
+        if (s.optional && t.absent[i] == 0 && s.input->has_value() && now - s.input->receive_time() > t.timeout_s) mark_absent(t, i);
+        waiting = waiting || t.absent[i] == 0;
+      }
     }
+    if (waiting && now < t.deadline) continue;
     if (!info.late.empty()) {
-      if (now < t.deadline) continue;
       info.timed_out = true;
       ++stale_inputs_;
+    }
+    for (std::size_t i = 0; i < t.synced.size() && waiting; ++i) {
+      const Sync& s = t.synced[i];
+      if (!s.optional || t.absent[i] != 0 || std::find(info.late.begin(), info.late.end(), s.input) == info.late.end()) continue;
+      mark_absent(t, i);
     }
     t.last_tick = t.pending_tick;
     const double t0 = monotonic_s();
@@ -168,11 +276,13 @@ double Runtime::next_wakeup(double now) const {
   for (const auto& t : triggers_) {
     if (t.pending_tick > t.last_tick) next = std::min(next, t.deadline);
   }
+  for (const auto& in : inputs_) next = std::min(next, in->follow_time());
   return std::max(next, now);
 }
 
 void Runtime::spin_once(double timeout_s) {
   double now = monotonic_s();
+  follow_quiet_streams(now);
   run_timers(now);
   check_triggers(now);
   const double wake = std::min(next_wakeup(now), now + std::max(0.0, timeout_s));
@@ -342,6 +452,8 @@ RuntimeOptions runtime_options(const Config& cfg, double deadline_s) {
     o.channel_prefix = l.string_or("channel_prefix", "");
     o.health_period_s = 1.0 / l.real_or("health_rate_hz", 10.0, 0.1, 1000.0);
     o.decode_fault_quiet_s = l.real_or("decode_fault_quiet_s", o.decode_fault_quiet_s, 0.0, 3600.0);
+    o.tick_window = l.integer_or("tick_window", o.tick_window, 1, 1'000'000'000);
+    o.source_quiet_s = l.real_or("source_quiet_s", o.source_quiet_s, 1e-3, 3600.0);
   }
   return o;
 }

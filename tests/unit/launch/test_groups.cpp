@@ -50,8 +50,18 @@ TEST(Groups, ShippedFileHasEveryBackendWithTheSameControlProcesses) {
       EXPECT_EQ(p->args.back(), std::string(HPR_SOURCE_DIR) + "/config/toro.yaml");
     }
     EXPECT_TRUE(group.find("wbc")->critical);
+    // The critical nodes are watched for hangs closely enough to damp within 100 ms.
+    for (const char* c : {"estimator", "wbc"}) {
+      EXPECT_GT(group.find(c)->hung_after_s, 0.0) << g << "/" << c;
+      EXPECT_LE(group.find(c)->hung_after_s, 0.05) << g << "/" << c;
+    }
   }
   EXPECT_NE(f.group("sim").find("sim_bullet"), nullptr);
+  // The lockstep groups override the control processes' real-time priorities, the real-time ones keep them.
+  EXPECT_EQ(f.group("sim").find("wbc")->rt_priority, 70);
+  for (const char* g : {"sim-lockstep", "hil-lockstep"}) {
+    for (const auto& p : f.group(g).processes) EXPECT_EQ(p.rt_priority, 0) << g << "/" << p.name;
+  }
   EXPECT_NE(f.group("hil").find("drive_emulator"), nullptr);
   EXPECT_NE(f.group("hardware").find("hal"), nullptr);
   // The backend starts first; each process after what it depends on.
@@ -119,6 +129,10 @@ TEST(Groups, MalformedEntriesNameFileKeyAndValue) {
       {"      a: {command: a, stop_timeout: -1}\n", "groups.g.processes.a.stop_timeout = -1"},
       {"      a: {command: a, cpus: [0.5]}\n", "groups.g.processes.a.cpus"},
       {"      a: {args: [x]}\n", "groups.g.processes.a.command"},
+      {"      a: {command: a, hung_after: -1}\n", "groups.g.processes.a.hung_after = -1"},
+      {"      a: {command: a, hung_after: 0.001}\n", "groups.g.processes.a.hung_after = 0.001: must be 0"},
+      {"      a: {command: a, ready: start, hung_after: 0.1}\n", "groups.g.processes.a.hung_after = 0.1: needs ready: health"},
+      {"    overrides: {rt_priorty: 0}\n    processes:\n      a: {command: a}\n", "groups.g.overrides.rt_priorty"},
   };
   for (const auto& c : cases) {
     const std::string msg = error_of(head + c.body);

@@ -176,6 +176,85 @@ TEST(Supervisor, CriticalDeathIsReportedAtOnce) {
   EXPECT_EQ(f.sup->state(), GroupState::kDegraded);
 }
 
+TEST(Supervisor, AWatchedProcessWhoseHealthStopsIsHungAndACriticalOneIsReported) {
+  // The supervisor's clock is the caller's: HEALTH arrivals and steps at chosen times.
+  const std::string rate_file =
+      (std::filesystem::temp_directory_path() / ("hpr_sup_rate_" + std::to_string(::getpid()))).string();
+  std::filesystem::remove(rate_file);
+  ProcessSpec c = proc("controller", "echo $HPR_HEALTH_RATE_HZ > " + rate_file + "; exec sleep 30"),
+              m = proc("monitor", "exec sleep 30"), u = proc("unwatched", "exec sleep 30");
+  c.critical = true;
+  c.hung_after_s = 0.05;
+  m.hung_after_s = 0.5;
+  Fixture f({c, m, u});
+  const double t0 = hpr::monotonic_s();
+  f.sup->up(t0);
+  double t = t0;
+  // Steps every 10 ms up to t0 + `until` (the supervisor's loop).
+  auto advance = [&](double until) {
+    while (t + 0.01 < t0 + until) {
+      t += 0.01;
+      f.sup->step(t);
+    }
+    t = t0 + until;
+    f.sup->step(t);
+  };
+  auto health = [&](const std::string& n, double at) { f.sup->on_health(n, 1, 1000.0, 0, {}, t0 + at); };
+  for (const char* n : {"controller", "monitor", "unwatched"}) health(n, 0.01);
+  advance(0.02);
+  ASSERT_EQ(f.sup->state(), GroupState::kUp);
+  health("controller", 0.03);
+  advance(0.079);  // 49 ms of silence: not yet
+  EXPECT_FALSE(f.st("controller").hung);
+  advance(0.081);  // 51 ms
+  EXPECT_TRUE(f.st("controller").hung);
+  EXPECT_FALSE(f.st("monitor").hung);
+  auto events = f.sup->take_events();
+  const auto hung = std::find_if(events.begin(), events.end(), [](const SupervisorEvent& e) { return e.kind == Kind::kCriticalHung; });
+  ASSERT_NE(hung, events.end());
+  EXPECT_EQ(hung->process, "controller");
+  EXPECT_NE(hung->text.find("no HEALTH for 51 ms"), std::string::npos) << hung->text;
+  EXPECT_EQ(f.sup->state(), GroupState::kDegraded);
+  // Reported once, not every step.
+  advance(0.2);
+  events = f.sup->take_events();
+  EXPECT_EQ(std::count_if(events.begin(), events.end(), [](const SupervisorEvent& e) { return e.kind == Kind::kCriticalHung; }), 0);
+  // A watched process that is not critical: a warning, no damp.
+  advance(0.52);
+  EXPECT_TRUE(f.st("monitor").hung);
+  events = f.sup->take_events();
+  EXPECT_EQ(std::count_if(events.begin(), events.end(), [](const SupervisorEvent& e) { return e.kind == Kind::kCriticalHung; }), 0);
+  EXPECT_TRUE(std::any_of(events.begin(), events.end(), [](const SupervisorEvent& e) {
+    return e.kind == Kind::kWarning && e.process == "monitor" && e.text.find("hung") != std::string::npos;
+  }));
+  EXPECT_FALSE(f.st("unwatched").hung) << "hung_after 0 is not watched";
+  // HEALTH again: no longer hung.
+  health("controller", 0.6);
+  health("monitor", 0.6);
+  advance(0.61);
+  EXPECT_FALSE(f.st("controller").hung);
+  EXPECT_FALSE(f.st("monitor").hung);
+  EXPECT_EQ(f.sup->state(), GroupState::kUp);
+  // The supervisor itself was not scheduled for 200 ms: the first step after that does not judge
+  // (the HEALTH sent meanwhile is still queued), the next one, after reading it, finds none hung.
+  t += 0.2;
+  f.sup->step(t);
+  EXPECT_FALSE(f.st("controller").hung) << "the supervisor's own gap was taken for the node's silence";
+  health("controller", t - t0);
+  advance(t - t0 + 0.01);
+  EXPECT_FALSE(f.st("controller").hung);
+  // The watched node was asked for HEALTH at 4 per hung_after: 80 Hz.
+  std::string rate;
+  for (int i = 0; i < 200 && rate.empty(); ++i) {
+    std::ifstream in(rate_file);
+    std::getline(in, rate);
+    if (rate.empty()) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  EXPECT_EQ(rate, "80.0");
+  f.sup->down(hpr::monotonic_s());
+  ASSERT_TRUE(f.run_until([&] { return f.sup->all_ended(); }, 10.0));
+}
+
 TEST(Supervisor, NotReadyBeforeTheDeadlineFailsTheGroupAndStopsTheProcess) {
   ProcessSpec p = proc("silent", "exec sleep 30");
   p.ready_timeout_s = 0.2;

@@ -100,6 +100,8 @@ class MotionOptimizer {
   [[nodiscard]] const Eigen::VectorXd& offsets() const { return delta_; }
   /// Sets the offsets (a deflected posture, for tests and tools).
   void set_offsets(const Eigen::VectorXd& delta) { delta_ = delta; }
+  /// Offsets and their rates back to zero, no active set kept (for a clock that restarted).
+  void reset();
   /// The QP data of the last tick (for tests): H, g and the bounds over the adjusted coordinates.
   [[nodiscard]] const qp::Solver& solver() const { return *solver_; }
 

@@ -106,6 +106,9 @@ class ReferenceGenerator {
   /// One tick at time t. `balance` is the latest BALANCE_STATUS (its time says how old it is);
   /// `posture_error` the motion optimisation's distance to the reference posture.
   const CamReference& step(double t, double dt, const BalanceInput& balance, bool balance_valid, double posture_error);
+  /// Back to the state after construction (every axis in its first phase), keeping the parameters:
+  /// for a clock that restarted.
+  void reset();
 
   [[nodiscard]] const CamReference& output() const { return out_; }
   [[nodiscard]] const AxisGenerator& axis(int i) const { return axes_[static_cast<size_t>(i)]; }

@@ -57,6 +57,8 @@ class PostureReference {
 
   /// Starts from the measured state (q in the model's coordinates, soles on the ground) at time t.
   void start(const Eigen::VectorXd& q, double t);
+  /// Not started again until the next start() (for a clock that restarted).
+  void reset() { started_ = false; }
   [[nodiscard]] bool started() const { return started_; }
   /// Requests a support mode from time t on (a transition follows).
   void request_support(Support s, double t);

@@ -50,7 +50,14 @@ struct ProcessSpec {
   std::vector<int> cpus;        ///< CPU affinity; empty: any
   int rt_priority = 0;          ///< SCHED_FIFO priority; 0: normal scheduling
   bool critical = false;        ///< its death commands OPERATOR damp at once
+  /// [s] A running process whose HEALTH stops for this long is hung (a critical one: OPERATOR damp,
+  /// as for a death); 0: not watched. The supervisor asks the node for HEALTH at kHealthPerHungTime
+  /// per hung_after (environment variable HPR_HEALTH_RATE_HZ).
+  double hung_after_s = 0.0;
 };
+
+/// HEALTH messages per hung_after period that a watched node is asked for.
+inline constexpr double kHealthPerHungTime = 4.0;
 
 struct GroupSpec {
   std::string name;

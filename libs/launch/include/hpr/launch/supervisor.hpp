@@ -3,7 +3,8 @@
 /// The supervisor's core, without LCM: runs this host's share of a process group in dependency
 /// order, decides readiness (a HEALTH message from the node, fed in by the caller, or the start
 /// itself), restarts per policy with exponential back-off, stops in reverse order with each
-/// process's signal and grace period, and reports what happened as events. The caller owns the
+/// process's signal and grace period, marks a watched process hung when its HEALTH stops for
+/// longer than its hung_after, and reports what happened as events. The caller owns the
 /// clock (`now` in seconds, monotonic) and the I/O: tools/supervisor_main.cpp puts it on LCM.
 
 #include <sys/types.h>
@@ -46,10 +47,11 @@ struct ProcessStatus {
   std::int64_t deadline_misses = 0;
   std::string detail;  ///< last exit, readiness or start failure
   std::string faults;  ///< the node's current faults from its HEALTH, "; "-separated
+  bool hung = false;   ///< running, but its HEALTH stopped for longer than hung_after
 };
 
 struct SupervisorEvent {
-  enum class Kind { kInfo, kWarning, kCriticalDied, kGroupUp, kGroupFailed };
+  enum class Kind { kInfo, kWarning, kCriticalDied, kCriticalHung, kGroupUp, kGroupFailed };
   Kind kind = Kind::kInfo;
   std::string process;  ///< empty for group events
   std::string text;
@@ -69,7 +71,8 @@ class Supervisor {
   /// Stops one process and starts it again (counted as a restart).
   bool restart(const std::string& name, double now);
   /// Advances: reaps ended processes, applies restart policies, starts what may start, checks
-  /// readiness deadlines, escalates stops to SIGKILL. Call every few milliseconds.
+  /// readiness deadlines, marks hung processes, escalates stops to SIGKILL. Call every few
+  /// milliseconds (at most 25 ms apart for hangs to be judged), after handling the HEALTH received.
   void step(double now);
 
   /// A HEALTH message from node `node` (state per health_t.STATE_*, `faults` its current fault texts).
@@ -113,6 +116,9 @@ class Supervisor {
   std::vector<SupervisorEvent> events_;
   GroupState state_ = GroupState::kStopped;
   bool going_down_ = false, announced_up_ = false;
+  double last_step_ = -1;  ///< [s] the previous step's time
+  /// [s] A step more than this after the previous one does not judge hangs (see step()).
+  static constexpr double kMaxJudgingGap = 0.025;
 };
 
 /// "exited with status 3", "killed by signal 9 (Killed)".

@@ -7,9 +7,17 @@
 ///    counted, reported in HEALTH and logged (rate limited), never a crash.
 ///  - A tick trigger runs the node's step when the primary input has a new tick and every synced
 ///    input has reached that tick (plus an offset), or when a timeout expires.
+///  - Inputs that carry a tick stream (a trigger's primary and synced inputs, and those marked with
+///    follow_ticks()) accept a tick from their last one up to `tick_window` ahead. A tick outside
+///    that window (a forged or corrupted tick, or a source that restarted at 0) is held back and
+///    counted as a rejected message; when the stream's tick has not advanced for `source_quiet_s`,
+///    the input follows the held stream (a restarted source), the triggers it drives start again
+///    from its tick and the node's on_restart() resets run.
 ///  - SIGINT and SIGTERM end run() (and spin_until()) promptly; the process then exits 0.
-///  - HEALTH goes out at about 10 Hz: node, last tick, step-time median/p99/max, deadline misses,
-///    decode errors, stale inputs and the current faults.
+///  - HEALTH goes out at lcm.health_rate_hz (10 Hz), or faster when the environment variable
+///    HPR_HEALTH_RATE_HZ asks (the supervisor does, for a node it watches for hangs): node, last
+///    tick, step-time median/p99/max, deadline misses, decode errors, stale inputs and the current
+///    faults.
 ///  - A node with live parameters (parameters()) applies OPERATOR sets addressed to it between two
 ///    steps and answers each set, and each OPERATOR get, on PARAMS.
 
@@ -49,17 +57,41 @@ class InputBase {
   [[nodiscard]] std::int64_t count() const { return count_; }
   [[nodiscard]] std::int64_t errors() const { return errors_; }
   [[nodiscard]] const std::string& last_error() const { return last_error_; }
+  /// Treats the channel as one tick stream (see the file comment); a trigger's inputs are.
+  void follow_ticks() { stream_ = true; }
+  [[nodiscard]] bool follows_ticks() const { return stream_; }
+  /// Messages held back because their tick was outside the window (included in errors()).
+  [[nodiscard]] std::int64_t out_of_window() const { return out_of_window_; }
+  /// Times the input followed a new tick stream (a restarted source).
+  [[nodiscard]] std::int64_t follows() const { return follows_; }
 
  protected:
   InputBase(Runtime& rt, std::string channel) : runtime_(rt), channel_(std::move(channel)) {}
   void accept(std::int64_t tick);
   void reject(std::size_t bytes, const std::string& why);
+  /// Whether `tick` continues the stream: from the last accepted tick up to the window ahead.
+  [[nodiscard]] bool in_window(std::int64_t tick) const;
+  /// Counts and reports a message held back for its tick (only the newest is kept).
+  void hold(std::size_t bytes, std::int64_t tick);
+  /// When a stream is held and the accepted one has been quiet long enough: follows it.
+  void follow_if_quiet(double now);
+  /// Monotonic time at which follow_if_quiet() may follow the held stream (inf: nothing held).
+  [[nodiscard]] double follow_time() const;
+  /// Forgets the accepted stream, so that the next tick (or the one held) is taken as it is.
+  void restart_stream();
+  /// Makes the held message the latest one (validating it first); false when it is refused.
+  virtual bool adopt_held() = 0;
 
   Runtime& runtime_;
   std::string channel_;
   std::int64_t tick_ = -1, count_ = 0, errors_ = 0;
   double receive_time_ = 0.0;
+  double advance_time_ = 0.0;  ///< monotonic time of the last accepted tick above the one before
   std::string last_error_;
+  bool stream_ = false;
+  bool held_ = false;
+  std::int64_t held_tick_ = -1, out_of_window_ = 0, follows_ = 0;
+  friend class Runtime;
 };
 
 /// A typed input. `Msg` is an lcm-gen type with an int64 `tick` field.
@@ -83,26 +115,54 @@ class Input final : public InputBase {
     std::string why;
     try {
       const int used = spare_.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size));
-      if (used < 0) {
-        why = "not a valid " + std::string(Msg::getTypeName());
-      } else if (validate_) {
-        why = validate_(spare_);
-      }
+      if (used < 0) why = "not a valid " + std::string(Msg::getTypeName());
     } catch (const std::exception& e) {
       why = "not a valid " + std::string(Msg::getTypeName()) + " (" + e.what() + ")";
     }
+    if (why.empty() && stream_ && !in_window(spare_.tick)) {
+      // Not validated yet: a validator may act on what it accepts (the simulator applies a command).
+      std::swap(held_msg_, spare_);
+      held_bytes_ = rbuf->data_size;
+      hold(rbuf->data_size, held_msg_.tick);
+      return;
+    }
+    if (why.empty()) why = validated(spare_);
     if (!why.empty()) {
       reject(rbuf->data_size, why);
       return;
     }
+    held_ = false;
     std::swap(latest_, spare_);
     accept(latest_.tick);
     if (on_message_) on_message_(latest_);
   }
 
+  std::string validated(const Msg& m) {
+    if (!validate_) return {};
+    try {
+      return validate_(m);
+    } catch (const std::exception& e) {
+      return "not a valid " + std::string(Msg::getTypeName()) + " (" + e.what() + ")";
+    }
+  }
+
+  bool adopt_held() override {
+    held_ = false;
+    const std::string why = validated(held_msg_);
+    if (!why.empty()) {
+      reject(held_bytes_, why);
+      return false;
+    }
+    std::swap(latest_, held_msg_);
+    accept(latest_.tick);
+    if (on_message_) on_message_(latest_);
+    return true;
+  }
+
   Validator validate_;
   Callback on_message_;
-  Msg latest_{}, spare_{};
+  Msg latest_{}, spare_{}, held_msg_{};
+  std::size_t held_bytes_ = 0;
 };
 
 /// A typed output; encodes into a buffer reused across calls.
@@ -133,6 +193,10 @@ struct Sync {
   /// not use (a wbc that damps has no use for the motion optimiser's command) is not waited for,
   /// so a lockstep chain runs on at full rate without it.
   std::function<bool()> needed;
+  /// An optional input (from a component the step can do without) that misses the timeout once is
+  /// marked absent: it is not waited for until its next message, and HEALTH says so. A lockstep
+  /// chain whose optional component died thus runs on at full rate rather than one step per timeout.
+  bool optional = false;
 };
 
 /// What the step is told about its tick.
@@ -149,6 +213,11 @@ struct RuntimeOptions {
   /// A channel's decode fault clears this long after its last rejected message (the count in
   /// HEALTH.decode_errors stays).
   double decode_fault_quiet_s = 2.0;
+  /// [ticks] How far ahead of its last tick a tick stream's next tick may be.
+  std::int64_t tick_window = 1000;
+  /// [s] How long a tick stream must be quiet before its input follows a new one (a restarted
+  /// source, or ticks that jumped beyond the window).
+  double source_quiet_s = 0.1;
 };
 
 /// An OPERATOR request answered on PARAMS.
@@ -193,6 +262,9 @@ class Runtime {
   /// first (real time: never fall behind the robot's clock). A tick older than the last stepped one
   /// is ignored.
   void on_tick(InputBase& primary, std::vector<Sync> synced, double timeout_s, StepFn step);
+  /// Calls `reset` when `primary` follows a new tick stream (its source restarted, or its clock
+  /// jumped): the node's algorithm starts again from the new clock's first tick.
+  void on_restart(InputBase& primary, std::function<void()> reset);
   /// Calls `fn` every `period_s` of wall-clock time (monotonic) from the loop.
   void every(double period_s, std::function<void()> fn);
 
@@ -238,6 +310,7 @@ class Runtime {
     std::int64_t last_tick = -1;
     std::int64_t pending_tick = -1;
     double deadline = 0.0;
+    std::vector<char> absent;  ///< per synced input: optional and not waited for
   };
   struct Timer {
     double period, next;
@@ -245,6 +318,10 @@ class Runtime {
   };
   void on_input(InputBase& in);
   void on_reject(InputBase& in, std::size_t bytes, const std::string& why);
+  /// `in` follows a new tick stream: the triggers it drives start again from its next tick.
+  void on_follow(InputBase& in, std::int64_t old_tick, std::int64_t new_tick);
+  void follow_quiet_streams(double now);
+  void mark_absent(Trigger& t, std::size_t i);
   void check_triggers(double now);
   void run_timers(double now);
   double next_wakeup(double now) const;
@@ -255,6 +332,7 @@ class Runtime {
   std::vector<std::unique_ptr<InputBase>> inputs_;
   std::vector<Trigger> triggers_;
   std::vector<Timer> timers_;
+  std::vector<std::pair<InputBase*, std::function<void()>>> restarts_;
   bool stop_ = false;
 
   RollingStats cycle_{1000};

@@ -1,0 +1,233 @@
+// Faults injected into a running group, as an operator or an attacker would: forged ticks far in
+// the future, a simulator restarted under the running chain, a control process stopped with
+// SIGSTOP, optional components killed. The chain must run on, follow the restarted clock, damp
+// within 100 ms of a hang, and run the wbc's own reference at full rate without the optimiser.
+//
+// Built twice: test_faults runs the sim-lockstep group (label integration: every deadline is a
+// tick, so it holds on a loaded machine); test_faults_realtime runs the same checks on the
+// real-time sim group and also checks that the robot still stands after the restart (label hil).
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <csignal>
+#include <humanoid/health_t.hpp>
+#include <humanoid/joint_command_t.hpp>
+#include <humanoid/operator_t.hpp>
+#include <humanoid/robot_sensors_t.hpp>
+#include <humanoid/robot_state_t.hpp>
+#include <humanoid/sim_truth_t.hpp>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "lcm_listener.hpp"
+#include "process_group.hpp"
+#include "shell.hpp"
+
+namespace {
+
+using namespace std::chrono_literals;
+using hpr::test::run_command;
+using Clock = std::chrono::steady_clock;
+
+#ifdef HPR_FAULTS_REALTIME
+constexpr const char* kGroup = "sim";
+#else
+constexpr const char* kGroup = "sim-lockstep";
+#endif
+
+std::string supervisor() { return hpr::test::bin_dir() + "/supervisor"; }
+
+/// The latest message of each channel the tests watch, and when the first damp arrived.
+class Watch {
+ public:
+  explicit Watch(const std::string& url) : lcm_(url) {
+    auto& l = lcm_.lcm();
+    l.subscribe("ROBOT_SENSORS", &Watch::keep<humanoid::robot_sensors_t>, this);
+    l.subscribe("ROBOT_STATE", &Watch::keep<humanoid::robot_state_t>, this);
+    l.subscribe("JOINT_COMMAND", &Watch::keep<humanoid::joint_command_t>, this);
+    l.subscribe("SIM_TRUTH", &Watch::keep<humanoid::sim_truth_t>, this);
+    l.subscribe("HEALTH", &Watch::keep<humanoid::health_t>, this);
+    l.subscribe("OPERATOR", &Watch::keep<humanoid::operator_t>, this);
+  }
+  bool wait_for(const std::function<bool()>& done, std::chrono::milliseconds timeout) { return lcm_.wait_for(done, timeout); }
+  template <class Msg>
+  void publish(const std::string& channel, const Msg& m) {
+    lcm_.publish(channel, m);
+  }
+
+  humanoid::robot_sensors_t sensors{};
+  humanoid::robot_state_t state{};
+  humanoid::joint_command_t command{};
+  humanoid::sim_truth_t truth{};
+  std::map<std::string, humanoid::health_t> health;
+  std::int64_t commands = 0, truths = 0;
+  std::optional<Clock::time_point> first_damp;
+  std::string damp_reason;
+
+ private:
+  template <class Msg>
+  void keep(const lcm::ReceiveBuffer* rbuf, const std::string& /*channel*/) {
+    Msg m;
+    if (m.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size)) < 0) return;
+    if constexpr (std::is_same_v<Msg, humanoid::robot_sensors_t>) sensors = m;
+    if constexpr (std::is_same_v<Msg, humanoid::robot_state_t>) state = m;
+    if constexpr (std::is_same_v<Msg, humanoid::joint_command_t>) {
+      command = m;
+      ++commands;
+    }
+    if constexpr (std::is_same_v<Msg, humanoid::sim_truth_t>) {
+      truth = m;
+      ++truths;
+    }
+    if constexpr (std::is_same_v<Msg, humanoid::health_t>) health[m.node] = m;
+    if constexpr (std::is_same_v<Msg, humanoid::operator_t>) {
+      if (m.command == humanoid::operator_t::COMMAND_DAMP && m.source.rfind("supervisor@", 0) == 0 && !first_damp) {
+        first_damp = Clock::now();
+        damp_reason = m.reason;
+      }
+    }
+  }
+  hpr::test::LcmListener lcm_;
+};
+
+/// A group run by the supervisor for one test; down (and nothing left) at the end.
+class Group {
+ public:
+  explicit Group(const std::string& url, const std::string& name = kGroup) : url_(url), runs_(hpr::test::temp_dir("faults-runs")) {
+    const auto up = run_command({supervisor(), "up", name, "--lcm-url", url_, "--run-root", runs_});
+    up_ = up.exit_code == 0;
+    up_text_ = up.out;
+    if (!up_) return;
+    const auto st = run_command({supervisor(), "status", "--json", "--lcm-url", url_, "--wait", "1.2"});
+    try {
+      const nlohmann::json j = nlohmann::json::parse(st.out);
+      const nlohmann::json& sup = j.at("supervisors").at(0);
+      for (const auto& p : sup.at("processes")) pids_[p.at("name").get<std::string>()] = p.at("pid").get<int>();
+      run_dir_ = sup.at("run_dir").get<std::string>();
+    } catch (const std::exception& e) {
+      ADD_FAILURE() << "status --json: " << e.what() << "\n" << st.out;
+    }
+  }
+  ~Group() { run_command({supervisor(), "down", "--lcm-url", url_}); }
+  Group(const Group&) = delete;
+  Group& operator=(const Group&) = delete;
+
+  [[nodiscard]] bool up() const { return up_; }
+  [[nodiscard]] const std::string& up_text() const { return up_text_; }
+  /// The process's pid (-1 when unknown: never 0, which kill() would take for this test's own group).
+  [[nodiscard]] int pid(const std::string& name) const { return pids_.count(name) != 0 && pids_.at(name) > 0 ? pids_.at(name) : -1; }
+  [[nodiscard]] std::string log(const std::string& name) const { return hpr::test::read_file(run_dir_ + "/" + name + ".log"); }
+  int restart(const std::string& name) const {
+    return run_command({supervisor(), "restart", name, "--lcm-url", url_}).exit_code;
+  }
+
+ private:
+  std::string url_, runs_, run_dir_, up_text_;
+  bool up_ = false;
+  std::map<std::string, int> pids_;
+};
+
+constexpr std::int64_t kForged = 1'000'000'000;
+
+/// Waits until the chain answers: a JOINT_COMMAND in run mode at least `ticks` past `from`.
+bool chain_runs(Watch& w, std::int64_t from, std::int64_t ticks, std::chrono::milliseconds timeout) {
+  return w.wait_for([&] {
+    return w.command.tick >= from + ticks && w.command.tick < kForged && w.command.mode == humanoid::joint_command_t::MODE_RUN;
+  }, timeout);
+}
+
+TEST(Faults, ForgedFutureTicksAreHeldAndARestartedSimulatorIsFollowed) {
+  const std::string url = hpr::test::unique_lcm_url();
+  Watch w(url);
+  Group g(url);
+  ASSERT_TRUE(g.up()) << g.up_text();
+  ASSERT_TRUE(chain_runs(w, 0, 500, 30s)) << "the chain did not start";
+
+  // Forged copies of live messages, each a billion ticks ahead, on the three clocked channels.
+  humanoid::robot_sensors_t s = w.sensors;
+  humanoid::robot_state_t e = w.state;
+  humanoid::joint_command_t c = w.command;
+  s.tick += kForged;
+  e.tick += kForged;
+  c.tick += kForged;
+  w.publish("ROBOT_SENSORS", s);
+  w.publish("ROBOT_STATE", e);
+  w.publish("JOINT_COMMAND", c);
+  const std::int64_t at_forge = w.command.tick;
+  EXPECT_TRUE(chain_runs(w, at_forge, 1000, 30s)) << "the chain stalled after a forged tick: last JOINT_COMMAND " << w.command.tick;
+  // Counted in HEALTH (as rejected messages) by the nodes that received them.
+  ASSERT_TRUE(w.wait_for([&] { return w.health["estimator"].decode_errors >= 1 && w.health["wbc"].decode_errors >= 1; }, 5s));
+  EXPECT_NE(g.log("estimator").find("ahead of the last tick"), std::string::npos) << "the held tick is logged";
+
+  // The simulator restarts at tick 0 under the running chain (after 6 s, so that the new clock's
+  // first 2 s are told apart from the old one's).
+  ASSERT_TRUE(w.wait_for([&] { return w.truth.tick > 6000; }, 60s));
+  const std::int64_t before = w.truth.tick;
+  ASSERT_EQ(g.restart("sim_bullet"), 0);
+  ASSERT_TRUE(w.wait_for([&] { return w.truth.tick < before - 500; }, 30s)) << "the simulator did not restart";
+  // The consumers follow the new clock: commands answer the new ticks and the robot is driven
+  // (not damped) for two simulated seconds.
+  EXPECT_TRUE(w.wait_for([&] {
+    return w.truth.tick >= 2000 && w.truth.tick < before && w.command.tick >= 2000 && w.command.tick < before &&
+           w.command.mode == humanoid::joint_command_t::MODE_RUN;
+  }, 60s)) << "after the restart: SIM_TRUTH tick " << w.truth.tick << ", JOINT_COMMAND tick " << w.command.tick << " mode "
+           << int{w.command.mode};
+  EXPECT_FALSE(w.truth.fallen) << "the robot fell after the simulator restarted";
+  for (const char* n : {"estimator", "wbc", "reference_gen", "motion_opt"}) {
+    EXPECT_NE(g.log(n).find("following tick"), std::string::npos) << n << " did not log that it followed the new clock";
+  }
+}
+
+#ifndef HPR_FAULTS_REALTIME
+// On the real-time group in both builds: its control processes run with real-time priorities and
+// are watched with hung_after 50 ms (the lockstep groups run without priorities and judge hangs
+// after 0.5 s). The chain only has to run; the robot's balance is not asserted here.
+TEST(Faults, AStoppedWbcIsHungAndTheSupervisorDampsWithin100Milliseconds) {
+  const std::string url = hpr::test::unique_lcm_url();
+  Watch w(url);
+  Group g(url, "sim");
+  ASSERT_TRUE(g.up()) << g.up_text();
+  ASSERT_TRUE(chain_runs(w, 0, 500, 30s));
+  ASSERT_FALSE(w.first_damp.has_value());
+  const int wbc = g.pid("wbc");
+  ASSERT_GT(wbc, 0);
+  const auto stopped = Clock::now();
+  ASSERT_EQ(::kill(wbc, SIGSTOP), 0);
+  const bool damped = w.wait_for([&] { return w.first_damp.has_value(); }, 5s);
+  ::kill(wbc, SIGCONT);
+  ASSERT_TRUE(damped) << "no OPERATOR damp after SIGSTOP of the wbc";
+  const double ms = std::chrono::duration<double, std::milli>(*w.first_damp - stopped).count();
+  std::cout << "SIGSTOP of the wbc to OPERATOR damp: " << ms << " ms\n";
+  EXPECT_LT(ms, 100.0);
+  EXPECT_NE(w.damp_reason.find("wbc (critical) hung"), std::string::npos) << w.damp_reason;
+  // Once running again the wbc obeys the damp: its commands damp.
+  EXPECT_TRUE(w.wait_for([&] { return w.command.mode == humanoid::joint_command_t::MODE_DAMP; }, 10s));
+}
+#endif
+
+TEST(Faults, WithoutItsOptionalComponentsTheChainRunsOnAtFullRate) {
+  const std::string url = hpr::test::unique_lcm_url();
+  Watch w(url);
+  Group g(url);
+  ASSERT_TRUE(g.up()) << g.up_text();
+  ASSERT_TRUE(chain_runs(w, 0, 500, 30s));
+  // reference_gen dies: motion_opt runs on without CAM_REFERENCE.
+  ASSERT_EQ(::kill(g.pid("reference_gen"), SIGKILL), 0);
+  std::int64_t from = w.command.tick;
+  EXPECT_TRUE(chain_runs(w, from, 1000, 15s)) << "the chain crawls without reference_gen: tick " << w.command.tick;
+  // motion_opt dies too: the wbc runs its own posture reference (the ankle strategy).
+  ASSERT_EQ(::kill(g.pid("motion_opt"), SIGKILL), 0);
+  from = w.command.tick;
+  EXPECT_TRUE(chain_runs(w, from, 1000, 15s)) << "the chain crawls without motion_opt: tick " << w.command.tick;
+  // Full rate: HEALTH's step rate, and the wbc says what it runs without.
+  ASSERT_TRUE(w.wait_for([&] { return w.health["wbc"].rate_hz > 100.0; }, 5s)) << "wbc at " << w.health["wbc"].rate_hz << " Hz";
+  const auto& faults = w.health["wbc"].faults;
+  const bool says = std::any_of(faults.begin(), faults.end(), [](const std::string& f) { return f.find("WHOLEBODY_COMMAND absent") != std::string::npos; });
+  EXPECT_TRUE(says) << "wbc HEALTH does not say that WHOLEBODY_COMMAND is absent";
+  EXPECT_EQ(int{w.health["wbc"].state}, int{humanoid::health_t::STATE_DEGRADED});
+  EXPECT_FALSE(w.truth.fallen);
+}
+
+}  // namespace

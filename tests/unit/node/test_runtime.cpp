@@ -1,0 +1,173 @@
+// The node runtime's tick streams, in one process over LCM's in-memory provider: a forged tick is
+// held back and counted, a restarted source is followed after the quiet time, and a trigger then
+// steps the new stream.
+#include <gtest/gtest.h>
+
+#include <humanoid/balance_status_t.hpp>
+#include <humanoid/robot_sensors_t.hpp>
+#include <vector>
+
+#include "hpr/node/runtime.hpp"
+
+namespace {
+
+using hpr::node::Runtime;
+using hpr::node::RuntimeOptions;
+
+class TickStream : public ::testing::Test {
+ protected:
+  static RuntimeOptions options() {
+    RuntimeOptions o;
+    o.tick_window = 100;
+    o.source_quiet_s = 0.05;
+    o.health_period_s = 10.0;
+    return o;
+  }
+
+  void send(std::int64_t tick, const std::string& channel = "SENSORS") {
+    humanoid::robot_sensors_t m{};
+    m.tick = tick;
+    rt.lcm().publish(channel, &m);
+    rt.spin_once(0.0);
+  }
+  void send_balance(std::int64_t tick) {
+    humanoid::balance_status_t m{};
+    m.tick = tick;
+    rt.lcm().publish("BALANCE", &m);
+    rt.spin_once(0.0);
+  }
+
+  Runtime rt{"test", "memq://", options()};
+  hpr::node::Input<humanoid::robot_sensors_t>& sensors = rt.subscribe<humanoid::robot_sensors_t>("SENSORS");
+  std::vector<std::int64_t> stepped;
+};
+
+TEST_F(TickStream, AForgedFutureTickIsHeldCountedAndNeverStepped) {
+  rt.on_tick(sensors, {}, 0.0, [&](const hpr::node::TickInfo& info) { stepped.push_back(info.tick); });
+  for (int k = 1; k <= 10; ++k) send(k);
+  send(1'000'000'000);
+  for (int k = 11; k <= 20; ++k) send(k);
+  ASSERT_EQ(stepped.size(), 20U);
+  for (int k = 1; k <= 20; ++k) EXPECT_EQ(stepped[static_cast<std::size_t>(k - 1)], k);
+  EXPECT_EQ(sensors.out_of_window(), 1);
+  EXPECT_EQ(sensors.errors(), 1);
+  EXPECT_EQ(rt.decode_errors(), 1);
+  EXPECT_NE(sensors.last_error().find("tick 1000000000 is 999999990 ahead of the last tick 10"), std::string::npos)
+      << sensors.last_error();
+  EXPECT_EQ(sensors.latest().tick, 20);
+  // The live stream kept arriving, so the forged tick is never followed, however long we wait.
+  rt.spin_until([] { return false; }, 0.2);
+  EXPECT_EQ(sensors.follows(), 0);
+  EXPECT_EQ(stepped.back(), 20);
+}
+
+TEST_F(TickStream, ATickWithinTheWindowIsAcceptedOneBeyondIsNot) {
+  rt.on_tick(sensors, {}, 0.0, [&](const hpr::node::TickInfo& info) { stepped.push_back(info.tick); });
+  send(1);
+  send(101);  // exactly the window ahead
+  send(202);  // one beyond
+  EXPECT_EQ(stepped, (std::vector<std::int64_t>{1, 101}));
+  EXPECT_EQ(sensors.out_of_window(), 1);
+}
+
+TEST_F(TickStream, ARestartedSourceIsFollowedAfterTheQuietTime) {
+  rt.on_tick(sensors, {}, 0.0, [&](const hpr::node::TickInfo& info) { stepped.push_back(info.tick); });
+  for (int k = 1; k <= 500; ++k) send(k);
+  ASSERT_EQ(stepped.back(), 500);
+  // The source restarts at tick 0 and publishes once (a lockstep source then waits for its answer).
+  send(0);
+  EXPECT_EQ(stepped.back(), 500) << "followed before the old stream was quiet";
+  EXPECT_EQ(sensors.out_of_window(), 1);
+  ASSERT_TRUE(rt.spin_until([&] { return sensors.follows() == 1; }, 5.0));
+  EXPECT_EQ(stepped.back(), 0);
+  for (int k = 1; k <= 5; ++k) send(k);
+  EXPECT_EQ(stepped.back(), 5);
+  EXPECT_EQ(sensors.out_of_window(), 1);
+}
+
+TEST_F(TickStream, ASourceThatJumpedAheadIsFollowedOnceTheOldStreamIsQuiet) {
+  rt.on_tick(sensors, {}, 0.0, [&](const hpr::node::TickInfo& info) { stepped.push_back(info.tick); });
+  for (int k = 1; k <= 10; ++k) send(k);
+  // A node stopped for seconds sees its source far ahead: each tick is held until the old stream
+  // has been quiet for the quiet time, then the new one is stepped.
+  for (int k = 5000; k < 5010; ++k) send(k);
+  ASSERT_TRUE(rt.spin_until([&] { return sensors.follows() == 1; }, 5.0));
+  EXPECT_EQ(stepped.back(), 5009);
+  send(5010);
+  EXPECT_EQ(stepped.back(), 5010);
+}
+
+TEST_F(TickStream, ASyncedInputFromBeforeTheRestartIsNotTakenAsCurrent) {
+  auto& balance = rt.subscribe<humanoid::balance_status_t>("BALANCE");
+  std::vector<bool> timed_out;
+  rt.on_tick(sensors, {{&balance, 0, {}}}, 0.02, [&](const hpr::node::TickInfo& info) {
+    stepped.push_back(info.tick);
+    timed_out.push_back(info.timed_out);
+  });
+  for (int k = 1; k <= 300; ++k) {
+    send_balance(k);
+    send(k);
+  }
+  ASSERT_EQ(stepped.size(), 300U);
+  EXPECT_FALSE(timed_out.back());
+  // Both sources restart. Once the sensor stream is followed, BALANCE's tick 300 (the old stream)
+  // must not count as having reached the new tick 0.
+  send(0);
+  ASSERT_TRUE(rt.spin_until([&] { return sensors.follows() == 1; }, 5.0));
+  ASSERT_TRUE(rt.spin_until([&] { return stepped.back() == 0; }, 5.0));
+  EXPECT_TRUE(timed_out.back()) << "the old BALANCE tick was taken for the new stream's";
+  send_balance(1);
+  send(1);
+  EXPECT_EQ(stepped.back(), 1);
+  EXPECT_FALSE(timed_out.back());
+  EXPECT_EQ(balance.tick(), 1);
+}
+
+TEST_F(TickStream, AnOptionalInputThatMissedItsTimeoutIsNotWaitedForUntilItIsBack) {
+  auto& balance = rt.subscribe<humanoid::balance_status_t>("BALANCE");
+  rt.on_tick(sensors, {{&balance, 0, {}, true}}, 0.2, [&](const hpr::node::TickInfo& info) { stepped.push_back(info.tick); });
+  send_balance(1);
+  send(1);
+  ASSERT_EQ(stepped.back(), 1);
+  // BALANCE's source dies: tick 2 waits out the timeout once...
+  send(2);
+  EXPECT_EQ(stepped.back(), 1) << "stepped without waiting for a live optional input";
+  ASSERT_TRUE(rt.spin_until([&] { return stepped.back() == 2; }, 5.0));
+  EXPECT_TRUE(rt.has_fault("absent:BALANCE"));
+  // ...and later ticks step at once, without it.
+  for (int k = 3; k <= 50; ++k) {
+    send(k);
+    ASSERT_EQ(stepped.back(), k) << "waited for an absent input";
+  }
+  // It is back: waited for again.
+  send_balance(51);
+  EXPECT_FALSE(rt.has_fault("absent:BALANCE"));
+  send(52);
+  EXPECT_EQ(stepped.back(), 50) << "did not wait for tick 52's BALANCE";
+  send_balance(52);
+  EXPECT_EQ(stepped.back(), 52);
+}
+
+TEST_F(TickStream, AnInputThatIsNotOptionalIsWaitedForEveryTick) {
+  auto& balance = rt.subscribe<humanoid::balance_status_t>("BALANCE");
+  rt.on_tick(sensors, {{&balance, 0, {}}}, 0.3, [&](const hpr::node::TickInfo& info) { stepped.push_back(info.tick); });
+  send_balance(1);
+  send(1);
+  for (int k = 2; k <= 4; ++k) {
+    send(k);
+    EXPECT_EQ(stepped.back(), k - 1);
+    ASSERT_TRUE(rt.spin_until([&] { return stepped.back() == k; }, 5.0));
+  }
+  EXPECT_FALSE(rt.has_fault("absent:BALANCE"));
+}
+
+TEST_F(TickStream, InputsThatAreNotStreamsAcceptAnyTick) {
+  auto& other = rt.subscribe<humanoid::robot_sensors_t>("OPERATOR_LIKE");
+  send(100, "OPERATOR_LIKE");
+  send(3, "OPERATOR_LIKE");  // another sender's counter
+  send(1'000'000, "OPERATOR_LIKE");
+  EXPECT_EQ(other.count(), 3);
+  EXPECT_EQ(other.errors(), 0);
+}
+
+}  // namespace
