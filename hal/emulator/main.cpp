@@ -26,6 +26,7 @@ int run(const node::CommandLine& cl, const Config& cfg) {
   const auto options = cfg.has("emulator") ? hal::EmulatorOptions::load(cfg.section("emulator")) : hal::EmulatorOptions{};
   const Config sim_cfg = cfg.section("sim");
   const sim::SimConfig sim_config = sim::SimConfig::load(sim_cfg);
+  sim_cfg.known(sim::kSimProcessKeys);
   const double duration = cfg.has("emulator") ? cfg.section("emulator").real_or("duration", 0.0, 0.0, 1e7) : 0.0;
   node::Runtime rt(cl.name, node::lcm_url(cl, cfg), node::runtime_options(cfg, sim_config.dt));
   sim::Simulator simulator(robot, sim_config);

@@ -1,6 +1,8 @@
 // The node runtime over real LCM between separate processes.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
 #include <csignal>
 #include <fstream>
 #include <sstream>
@@ -150,6 +152,40 @@ TEST(NodeCommandLine, AnUnknownOptionStopsTheNodeNamingTheNearestOne) {
     EXPECT_EQ(p.exit_code, 2) << node << ": " << p.out;
     EXPECT_NE(p.out.find("unexpected argument 'stray'"), std::string::npos) << node << ": " << p.out;
   }
+}
+
+TEST(NodeConfiguration, AKeyTheNodeDoesNotReadStopsItNamingTheNearestOne) {
+  const std::string cfg = hpr::test::source_dir() + "/config/toro.yaml";
+  const std::string url = "udpm://239.255.76.98:7698?ttl=0";
+  // A misspelt override of each node's own section: exit 2 before the node runs, naming the key meant.
+  const std::vector<std::array<std::string, 3>> cases = {{"estimator", "estimator.sensor_timout=0.02", "sensor_timeout"},
+                                                         {"wbc", "wbc.wholebody_timout=0.5", "wholebody_timeout"},
+                                                         {"reference_gen", "reference_gen.balance_timout=0.5", "balance_timeout"},
+                                                         {"motion_opt", "motion_opt.reference_timout=0.5", "reference_timeout"},
+                                                         {"sim_bullet", "sim.lockstep_timout=1", "lockstep_timeout"}};
+  for (const auto& [node, set, meant] : cases) {
+    const auto r = hpr::test::run_command({"timeout", "20", hpr::test::bin_dir() + "/" + node, "--config", cfg, "--lcm-url", url, "--set", set},
+                                          "2>&1");
+    EXPECT_EQ(r.exit_code, 2) << node << ": " << r.out;
+    EXPECT_NE(r.out.find("unknown key"), std::string::npos) << node << ": " << r.out;
+    EXPECT_NE(r.out.find("did you mean '" + meant + "'"), std::string::npos) << node << ": " << r.out;
+  }
+  // The same typo in a file names the file and line.
+  const std::string dir = hpr::test::temp_dir("config-typo");
+  std::string text = hpr::test::read_file(cfg);
+  const std::string key = "  wholebody_timeout:";
+  ASSERT_NE(text.find(key), std::string::npos);
+  const std::size_t line = static_cast<std::size_t>(std::count(text.begin(), text.begin() + static_cast<long>(text.find(key)), '\n')) + 1;
+  text.replace(text.find(key), key.size(), "  wholebody_timout:");
+  for (std::size_t at = text.find("../models"); at != std::string::npos; at = text.find("../models")) {
+    text.replace(at, 9, hpr::test::source_dir() + "/models");
+  }
+  std::ofstream(dir + "/typo.yaml") << text;
+  const auto r = hpr::test::run_command({"timeout", "20", hpr::test::bin_dir() + "/wbc", "--config", dir + "/typo.yaml", "--lcm-url", url}, "2>&1");
+  EXPECT_EQ(r.exit_code, 2) << r.out;
+  EXPECT_NE(r.out.find("typo.yaml:" + std::to_string(line) + ": wbc.wholebody_timout: unknown key (did you mean 'wholebody_timeout'?)"),
+            std::string::npos)
+      << r.out;
 }
 
 }  // namespace

@@ -7,12 +7,18 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <functional>
+#include <set>
 
 namespace hpr {
 
 struct Config::Doc {
   std::string file;
   YAML::Node root;
+  std::vector<std::string> override_keys;  ///< dotted keys set by overrides
+  std::set<std::string> file_top_keys;     ///< top-level keys of the file before overrides
+  // What the process read: full keys looked up, sections entered, subtrees read as raw YAML.
+  mutable std::set<std::string> read, entered, opaque;
 };
 
 namespace {
@@ -89,13 +95,24 @@ Config Config::load(const std::string& path, const std::vector<std::string>& ove
   if (!std::filesystem::exists(path)) {
     throw ConfigError(fmt::format("{}: configuration file not found", path));
   }
+  if (std::filesystem::is_directory(path)) {
+    const std::string folder = std::filesystem::path(path).lexically_normal().string();
+    throw ConfigError(fmt::format("{}: is a folder; give a configuration file (e.g. {}{}toro.yaml)", path, folder,
+                                  folder.ends_with('/') ? "" : "/"));
+  }
   try {
     doc->root = YAML::LoadFile(path);
   } catch (const YAML::Exception& e) {
     throw ConfigError(fmt::format("{}:{}: YAML syntax error: {}", path, e.mark.line + 1, e.msg));
   }
   if (!doc->root.IsMap()) throw ConfigError(fmt::format("{}: the top level must be a mapping", path));
-  for (const auto& o : overrides) apply_override(doc->root, path, o);
+  for (const auto& kv : doc->root) {
+    if (kv.first.IsScalar()) doc->file_top_keys.insert(kv.first.Scalar());
+  }
+  for (const auto& o : overrides) {
+    apply_override(doc->root, path, o);
+    doc->override_keys.push_back(o.substr(0, o.find('=')));
+  }
   auto node = std::make_unique<YAML::Node>(doc->root);
   return Config(std::move(doc), std::move(node), "");
 }
@@ -114,7 +131,10 @@ Config Config::parse(std::string_view yaml, std::string name) {
 }
 
 const std::string& Config::file() const { return doc_->file; }
-const YAML::Node& Config::yaml() const { return *node_; }
+const YAML::Node& Config::yaml() const {
+  doc_->opaque.insert(prefix_);
+  return *node_;
+}
 
 std::string Config::full_key(std::string_view key) const {
   return prefix_.empty() ? std::string(key) : prefix_ + "." + std::string(key);
@@ -127,6 +147,7 @@ std::string Config::where(const YAML::Node& n) const {
 }
 
 YAML::Node Config::child(std::string_view key) const {
+  doc_->read.insert(full_key(key));
   if (!node_->IsMap()) return YAML::Node(YAML::NodeType::Undefined);
   return (*node_)[std::string(key)];
 }
@@ -157,6 +178,7 @@ bool Config::is_scalar(std::string_view key) const {
 Config Config::section(std::string_view key) const {
   YAML::Node n = required(key);
   if (!n.IsMap()) fail(key, "expected a mapping");
+  doc_->entered.insert(full_key(key));
   return Config(doc_, std::make_unique<YAML::Node>(n), full_key(key));
 }
 
@@ -169,6 +191,7 @@ std::vector<Config> Config::items(std::string_view key) const {
     if (!n[i].IsMap()) {
       throw ConfigError(fmt::format("{}: {} = {}: expected a mapping", where(n[i]), name, scalar_text(n[i])));
     }
+    doc_->entered.insert(name);
     out.push_back(Config(doc_, std::make_unique<YAML::Node>(n[i]), name));
   }
   return out;
@@ -183,8 +206,77 @@ std::vector<std::string> Config::keys() const {
       throw ConfigError(fmt::format("{}: {}: a key that is not a plain name", where(kv.first), prefix_.empty() ? "(top level)" : prefix_));
     }
     out.push_back(kv.first.Scalar());
+    doc_->read.insert(full_key(kv.first.Scalar()));  // enumerated: the caller decides about each
   }
   return out;
+}
+
+void Config::known(const std::vector<std::string>& keys) const {
+  for (const auto& k : keys) doc_->read.insert(full_key(k));
+}
+
+namespace {
+
+/// The names read directly under `prefix` (for "did you mean").
+std::vector<std::string> read_names_under(const std::set<std::string>& read, const std::string& prefix) {
+  std::vector<std::string> out;
+  const std::string head = prefix.empty() ? "" : prefix + ".";
+  for (const auto& k : read) {
+    if (k.size() <= head.size() || k.compare(0, head.size(), head) != 0) continue;
+    const std::string rest = k.substr(head.size());
+    if (rest.find('.') == std::string::npos && rest.find('[') == std::string::npos) out.push_back(rest);
+  }
+  return out;
+}
+
+bool under_opaque(const std::set<std::string>& opaque, const std::string& key) {
+  for (const auto& o : opaque) {
+    if (key == o || key.rfind(o + ".", 0) == 0 || key.rfind(o + "[", 0) == 0) return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+void Config::check_all_read() const {
+  const Doc& d = *doc_;
+  // Every key of an entered section must have been read, recursively (overrides first, so that
+  // a misspelt --set is reported as such).
+  const std::function<void(const YAML::Node&, const std::string&)> walk = [&](const YAML::Node& map, const std::string& prefix) {
+    if (under_opaque(d.opaque, prefix)) return;
+    for (const auto& kv : map) {
+      if (!kv.first.IsScalar()) continue;
+      const std::string full = prefix + "." + kv.first.Scalar();
+      if (d.read.count(full) == 0) {
+        const std::string line = kv.first.Mark().is_null() ? d.file : fmt::format("{}:{}", d.file, kv.first.Mark().line + 1);
+        throw ConfigError(fmt::format("{}: {}: unknown key{} (not read by this process; a misspelt key would be ignored)", line,
+                                      full, did_you_mean(kv.first.Scalar(), read_names_under(d.read, prefix))));
+      }
+      if (kv.second.IsMap() && d.entered.count(full) != 0) walk(kv.second, full);
+      if (kv.second.IsSequence()) {
+        for (std::size_t i = 0; i < kv.second.size(); ++i) {
+          const std::string item = full + "[" + std::to_string(i) + "]";
+          if (kv.second[i].IsMap() && d.entered.count(item) != 0) walk(kv.second[i], item);
+        }
+      }
+    }
+  };
+  // Overrides: read here, or in a section this process leaves to others.
+  for (const auto& key : d.override_keys) {
+    if (d.read.count(key) != 0 || under_opaque(d.opaque, key)) continue;
+    const std::string top = key.substr(0, key.find('.'));
+    if (d.entered.count(top) == 0 && d.file_top_keys.count(top) != 0) continue;  // another process's section
+    if (d.file_top_keys.count(top) == 0) {
+      std::vector<std::string> tops(d.file_top_keys.begin(), d.file_top_keys.end());
+      throw ConfigError(fmt::format("{}: override {}: the file has no section '{}'{}", d.file, key, top, did_you_mean(top, tops)));
+    }
+    const std::string parent = key.substr(0, key.rfind('.'));
+    throw ConfigError(fmt::format("{}: override {}: unknown key (not read by this process){}", d.file, key,
+                                  did_you_mean(key.substr(key.rfind('.') + 1), read_names_under(d.read, parent))));
+  }
+  for (const auto& kv : d.root) {
+    if (kv.first.IsScalar() && kv.second.IsMap() && d.entered.count(kv.first.Scalar()) != 0) walk(kv.second, kv.first.Scalar());
+  }
 }
 
 void Config::reject_unknown(const std::vector<std::string>& known) const {

@@ -119,6 +119,7 @@ Runtime::Runtime(std::string node_name, const std::string& lcm_url, RuntimeOptio
   }
   lcm_ = open_lcm(lcm_url);
   start_time_ = monotonic_s();
+  rate_time_ = start_time_;
   last_health_ = start_time_ - options_.health_period_s;  // first HEALTH at once
 }
 
@@ -281,6 +282,10 @@ double Runtime::next_wakeup(double now) const {
 }
 
 void Runtime::spin_once(double timeout_s) {
+  if (!configuration_checked_) {
+    configuration_checked_ = true;
+    if (options_.configuration) options_.configuration->check_all_read();
+  }
   double now = monotonic_s();
   follow_quiet_streams(now);
   run_timers(now);
@@ -370,9 +375,14 @@ void Runtime::publish_health() {
     h.state = steps_ > 0 || triggers_.empty() ? humanoid::health_t::STATE_OK : humanoid::health_t::STATE_STARTING;
   }
   h.steps = steps_;
-  const double dt = now - last_health_;
-  h.rate_hz = dt > 0 ? static_cast<double>(steps_ - steps_at_last_health_) / dt : 0.0;
-  steps_at_last_health_ = steps_;
+  // The step rate over at least 0.1 s, however often HEALTH goes out.
+  const double dt = now - rate_time_;
+  if (dt >= 0.1) {
+    rate_hz_ = static_cast<double>(steps_ - steps_at_rate_time_) / dt;
+    steps_at_rate_time_ = steps_;
+    rate_time_ = now;
+  }
+  h.rate_hz = rate_hz_;
   h.cycle_median_us = cycle_.median();
   h.cycle_p99_us = cycle_.percentile(0.99);
   h.cycle_max_us = cycle_.max();
@@ -447,6 +457,7 @@ void Runtime::publish_parameters(const ParameterRequest* request) {
 RuntimeOptions runtime_options(const Config& cfg, double deadline_s) {
   RuntimeOptions o;
   o.deadline_s = deadline_s;
+  o.configuration = std::make_shared<const Config>(cfg);
   if (cfg.has("lcm")) {
     const Config l = cfg.section("lcm");
     o.channel_prefix = l.string_or("channel_prefix", "");

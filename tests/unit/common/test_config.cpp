@@ -107,6 +107,70 @@ TEST(Config, OverridesApplyBeforeValidation) {
   std::filesystem::remove(path);
 }
 
+// A process that has read its configuration refuses what it did not understand.
+const char* kStack = R"(wbc:
+  com:
+    stiffness: 300
+    stifness: 200
+  mode: double
+sim:
+  dt: 0.001
+)";
+
+TEST(Config, AKeyNoCodeReadInAnEnteredSectionIsRefusedWithTheNearestName) {
+  const Config c = Config::parse(kStack, "stack.yaml");
+  const Config wbc = c.section("wbc");
+  (void)wbc.section("com").real("stiffness");
+  (void)wbc.string_or("mode", "single");
+  const std::string msg = error_of([&] { c.check_all_read(); });
+  EXPECT_NE(msg.find("stack.yaml:4: wbc.com.stifness: unknown key (did you mean 'stiffness'?)"), std::string::npos) << msg;
+  // The sim section was not entered: another process's, not judged here.
+  EXPECT_EQ(msg.find("sim"), std::string::npos) << msg;
+}
+
+TEST(Config, KeysReadAsOptionalEnumeratedRawOrKnownCountAsRead) {
+  const Config c = Config::parse(kStack, "stack.yaml");
+  const Config wbc = c.section("wbc");
+  const Config com = wbc.section("com");
+  (void)com.keys();                                   // enumerated: the caller judges each
+  wbc.known({"mode"});                                // left to another process
+  EXPECT_EQ(error_of([&] { c.check_all_read(); }), "");
+  const Config c2 = Config::parse(kStack, "stack.yaml");
+  (void)c2.section("wbc").yaml();                     // read as raw YAML
+  EXPECT_EQ(error_of([&] { c2.check_all_read(); }), "");
+  const Config c3 = Config::parse(kStack, "stack.yaml");
+  (void)c3.section("wbc").has("mode");                // looked up counts, present or not
+  const std::string msg = error_of([&] { c3.check_all_read(); });
+  EXPECT_NE(msg.find("wbc.com: unknown key"), std::string::npos) << "a sub-section nobody entered or looked up: " << msg;
+}
+
+TEST(Config, AnOverrideOfAKeyNotReadIsRefusedUnlessItBelongsToAnotherProcess) {
+  const auto path = std::filesystem::temp_directory_path() / "hpr_test_config_overrides.yaml";
+  std::ofstream(path) << kStack;
+  auto load_and_read = [&](const std::vector<std::string>& sets) {
+    const Config c = Config::load(path.string(), sets);
+    const Config com = c.section("wbc").section("com");
+    (void)com.real("stiffness");
+    (void)com.real_or("damping", 10.0);
+    c.section("wbc").known({"mode"});
+    com.known({"stifness"});
+    c.check_all_read();
+  };
+  EXPECT_EQ(error_of([&] { load_and_read({"wbc.com.damping=40"}); }), "") << "an optional key read";
+  EXPECT_EQ(error_of([&] { load_and_read({"sim.dt=0.002"}); }), "") << "another process's section";
+  const std::string typo = error_of([&] { load_and_read({"wbc.com.dampin=40"}); });
+  EXPECT_NE(typo.find("override wbc.com.dampin: unknown key (not read by this process) (did you mean 'damping'?)"), std::string::npos)
+      << typo;
+  const std::string section = error_of([&] { load_and_read({"smi.dt=0.002"}); });
+  EXPECT_NE(section.find("override smi.dt: the file has no section 'smi' (did you mean 'sim'?)"), std::string::npos) << section;
+  std::filesystem::remove(path);
+}
+
+TEST(Config, AFolderGivenAsTheFileSaysSo) {
+  const std::string msg = error_of([] { (void)Config::load(std::filesystem::temp_directory_path().string()); });
+  EXPECT_NE(msg.find("is a folder"), std::string::npos) << msg;
+}
+
 TEST(Config, MissingFileAndSyntaxErrorsNameTheFile) {
   EXPECT_NE(error_of([] { (void)Config::load("/nonexistent/x.yaml"); }).find("/nonexistent/x.yaml: configuration file not found"),
             std::string::npos);

@@ -39,6 +39,12 @@ struct NoiseConfig {
   double ft_torque_noise = 0.05;         ///< [Nm]
 };
 
+/// Keys of the `sim` section that the sim_bullet process reads for itself (mode, clock, duration,
+/// truth, scenario) and SimConfig does not: another process that reads the section (the drive
+/// emulator) leaves them alone (Config::known).
+inline const std::vector<std::string> kSimProcessKeys = {"mode", "lockstep_timeout", "startup_timeout", "duration",
+                                                         "publish_truth", "scenario"};
+
 struct SimConfig {
   double dt = 0.001;                ///< control period [s]
   Eigen::Vector3d gravity{0.0, 0.0, -9.81};  ///< [m/s²]

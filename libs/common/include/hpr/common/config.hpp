@@ -6,6 +6,12 @@
 ///     config/toro.yaml:42: wbc.com.stiffness = -5: must be in [0, 1e+06]
 ///
 /// A Config is a view on one mapping of a loaded file; sections share the underlying document.
+///
+/// The document remembers which keys were read (looked up, present or not) and which sections
+/// were entered. check_all_read() then refuses what a process that has read its configuration did
+/// not understand: a key no code read in a section it entered (a misspelt key, with the nearest
+/// name read there), and an override (--set) of a key it neither read nor leaves to another
+/// process.
 
 #include <Eigen/Core>
 #include <limits>
@@ -81,6 +87,13 @@ class Config {
   [[nodiscard]] std::vector<std::string> keys() const;
   /// Throws if the mapping holds a key not in `known` (catches misspelt keys).
   void reject_unknown(const std::vector<std::string>& known) const;
+  /// Marks `keys` of this mapping as read: keys of a shared section that another process reads.
+  void known(const std::vector<std::string>& keys) const;
+  /// Throws ConfigError for the first key of an entered section that was never read (naming the
+  /// file, line and full key, and the nearest key read there), and for an override of a key that
+  /// was not read although its section was, or whose top-level section the file does not have.
+  /// Call on the root once everything is loaded.
+  void check_all_read() const;
 
   /// The file this configuration came from and the dotted path of this section.
   [[nodiscard]] const std::string& file() const;

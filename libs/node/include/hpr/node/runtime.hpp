@@ -218,6 +218,10 @@ struct RuntimeOptions {
   /// [s] How long a tick stream must be quiet before its input follows a new one (a restarted
   /// source, or ticks that jumped beyond the window).
   double source_quiet_s = 0.1;
+  /// The node's configuration: when the loop first runs (the node has read all of it), a key it
+  /// did not read in a section it entered, or an override it did not read, stops it with a
+  /// ConfigError (Config::check_all_read).
+  std::shared_ptr<const Config> configuration;
 };
 
 /// An OPERATOR request answered on PARAMS.
@@ -334,10 +338,12 @@ class Runtime {
   std::vector<Timer> timers_;
   std::vector<std::pair<InputBase*, std::function<void()>>> restarts_;
   bool stop_ = false;
+  bool configuration_checked_ = false;
 
   RollingStats cycle_{1000};
   std::int64_t steps_ = 0, last_tick_ = -1, deadline_misses_ = 0, stale_inputs_ = 0;
-  std::int64_t steps_at_last_health_ = 0;
+  std::int64_t steps_at_rate_time_ = 0;
+  double rate_time_ = 0.0, rate_hz_ = 0.0;
   double last_health_ = 0.0, start_time_ = 0.0, last_reject_log_ = -1e9;
   struct Fault {
     std::string text;
