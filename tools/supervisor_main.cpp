@@ -20,6 +20,8 @@
 #include <humanoid/supervisor_command_t.hpp>
 #include <humanoid/supervisor_status_t.hpp>
 
+#include "hpr/msg/commands.hpp"
+
 #include <atomic>
 #include <chrono>
 #include <csignal>
@@ -229,7 +231,6 @@ class Subscription {
   lcm::Subscription* sub_ = nullptr;
 };
 
-/// Handles LCM messages for up to `timeout_s`.
 /// Handles messages for `timeout_s`, and always whatever is already queued: a supervisor that was
 /// not scheduled for a while reads the HEALTH sent meanwhile before it judges any node hung.
 void handle_for(lcm::LCM& lcm, double timeout_s) {
@@ -279,9 +280,21 @@ int run_supervisor(const launch::GroupSpec& group, const Options& o, const std::
     }
   });
   bool down_requested = false;
+  double last_refusal_log = -1e9;
+  std::int64_t refused_commands = 0;
   Subscription<humanoid::supervisor_command_t> command_sub(lcm, "SUPERVISOR_COMMAND", [&](const humanoid::supervisor_command_t& c) {
     if (!c.host.empty() && c.host != me) return;
     if (!c.group.empty() && c.group != group.name) return;
+    if (const std::string why = msg::check_supervisor_command(c); !why.empty()) {
+      ++refused_commands;
+      if (monotonic_s() - last_refusal_log >= 1.0) {  // one line a second at most
+        last_refusal_log = monotonic_s();
+        std::cout << fmt::format("[{}] SUPERVISOR_COMMAND from '{}' refused: {} ({} refused so far)", now_text(), c.source, why,
+                                 refused_commands)
+                  << std::endl;
+      }
+      return;
+    }
     if (c.command == humanoid::supervisor_command_t::COMMAND_DOWN) {
       if (!down_requested) std::cout << fmt::format("[{}] down requested by {}", now_text(), c.source) << std::endl;
       down_requested = true;

@@ -11,6 +11,7 @@
 #include "hpr/common/time.hpp"
 #include "hpr/hal/hal.hpp"
 #include "hpr/model/robot.hpp"
+#include "hpr/msg/commands.hpp"
 #include "hpr/msg/robot_io.hpp"
 #include "hpr/node/command_line.hpp"
 #include "hpr/node/runtime.hpp"
@@ -29,8 +30,10 @@ static_assert(hal::kOperatorEnable == humanoid::operator_t::COMMAND_ENABLE && ha
 static_assert(static_cast<int>(hal::SafetyState::kFault) == humanoid::hal_status_t::STATE_FAULT &&
               static_cast<int>(hal::SafetyState::kTorqueOff) == humanoid::hal_status_t::STATE_TORQUE_OFF);
 
+/// `commands_rejected`: every JOINT_COMMAND refused, whatever refused it (decoder, joint names, the
+/// hal's limits, a tick outside the window); the runtime's input counts them all.
 void fill_status(const hal::Hal& h, std::int64_t tick, humanoid::hal_status_t& m, const std::vector<double>& tx_fps,
-                 const std::vector<double>& rx_fps) {
+                 const std::vector<double>& rx_fps, std::int64_t commands_rejected) {
   const auto& c = h.config();
   m.tick = tick;
   m.utime = wall_us();
@@ -65,7 +68,7 @@ void fill_status(const hal::Hal& h, std::int64_t tick, humanoid::hal_status_t& m
     m.bus_errors[b] = h.buses()[b]->counters().errors;
     m.bus_off[b] = h.buses()[b]->counters().bus_off;
   }
-  m.commands_rejected = h.commands_rejected();
+  m.commands_rejected = commands_rejected;
   m.commands_stale = h.commands_stale();
   m.frames_malformed = h.frames_malformed();
 }
@@ -95,7 +98,7 @@ int run(const node::CommandLine& cl, const Config& cfg) {
     return why;  // rejected commands are counted by the runtime and by the hal, never sent
   });
   command_in.follow_ticks();  // a forged or corrupted tick is held back, never applied
-  rt.subscribe<humanoid::operator_t>("OPERATOR", {}, [&](const humanoid::operator_t& m) {
+  rt.subscribe<humanoid::operator_t>("OPERATOR", msg::check_operator, [&](const humanoid::operator_t& m) {
     const std::string what = h.operator_command(m.command, hal_now(), m.source.empty() ? "operator" : m.source);
     if (!what.empty()) log::info("OPERATOR {}: {}{}", m.command, what, m.reason.empty() ? "" : " (" + m.reason + ")");
   });
@@ -160,7 +163,7 @@ int run(const node::CommandLine& cl, const Config& cfg) {
       h.clear_changed();
     }
     if (changed || now - last_status >= 0.1) {
-      fill_status(h, tick, status_msg, tx_fps, rx_fps);
+      fill_status(h, tick, status_msg, tx_fps, rx_fps, command_in.errors());
       status_out.publish(status_msg);
       last_status = now;
       const std::string faults = h.fault_conditions();
@@ -205,7 +208,7 @@ int run(const node::CommandLine& cl, const Config& cfg) {
             tick, work.median() * 1e6, work.percentile(0.99) * 1e6,
             lockstep ? std::string("lockstep clock")
                      : fmt::format("period jitter p99 {:.1f} us, max {:.1f} us", jitter.percentile(0.99) * 1e6, jitter.max() * 1e6),
-            h.commands_rejected(), h.commands_stale(), h.frames_malformed(), missed, tick * static_cast<std::int64_t>(h.drives().size()));
+            command_in.errors(), h.commands_stale(), h.frames_malformed(), missed, tick * static_cast<std::int64_t>(h.drives().size()));
   return node::kExitOk;
 }
 

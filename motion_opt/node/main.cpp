@@ -10,6 +10,7 @@
 #include <cmath>
 
 #include "hpr/motion_opt/optimizer.hpp"
+#include "hpr/msg/commands.hpp"
 #include "hpr/msg/state.hpp"
 #include "hpr/node/command_line.hpp"
 #include "hpr/node/runtime.hpp"
@@ -61,7 +62,7 @@ int main(int argc, char** argv) {
           }
           return std::string();
         });
-        rt.subscribe<humanoid::operator_t>("OPERATOR", {}, [&](const humanoid::operator_t& m) {
+        rt.subscribe<humanoid::operator_t>("OPERATOR", msg::check_operator, [&](const humanoid::operator_t& m) {
           if (m.command == humanoid::operator_t::COMMAND_SET_SUPPORT && m.support >= 0 && m.support <= 2) {
             reference.request_support(static_cast<balance::Support>(m.support), state.time);
           }

@@ -118,6 +118,39 @@ HIL_TEST(StandsTenSecondsAndRecoversExperiment1OverUdp) {
   }
 }
 
+HIL_TEST(EveryRefusedJointCommandIsCountedInHalStatus) {
+  Hil hil;
+  hil.enable();
+  hil.run_for(1.0);
+  ASSERT_FALSE(hil.fallen());
+  ASSERT_FALSE(hil.commands->empty());
+  const std::int64_t before = hil.status->back().commands_rejected;
+  // Five bad commands, each refused for another reason, beside the live stream.
+  const std::uint8_t garbage[16] = {1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16};
+  hil.lcm.lcm().publish("JOINT_COMMAND", garbage, sizeof(garbage));  // does not decode
+  humanoid::joint_command_t c = hil.commands->back();
+  humanoid::joint_command_t few = c;                                  // other joints
+  few.num_joints = 3;
+  few.joint_name.resize(3);
+  for (auto* v : {&few.tau_ff, &few.q_des, &few.qd_des, &few.kp, &few.kd}) v->resize(3);
+  hil.lcm.publish("JOINT_COMMAND", few);
+  humanoid::joint_command_t nan = c;
+  nan.tau_ff[0] = std::nan("");
+  hil.lcm.publish("JOINT_COMMAND", nan);
+  humanoid::joint_command_t strong = c;
+  strong.kp[0] = 1e9;  // beyond the drive's kp range
+  hil.lcm.publish("JOINT_COMMAND", strong);
+  humanoid::joint_command_t future = c;
+  future.tick += 1'000'000'000;
+  hil.lcm.publish("JOINT_COMMAND", future);
+  ASSERT_TRUE(hil.lcm.wait_for([&] { return hil.status->back().commands_rejected >= before + 5; }, 10s))
+      << "HAL_STATUS.commands_rejected " << hil.status->back().commands_rejected << " (was " << before << ")";
+  hil.run_for(1.0);
+  EXPECT_EQ(hil.status->back().commands_rejected, before + 5) << "exactly the five refused";
+  EXPECT_EQ(hil.hal_state(), int{humanoid::hal_status_t::STATE_ENABLED}) << hil.status->back().state_reason;
+  EXPECT_FALSE(hil.fallen());
+}
+
 HIL_TEST(KilledControllerDampsEveryDriveWithin10msThenTorqueOff) {
   Hil hil;
   hil.enable();

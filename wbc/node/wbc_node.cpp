@@ -43,7 +43,7 @@ WbcNode::WbcNode(node::Runtime& rt, const model::RobotSpec& robot, WholeBodyCont
   wholebody_in_ = &rt.subscribe<humanoid::wholebody_command_t>(
       "WHOLEBODY_COMMAND", [this](const humanoid::wholebody_command_t& m) { return msg::from_message(m, free_names_, wholebody_); },
       [this](const humanoid::wholebody_command_t&) { have_wholebody_ = true; });
-  rt.subscribe<humanoid::operator_t>("OPERATOR", {}, [this](const humanoid::operator_t& m) {
+  rt.subscribe<humanoid::operator_t>("OPERATOR", msg::check_operator, [this](const humanoid::operator_t& m) {
     if (m.command == humanoid::operator_t::COMMAND_DAMP || m.command == humanoid::operator_t::COMMAND_STOP) {
       if (!damping_) log::warn("OPERATOR {} from {}: damping ({})", m.command == humanoid::operator_t::COMMAND_STOP ? "stop" : "damp", m.source, m.reason);
       damping_ = true;

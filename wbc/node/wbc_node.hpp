@@ -13,6 +13,7 @@
 #include <humanoid/sim_truth_t.hpp>
 #include <humanoid/wholebody_command_t.hpp>
 
+#include "hpr/msg/commands.hpp"
 #include "hpr/msg/state.hpp"
 #include "hpr/node/runtime.hpp"
 #include "hpr/wbc/controller.hpp"

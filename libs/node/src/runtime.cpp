@@ -17,6 +17,7 @@
 
 #include <fmt/format.h>
 
+#include "hpr/msg/commands.hpp"
 #include "hpr/node/command_line.hpp"
 #include "hpr/node/lcm_url.hpp"
 
@@ -399,7 +400,7 @@ void Runtime::publish_health() {
 ParameterSet& Runtime::parameters() {
   if (parameters_) return *parameters_;
   parameters_ = std::make_unique<ParameterSet>(name_);
-  subscribe<humanoid::operator_t>("OPERATOR", {}, [this](const humanoid::operator_t& m) {
+  subscribe<humanoid::operator_t>("OPERATOR", msg::check_operator, [this](const humanoid::operator_t& m) {
     const bool set = m.command == humanoid::operator_t::COMMAND_SET_PARAMS;
     if (!set && m.command != humanoid::operator_t::COMMAND_GET_PARAMS) return;
     // Senders repeat a request (UDP may drop one); each is handled once.
