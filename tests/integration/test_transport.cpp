@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <array>
 #include <csignal>
+#include <map>
+#include <set>
 #include <fstream>
 #include <sstream>
 #include <thread>
@@ -186,6 +188,61 @@ TEST(NodeConfiguration, AKeyTheNodeDoesNotReadStopsItNamingTheNearestOne) {
   EXPECT_NE(r.out.find("typo.yaml:" + std::to_string(line) + ": wbc.wholebody_timout: unknown key (did you mean 'wholebody_timeout'?)"),
             std::string::npos)
       << r.out;
+}
+
+/// Resident memory of `pid` [kB] (VmRSS), -1 when unreadable.
+long rss_kb(int pid) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/status");
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.rfind("VmRSS:", 0) == 0) return std::stol(line.substr(6));
+  }
+  return -1;
+}
+
+TEST(Transport, ForgedArrayCountsOnEveryChannelLeaveEveryNodesMemoryUnchanged) {
+  const std::string cfg = hpr::test::source_dir() + "/config/toro.yaml";
+  hpr::test::ProcessGroup group;
+  std::map<std::string, int> pids;
+  // sim_bullet in lockstep waits for its first command: it only listens, as the control nodes do.
+  pids["sim_bullet"] = group.start("sim_bullet", {"--config", cfg, "--set", "sim.mode=lockstep"});
+  for (const char* n : {"estimator", "wbc", "reference_gen", "motion_opt"}) pids[n] = group.start(n, {"--config", cfg});
+  hpr::test::LcmListener lcm(group.lcm_url());
+  auto health = lcm.collect<humanoid::health_t>("HEALTH");
+  auto seen_all = [&] {
+    std::set<std::string> nodes;
+    for (const auto& h : *health) nodes.insert(h.node);
+    return nodes.size() >= pids.size();
+  };
+  ASSERT_TRUE(lcm.wait_for(seen_all, 20s));
+  lcm.spin_for(1s);
+  std::map<std::string, long> before;
+  for (const auto& [n, pid] : pids) before[n] = rss_kb(pid);
+  // Every type, on its channel: its default message with 20 000 000 written at each 4-byte offset
+  // in turn (one of them is each array count or string length).
+  int sent = 0;
+  hpr::test::for_each_type([&]<class Msg>(const char* channel) {
+    Msg m{};
+    const int size = m.getEncodedSize();
+    std::vector<std::uint8_t> good(static_cast<std::size_t>(size));
+    ASSERT_EQ(m.encode(good.data(), 0, size), size);
+    for (int at = 8; at + 4 <= size; ++at) {
+      std::vector<std::uint8_t> bad = good;
+      const std::uint32_t n = 20'000'000;
+      for (int k = 0; k < 4; ++k) bad[static_cast<std::size_t>(at + k)] = static_cast<std::uint8_t>(n >> (24 - 8 * k));
+      lcm.lcm().publish(channel, bad.data(), static_cast<unsigned>(bad.size()));
+      ++sent;
+      if (sent % 50 == 0) lcm.spin_for(5ms);  // do not overrun the receivers' socket buffers
+    }
+  });
+  lcm.spin_for(2s);
+  for (const auto& [n, pid] : pids) {
+    const long after = rss_kb(pid);
+    std::cout << n << ": resident " << before[n] << " kB before, " << after << " kB after " << sent << " forged messages\n";
+    EXPECT_TRUE(group.running(pid)) << n << " died";
+    EXPECT_LT(after - before[n], 4096) << n << " grew by " << (after - before[n]) << " kB";
+  }
+  group.stop_all();
 }
 
 }  // namespace
