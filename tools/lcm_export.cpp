@@ -24,6 +24,8 @@
 #include <string>
 #include <vector>
 
+#include "hpr/msg/log_check.hpp"
+
 namespace {
 
 namespace fs = std::filesystem;
@@ -271,9 +273,8 @@ int main(int argc, char** argv) {
       Sink& sink = sinks[ch];
       if (writing) {
         sink.write<Msg>(ev, t0);
-      } else if (!sink.scan<Msg>(ev)) {
-        ++bad;
-        std::fprintf(stderr, "lcm_export: event %ld on %s does not decode as its type; skipped\n", ev.eventnum, ch.c_str());
+      } else {
+        (void)sink.scan<Msg>(ev);  // an undecodable event is counted below, for every channel
       }
     };
     if (ends_with(ch, "SIM_TRUTH")) {
@@ -304,8 +305,18 @@ int main(int argc, char** argv) {
       for (auto& [ch, sink] : sinks) sink.open(fs::path(out_dir) / (ch + ".csv"));
     }
     std::map<std::string, long> seen;
+    long offset = std::ftell(log.getFilePtr());
     for (const lcm::LogEvent* ev = log.readNextEvent(); ev != nullptr; ev = log.readNextEvent()) {
-      if (pass == 0) ++events;
+      if (pass == 0) {
+        ++events;
+        // The same judgement as lcm_recorder --check's (hpr::msg::check_message), on every event.
+        if (const std::string why = hpr::msg::check_message(ev->channel, ev->data, ev->datalen); !why.empty()) {
+          ++bad;
+          std::fprintf(stderr, "lcm_export: event %lld at byte %ld on %s: %s; skipped\n", static_cast<long long>(ev->eventnum), offset,
+                       ev->channel.c_str(), why.c_str());
+        }
+      }
+      offset = std::ftell(log.getFilePtr());
       if (t0 < 0) t0 = static_cast<double>(ev->timestamp) * 1e-6;
       if (!only.empty() && only.count(ev->channel) == 0) continue;
       if ((seen[ev->channel]++ % every) != 0) continue;

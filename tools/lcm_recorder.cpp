@@ -20,6 +20,7 @@
 
 #include "hpr/common/args.hpp"
 #include "hpr/common/time.hpp"
+#include "hpr/msg/log_check.hpp"
 #include "hpr/msg/ticks.hpp"
 #include "hpr/node/lcm_url.hpp"
 
@@ -100,9 +101,23 @@ int check_log(const std::string& file) {
     return 1;
   }
   Tally tally;
-  for (const lcm::LogEvent* ev = log.readNextEvent(); ev != nullptr; ev = log.readNextEvent()) tally.add(ev->channel, ev->data, ev->datalen);
-  std::fprintf(stderr, "lcm_recorder: %s: %lld messages\n", file.c_str(), static_cast<long long>(tally.messages));
-  return tally.report();
+  std::int64_t bad = 0;
+  long offset = std::ftell(log.getFilePtr());
+  for (const lcm::LogEvent* ev = log.readNextEvent(); ev != nullptr; ev = log.readNextEvent()) {
+    tally.add(ev->channel, ev->data, ev->datalen);
+    // The same judgement as lcm_export's (hpr::msg::check_message).
+    if (const std::string why = hpr::msg::check_message(ev->channel, ev->data, ev->datalen); !why.empty()) {
+      if (++bad <= 10) {
+        std::fprintf(stderr, "lcm_recorder: event %lld at byte %ld on %s: %s\n", static_cast<long long>(ev->eventnum), offset,
+                     ev->channel.c_str(), why.c_str());
+      }
+    }
+    offset = std::ftell(log.getFilePtr());
+  }
+  std::fprintf(stderr, "lcm_recorder: %s: %lld messages, %lld undecodable\n", file.c_str(), static_cast<long long>(tally.messages),
+               static_cast<long long>(bad));
+  const int ticks = tally.report();
+  return bad > 0 ? 4 : ticks;
 }
 
 }  // namespace

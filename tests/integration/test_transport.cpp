@@ -245,4 +245,64 @@ TEST(Transport, ForgedArrayCountsOnEveryChannelLeaveEveryNodesMemoryUnchanged) {
   group.stop_all();
 }
 
+TEST(LogTools, ExportAndCheckAgreeOnTheBadMessagesOfALogAndNameTheirOffsets) {
+  const std::string dir = hpr::test::temp_dir("log-tools");
+  const std::string file = dir + "/mixed.lcm";
+  {
+    lcm::LogFile log(file, "w");
+    ASSERT_TRUE(log.good());
+    auto put = [&](const std::string& channel, const std::vector<std::uint8_t>& bytes) {
+      lcm::LogEvent ev{};
+      ev.timestamp = 1000;
+      ev.channel = channel;
+      ev.datalen = static_cast<int32_t>(bytes.size());
+      ev.data = const_cast<std::uint8_t*>(bytes.data());
+      ASSERT_EQ(log.writeEvent(&ev), 0);
+    };
+    auto encoded = [](const auto& m) {
+      std::vector<std::uint8_t> b(static_cast<std::size_t>(m.getEncodedSize()));
+      m.encode(b.data(), 0, static_cast<int>(b.size()));
+      return b;
+    };
+    humanoid::robot_state_t st{};
+    humanoid::health_t h{};
+    h.node = "wbc";
+    h.host = "robot";
+    put("ROBOT_STATE", encoded(st));                       // event 0
+    // Event 1: a forged count (20 000 000 at the first offset where it makes the message malformed).
+    std::vector<std::uint8_t> forged;
+    for (std::size_t at = 8; forged.empty() && at + 4 <= encoded(st).size(); ++at) {
+      std::vector<std::uint8_t> b = encoded(st);
+      for (std::size_t k = 0; k < 4; ++k) b[at + k] = static_cast<std::uint8_t>(20'000'000U >> (24 - 8 * k));
+      humanoid::robot_state_t out{};
+      if (out.decode(b.data(), 0, static_cast<int>(b.size())) < 0) forged = b;
+    }
+    ASSERT_FALSE(forged.empty());
+    put("ROBOT_STATE", forged);
+    put("HEALTH", encoded(st));                            // event 2: another type's bytes
+    put("SOMEONE_ELSES", {1, 2, 3});                       // event 3: not the stack's channel
+    put("HEALTH", encoded(h));                             // event 4
+  }
+  const auto check = hpr::test::run_command({hpr::test::bin_dir() + "/lcm_recorder", "--check", file}, "2>&1");
+  const auto exp = hpr::test::run_command({hpr::test::bin_dir() + "/lcm_export", file, dir + "/csv"}, "2>&1");
+  EXPECT_EQ(check.exit_code, 4) << check.out;
+  EXPECT_EQ(exp.exit_code, 1) << exp.out;
+  // Both name events 1 and 2, with the same byte offsets, and nothing else.
+  auto named = [](const std::string& out) {
+    std::vector<std::string> v;
+    for (std::size_t at = out.find("event "); at != std::string::npos; at = out.find("event ", at + 1)) {
+      const std::size_t end = out.find(':', out.find(" on ", at));
+      v.push_back(out.substr(at, end - at));
+    }
+    return v;
+  };
+  const auto a = named(check.out), b = named(exp.out);
+  ASSERT_EQ(a.size(), 2U) << check.out;
+  EXPECT_EQ(a, b) << check.out << "\n---\n" << exp.out;
+  EXPECT_NE(a[0].find("event 1 at byte "), std::string::npos) << a[0];
+  EXPECT_NE(a[1].find("event 2 at byte "), std::string::npos) << a[1];
+  EXPECT_NE(check.out.find("does not decode as humanoid.health_t"), std::string::npos) << check.out;
+  EXPECT_NE(exp.out.find("5 events read, 2 undecodable"), std::string::npos) << exp.out;
+}
+
 }  // namespace
