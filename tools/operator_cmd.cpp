@@ -75,12 +75,12 @@ int main(int argc, char** argv) {
   int i = 2;
   std::set<std::string> nodes;  // addressed by set or params
   try {
-    static const std::map<std::string, std::int8_t> kCommands = {{"enable", humanoid::operator_t::COMMAND_ENABLE},
-                                                                 {"damp", humanoid::operator_t::COMMAND_DAMP},
-                                                                 {"stop", humanoid::operator_t::COMMAND_STOP}};
-    static const std::map<std::string, std::int8_t> kSupports = {{"double", humanoid::balance_status_t::SUPPORT_DOUBLE},
-                                                                 {"left", humanoid::balance_status_t::SUPPORT_LEFT},
-                                                                 {"right", humanoid::balance_status_t::SUPPORT_RIGHT}};
+    static const std::map<std::string, std::int8_t> kCommands = {{"enable", std::int8_t{humanoid::operator_t::COMMAND_ENABLE}},
+                                                                 {"damp", std::int8_t{humanoid::operator_t::COMMAND_DAMP}},
+                                                                 {"stop", std::int8_t{humanoid::operator_t::COMMAND_STOP}}};
+    static const std::map<std::string, std::int8_t> kSupports = {{"double", std::int8_t{humanoid::balance_status_t::SUPPORT_DOUBLE}},
+                                                                 {"left", std::int8_t{humanoid::balance_status_t::SUPPORT_LEFT}},
+                                                                 {"right", std::int8_t{humanoid::balance_status_t::SUPPORT_RIGHT}}};
     if (const auto c = kCommands.find(verb); c != kCommands.end()) {
       m.command = c->second;
     } else if (verb == "support") {
