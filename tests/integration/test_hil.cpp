@@ -46,7 +46,9 @@ struct Hil {
   std::shared_ptr<std::vector<humanoid::joint_command_t>> commands = lcm.collect<humanoid::joint_command_t>("JOINT_COMMAND");
   std::shared_ptr<std::vector<humanoid::health_t>> health = lcm.collect<humanoid::health_t>("HEALTH");
   std::string cfg = hpr::test::source_dir() + "/config/toro.yaml";
-  std::string port = "hal.udp_base_port=" + std::to_string(30000 + 40 * (getpid() % 800));
+  // Below the kernel's ephemeral range (32768-60999), where another process's socket could hold
+  // the port, and above the configured 21000 that the supervisor's hil groups use.
+  std::string port = "hal.udp_base_port=" + std::to_string(22000 + 40 * (getpid() % 250));
   std::string clock = HPR_HIL_LOCKSTEP ? "hal.clock=lockstep" : "hal.clock=realtime";
   pid_t emulator = -1, hal = -1, wbc = -1;
 
