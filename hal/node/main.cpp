@@ -116,7 +116,8 @@ int run(const node::CommandLine& cl, const Config& cfg) {
   const double start = hal_now();
   double last_status = -1.0, last_rate = start;
   std::int64_t tick = 0;
-  bool flowing = false;  // lockstep: the controllers answered the last tick
+  bool flowing = false;    // lockstep: the controllers answered the last tick
+  std::int64_t heard = 0;  // lockstep: JOINT_COMMANDs received when the last tick closed
   hal::SafetyState last_state = h.safety().state();
   if (enable_on_start) log::info("{}", h.operator_command(humanoid::operator_t::COMMAND_ENABLE, start, "configuration"));
   log::info("hal: {} drives on {} buses, period {} ms, {}, command max age {} ms, state {}", config.drives.size(), config.buses.size(),
@@ -179,7 +180,8 @@ int run(const node::CommandLine& cl, const Config& cfg) {
     if (lockstep) {
       // The next tick starts when the controllers have answered this one; while they are silent
       // (starting, killed) the hal runs on at one tick per period of wall time, so commands age
-      // and the safety rules act as on the robot.
+      // and the safety rules act as on the robot. Controllers that answer, only later than a
+      // period (a loaded machine), are waited for: a lockstep run must not depend on timing.
       const std::int64_t answered = tick - 1;
       if (flowing) {
         flowing = rt.spin_until([&] { return command_in.tick() >= answered; }, config.lockstep_timeout);
@@ -190,8 +192,12 @@ int run(const node::CommandLine& cl, const Config& cfg) {
           if (left <= 0) break;
           rt.spin_once(left);
         }
+        if (command_in.tick() < answered && command_in.count() > heard) {
+          rt.spin_until([&] { return command_in.tick() >= answered; }, config.lockstep_timeout);
+        }
         flowing = command_in.tick() >= answered;
       }
+      heard = command_in.count();
       continue;
     }
     clock.next();

@@ -27,6 +27,8 @@ TEST(EstimatorNode, EstimatesInLockstepAndFlagsADropout) {
   const pid_t sim = group.start("sim_bullet", {"--config", cfg, "--set", "sim.duration=3.0", "--set", "sim.noise.enabled=true"});
   ASSERT_TRUE(lcm.wait_for([&] { return !group.running(sim); }, 120s));
   EXPECT_EQ(group.wait(sim, 5s).exit_code, 0);
+  // The simulator's last messages may still wait in this listener's queue when it exits.
+  lcm.wait_for([&] { return truth->size() >= 3000; }, 5s);
   ASSERT_EQ(truth->size(), 3000U);
   // One state per tick (the last may still be in flight), each close to the truth of its tick.
   // The first state of a tick is the estimate; a later one with the same tick is the flagged

@@ -67,7 +67,8 @@ std::pair<std::vector<std::vector<uint8_t>>, std::vector<std::vector<uint8_t>>> 
   const pid_t pid = group.start("sim_bullet", {"--config", hpr::test::source_dir() + "/config/toro.yaml", "--set",
                                                "sim.duration=1.0", "--set", "sim.scenario=" + scenario});
   lcm.wait_for([&] { return !group.running(pid); }, 60s);
-  lcm.spin_for(100ms);
+  // The simulator's last messages may still wait in this listener's queue when it exits (1 s: 1000).
+  lcm.wait_for([&] { return truth.size() >= 1000; }, 5s);
   const auto r = group.wait(pid, 5s);
   EXPECT_TRUE(r.exited);
   EXPECT_EQ(r.exit_code, 0);

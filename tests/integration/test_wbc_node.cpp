@@ -33,7 +33,8 @@ TEST(WbcNode, StandsAndRecoversAPushInLockstep) {
   const pid_t sim = group.start("sim_bullet", {"--config", cfg, "--set", "sim.duration=6.0", "--set",
                                                "sim.scenario=" + scenario});
   ASSERT_TRUE(lcm.wait_for([&] { return !group.running(sim); }, 120s));
-  lcm.spin_for(200ms);
+  // The simulator's last messages may still wait in this listener's queue when it exits.
+  lcm.wait_for([&] { return truth->size() >= 6000; }, 5s);
   const auto r = group.wait(sim, 5s);
   EXPECT_EQ(r.exit_code, 0);
   ASSERT_EQ(truth->size(), 6000U);
