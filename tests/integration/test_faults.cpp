@@ -100,15 +100,20 @@ class Group {
     up_ = up.exit_code == 0;
     up_text_ = up.out;
     if (!up_) return;
-    const auto st = run_command({supervisor(), "status", "--json", "--lcm-url", url_, "--wait", "1.2"});
-    try {
-      const nlohmann::json j = nlohmann::json::parse(st.out);
-      const nlohmann::json& sup = j.at("supervisors").at(0);
-      for (const auto& p : sup.at("processes")) pids_[p.at("name").get<std::string>()] = p.at("pid").get<int>();
-      run_dir_ = sup.at("run_dir").get<std::string>();
-    } catch (const std::exception& e) {
-      ADD_FAILURE() << "status --json: " << e.what() << "\n" << st.out;
+    // A loaded machine may take longer than one status wait to answer: asked up to five times.
+    std::string error;
+    for (int attempt = 0; attempt < 5 && run_dir_.empty(); ++attempt) {
+      const auto st = run_command({supervisor(), "status", "--json", "--lcm-url", url_, "--wait", "1.2"});
+      try {
+        const nlohmann::json j = nlohmann::json::parse(st.out);
+        const nlohmann::json& sup = j.at("supervisors").at(0);
+        for (const auto& p : sup.at("processes")) pids_[p.at("name").get<std::string>()] = p.at("pid").get<int>();
+        run_dir_ = sup.at("run_dir").get<std::string>();
+      } catch (const std::exception& e) {
+        error = std::string(e.what()) + "\n" + st.out;
+      }
     }
+    if (run_dir_.empty()) ADD_FAILURE() << "status --json: " << error;
   }
   ~Group() { run_command({supervisor(), "down", "--lcm-url", url_}); }
   Group(const Group&) = delete;

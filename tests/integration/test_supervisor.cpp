@@ -114,7 +114,7 @@ TEST(Supervisor, UpStatusCriticalDeathRecordAndDownLeaveNothingBehind) {
   } else {
     ADD_FAILURE() << "xvfb-run is missing (tools/install-deps installs it): the lcm-spy window is not checked";
   }
-  const auto spy = run_command({hpr::test::source_dir() + "/tools/lcm-spy", "--check", "3", "--lcm-url", url});
+  const auto spy = run_command({hpr::test::source_dir() + "/tools/lcm-spy", "--check", "5", "--lcm-url", url});
   EXPECT_EQ(spy.exit_code, 0) << spy.out;
   EXPECT_NE(spy.out.find("every message decoded"), std::string::npos) << spy.out;
   for (const char* c : {"ROBOT_SENSORS", "ROBOT_STATE", "BALANCE_STATUS", "CAM_REFERENCE", "WHOLEBODY_COMMAND", "JOINT_COMMAND",
