@@ -159,7 +159,9 @@ HIL_TEST(KilledControllerDampsEveryDriveWithin10msThenTorqueOff) {
   hil.run_for(2.0);
   ASSERT_FALSE(hil.fallen());
   hil.group.signal(hil.wbc, SIGKILL);
-  ASSERT_TRUE(hil.lcm.wait_for([&] { return hil.hal_state() == humanoid::hal_status_t::STATE_DAMPING; }, 3s));
+  // Wall-time bounds below are generous (a loaded machine runs the hal's clock slowly); the damping
+  // latency itself is measured in hal ticks.
+  ASSERT_TRUE(hil.lcm.wait_for([&] { return hil.hal_state() == humanoid::hal_status_t::STATE_DAMPING; }, 10s));
   hil.lcm.spin_for(300ms);
   // Measured in hal ticks (1 ms): the last command answered sensor tick k; the first sample whose
   // drives are all damping.
@@ -178,8 +180,8 @@ HIL_TEST(KilledControllerDampsEveryDriveWithin10msThenTorqueOff) {
   std::printf("last JOINT_COMMAND answered tick %lld, every drive damping from tick %lld\n", static_cast<long long>(last_command_tick),
               static_cast<long long>(damped_tick));
   EXPECT_LE(damped_tick - last_command_tick, 10) << "damping within 10 ms of the last command";
-  // Torque off after the configured time (1 s).
-  ASSERT_TRUE(hil.lcm.wait_for([&] { return hil.hal_state() == humanoid::hal_status_t::STATE_TORQUE_OFF; }, 3s));
+  // Torque off after the configured time (1 s of hal time).
+  ASSERT_TRUE(hil.lcm.wait_for([&] { return hil.hal_state() == humanoid::hal_status_t::STATE_TORQUE_OFF; }, 10s));
 }
 
 HIL_TEST(FivePercentDroppedRepliesKeepStandingAndAreReported) {

@@ -105,6 +105,17 @@ void InputBase::follow_if_quiet(double now) {
 
 void InputBase::restart_stream() { tick_ = -1; }
 
+bool InputBase::repeats_waiting_step(std::int64_t tick) {
+  if (tick != tick_ || tick_ < 0) return false;
+  for (const auto& t : runtime_.triggers_) {
+    if (t.primary == this && t.pending_tick == tick && t.pending_tick > t.last_tick) {
+      ++repeats_;
+      return true;
+    }
+  }
+  return false;
+}
+
 Runtime::Runtime(std::string node_name, const std::string& lcm_url, RuntimeOptions options)
     : name_(std::move(node_name)), options_(std::move(options)) {
   install_signal_handlers();

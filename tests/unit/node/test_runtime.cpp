@@ -170,4 +170,53 @@ TEST_F(TickStream, InputsThatAreNotStreamsAcceptAnyTick) {
   EXPECT_EQ(other.errors(), 0);
 }
 
+TEST_F(TickStream, ARepeatOfAWaitingTickIsDroppedSoTheStepUsesTheFirstMessage) {
+  // A node whose validator decodes into its own state (as the wbc's does), and whose step waits
+  // for BALANCE only while that state is usable (utime >= 0 here), as the wbc waits for the motion
+  // optimiser's command only on a usable estimate.
+  std::int64_t state_utime = 0;
+  auto& state = rt.subscribe<humanoid::robot_sensors_t>("STATE", [&](const humanoid::robot_sensors_t& m) {
+    state_utime = m.utime;
+    return std::string();
+  });
+  auto& balance = rt.subscribe<humanoid::balance_status_t>("BALANCE");
+  std::vector<std::int64_t> used_utime;
+  rt.on_tick(state, {{&balance, 0, [&] { return state_utime >= 0; }}}, 10.0, [&](const hpr::node::TickInfo& info) {
+    stepped.push_back(info.tick);
+    used_utime.push_back(state_utime);
+  });
+  const auto send_state = [&](std::int64_t tick, std::int64_t utime) {
+    humanoid::robot_sensors_t m{};
+    m.tick = tick;
+    m.utime = utime;
+    rt.lcm().publish("STATE", &m);
+    rt.spin_once(0.0);
+  };
+  send_state(1, 1000);
+  send_balance(1);
+  ASSERT_EQ(stepped, (std::vector<std::int64_t>{1}));
+  // Tick 2 waits for BALANCE; meanwhile its source republishes tick 2 flagged unusable (a sensor
+  // timeout on a slow round). The step must neither run early nor see the flagged copy.
+  send_state(2, 2000);
+  send_state(2, -1);
+  send_state(2, -1);
+  EXPECT_EQ(stepped.size(), 1U) << "the repeat released the waiting step";
+  EXPECT_EQ(state.repeats(), 2);
+  EXPECT_EQ(state.count(), 2);
+  send_balance(2);
+  ASSERT_EQ(stepped, (std::vector<std::int64_t>{1, 2}));
+  EXPECT_EQ(used_utime.back(), 2000);
+  // Once tick 2 has stepped, a repeat is taken as the latest message (nothing waits on it) and
+  // steps nothing.
+  send_state(2, -1);
+  EXPECT_EQ(state.repeats(), 2);
+  EXPECT_EQ(state.count(), 3);
+  EXPECT_EQ(state_utime, -1);
+  EXPECT_EQ(stepped.size(), 2U);
+  // A first message that is unusable is the tick's message: the step runs at once without BALANCE.
+  send_state(3, -1);
+  EXPECT_EQ(stepped, (std::vector<std::int64_t>{1, 2, 3}));
+  EXPECT_EQ(used_utime.back(), -1);
+}
+
 }  // namespace

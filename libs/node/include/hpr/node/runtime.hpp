@@ -13,6 +13,10 @@
 ///    counted as a rejected message; when the stream's tick has not advanced for `source_quiet_s`,
 ///    the input follows the held stream (a restarted source), the triggers it drives start again
 ///    from its tick and the node's on_restart() resets run.
+///  - A step uses the first message of its tick: a message that repeats the primary input's tick
+///    while that tick's step waits for its synced inputs (a source republishing its last sample,
+///    flagged stale, because the chain is slow) is counted (repeats()) and dropped. How long a
+///    lockstep round takes thus never changes what a step computes.
 ///  - SIGINT and SIGTERM end run() (and spin_until()) promptly; the process then exits 0.
 ///  - HEALTH goes out at lcm.health_rate_hz (10 Hz), or faster when the environment variable
 ///    HPR_HEALTH_RATE_HZ asks (the supervisor does, for a node it watches for hangs): node, last
@@ -64,6 +68,8 @@ class InputBase {
   [[nodiscard]] std::int64_t out_of_window() const { return out_of_window_; }
   /// Times the input followed a new tick stream (a restarted source).
   [[nodiscard]] std::int64_t follows() const { return follows_; }
+  /// Messages dropped because they repeated the tick of a step still waiting (see the file comment).
+  [[nodiscard]] std::int64_t repeats() const { return repeats_; }
 
  protected:
   InputBase(Runtime& rt, std::string channel) : runtime_(rt), channel_(std::move(channel)) {}
@@ -81,6 +87,9 @@ class InputBase {
   void restart_stream();
   /// Makes the held message the latest one (validating it first); false when it is refused.
   virtual bool adopt_held() = 0;
+  /// Whether a message of `tick` repeats the tick of a step that waits for its synced inputs; if
+  /// so it is counted, and the caller drops it.
+  bool repeats_waiting_step(std::int64_t tick);
 
   Runtime& runtime_;
   std::string channel_;
@@ -90,7 +99,7 @@ class InputBase {
   std::string last_error_;
   bool stream_ = false;
   bool held_ = false;
-  std::int64_t held_tick_ = -1, out_of_window_ = 0, follows_ = 0;
+  std::int64_t held_tick_ = -1, out_of_window_ = 0, follows_ = 0, repeats_ = 0;
   friend class Runtime;
 };
 
@@ -126,6 +135,8 @@ class Input final : public InputBase {
       hold(rbuf->data_size, held_msg_.tick);
       return;
     }
+    // Before validation: a validator decodes into the node's own state, which the step reads.
+    if (why.empty() && stream_ && repeats_waiting_step(spare_.tick)) return;
     if (why.empty()) why = validated(spare_);
     if (!why.empty()) {
       reject(rbuf->data_size, why);
