@@ -143,8 +143,10 @@ int run(const node::CommandLine& cl, const Config& cfg) {
       poll_for(fds, left);
     }
     h.end_tick(t0);
+    // utime is the hal's clock (h.sensors().time = t0): monotonic in real time, tick × period in
+    // lockstep. The estimator integrates over it, so it must advance as the drives' time does (a
+    // wall-clock stamp ran ahead of a slow lockstep chain) and never jump (an NTP step would).
     msg::to_message(h.sensors(), names, sensors_msg);
-    sensors_msg.utime = wall_us();
     sensors_out.publish(sensors_msg);
     const double now = lockstep ? t0 : monotonic_s();
     if (now - last_rate >= 0.1) {
