@@ -258,7 +258,8 @@ TEST(HardwareInTheLoop, RealTimeSimGroupIsUpAndStandsTenSeconds) {
   for (int i = 0; i < st.num_processes; ++i) details += st.name[i] + ": " + st.detail[i] + "\n";
   EXPECT_EQ(int{st.state}, int{humanoid::supervisor_status_t::STATE_UP}) << details;
   // lcm-spy decodes every live message of the running group, every channel of the stack present.
-  const auto spy = hpr::test::run_command({hpr::test::source_dir() + "/tools/lcm-spy", "--check", "3", "--lcm-url", url});
+  const std::string channels = "ROBOT_SENSORS,ROBOT_STATE,BALANCE_STATUS,CAM_REFERENCE,WHOLEBODY_COMMAND,JOINT_COMMAND,SIM_TRUTH,HEALTH";
+  const auto spy = hpr::test::run_command({hpr::test::source_dir() + "/tools/lcm-spy", "--check", "3", "--lcm-url", url, "--expect", channels});
   EXPECT_EQ(spy.exit_code, 0) << spy.out;
   for (const char* c : {"ROBOT_SENSORS", "ROBOT_STATE", "BALANCE_STATUS", "CAM_REFERENCE", "WHOLEBODY_COMMAND", "JOINT_COMMAND", "SIM_TRUTH", "HEALTH"}) {
     EXPECT_NE(spy.out.find(std::string("\n") + c + " "), std::string::npos) << c << " not seen by lcm-spy:\n" << spy.out;

@@ -114,7 +114,10 @@ TEST(Supervisor, UpStatusCriticalDeathRecordAndDownLeaveNothingBehind) {
   } else {
     ADD_FAILURE() << "xvfb-run is missing (tools/install-deps installs it): the lcm-spy window is not checked";
   }
-  const auto spy = run_command({hpr::test::source_dir() + "/tools/lcm-spy", "--check", "5", "--lcm-url", url});
+  // Listens 5 s, then on until every channel below has been seen (a loaded machine's JVM may deliver
+  // the first seconds late); a channel that never comes fails the check.
+  const std::string channels = "ROBOT_SENSORS,ROBOT_STATE,BALANCE_STATUS,CAM_REFERENCE,WHOLEBODY_COMMAND,JOINT_COMMAND,SIM_TRUTH,HEALTH,SUPERVISOR_STATUS";
+  const auto spy = run_command({hpr::test::source_dir() + "/tools/lcm-spy", "--check", "5", "--lcm-url", url, "--expect", channels});
   EXPECT_EQ(spy.exit_code, 0) << spy.out;
   EXPECT_NE(spy.out.find("every message decoded"), std::string::npos) << spy.out;
   for (const char* c : {"ROBOT_SENSORS", "ROBOT_STATE", "BALANCE_STATUS", "CAM_REFERENCE", "WHOLEBODY_COMMAND", "JOINT_COMMAND",
