@@ -50,6 +50,7 @@ struct Case {
   Strategy strategy;
   double direction;
   double max_recovered = 0.0;
+  double min_lost = 0.0;  ///< the smallest impulse tried that was not recovered (0: none, reached_max)
   bool reached_max = false;
   bool inconclusive = false;  ///< a trial stayed inconclusive: the largest impulse may be too low
   struct Trial {
@@ -125,7 +126,7 @@ int main(int argc, char** argv) {
   std::vector<Case> cases;
   for (const auto& s : supports) {
     for (const auto& st : strategies) {
-      for (double d : angles) cases.push_back({s, strategy_from_string(st), d, 0.0, false, false, {}});
+      for (double d : angles) cases.push_back({s, strategy_from_string(st), d, 0.0, 0.0, false, false, {}});
     }
   }
   std::mutex print_mutex;
@@ -206,6 +207,7 @@ int main(int argc, char** argv) {
       }
     }
     c.max_recovered = lo;
+    c.min_lost = c.reached_max ? 0.0 : hi;
     std::lock_guard<std::mutex> lock(print_mutex);
     std::fprintf(stderr, "  => %s %s %.0f deg: largest recovered impulse %.2f N s%s\n", c.support.c_str(), to_string(c.strategy),
                  c.direction, lo, c.reached_max ? " (the maximum tried)" : "");
@@ -235,6 +237,11 @@ int main(int argc, char** argv) {
     r["strategy"] = to_string(c.strategy);
     r["direction_deg"] = c.direction;
     r["max_recovered_Ns"] = c.max_recovered;
+    if (c.reached_max) {
+      r["min_lost_Ns"] = nullptr;
+    } else {
+      r["min_lost_Ns"] = c.min_lost;
+    }
     r["reached_max"] = c.reached_max;
     r["inconclusive"] = c.inconclusive;
     r["trials"] = nlohmann::ordered_json::array();

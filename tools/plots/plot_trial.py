@@ -191,21 +191,22 @@ def fig8(d, out, title, window):
     fig, axs = plt.subplots(len(moved), 2, figsize=(11, 2.0 * len(moved)), sharex=True, squeeze=False)
     t = wb["t"]
     def show(ax, y, lo, hi, label):
+        # The limits (17) as lines, as in the paper's Fig. 8; the axis spans them and the motion.
+        hi = np.where(np.isfinite(hi), hi, np.nan)
+        lo = np.where(np.isfinite(lo), lo, np.nan)
         ax.plot(t, y, label=label)
-        span = max(np.nanmax(y) - np.nanmin(y), 1e-3)
-        top, bottom = np.nanmax(y) + 0.6 * span, np.nanmin(y) - 0.6 * span
-        lo_v, hi_v = np.nanmin(lo), np.nanmax(hi)
-        # Limits drawn when they are within reach of the plotted range, else written down.
-        if hi_v - np.nanmax(y) < 3 * span:
-            ax.plot(t, hi, "r:", lw=1)
-            top = max(top, hi_v + 0.1 * span)
-        if np.nanmin(y) - lo_v < 3 * span:
-            ax.plot(t, lo, "r:", lw=1)
-            bottom = min(bottom, lo_v - 0.1 * span)
-        ax.set_ylim(bottom, top)
-        ax.text(0.99, 0.04, "limits [%.2f, %.2f]" % (lo_v, hi_v), transform=ax.transAxes, ha="right", fontsize=7, color="r")
-        decorate(ax, push, [])
+        ax.plot(t, hi, "r--", lw=1, label="limits (17)")
+        ax.plot(t, lo, "r--", lw=1)
+        top = np.nanmax([np.nanmax(y), np.nanmax(hi)])
+        bottom = np.nanmin([np.nanmin(y), np.nanmin(lo)])
+        margin = 0.08 * max(top - bottom, 1e-3)
+        ax.set_ylim(bottom - margin, top + margin)
+        decorate(ax, push, phases)
 
+    phases = []
+    if truth is not None:
+        axis, _ = push_axes(truth)
+        phases = phase_lines(d["CAM_REFERENCE"], 1 if axis == 0 else 0)
     for i, c in enumerate(moved):
         show(axs[i][0], wb["xad_opt_" + c], wb["xad_min_" + c], wb["xad_max_" + c], "optimised velocity")
         axs[i][0].set_ylabel(c.replace("_", " "), fontsize=8)

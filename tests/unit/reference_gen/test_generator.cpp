@@ -188,19 +188,21 @@ TEST(ReferenceGenerator, StaleBalanceStatusHoldsThenRampsToZero) {
   EXPECT_NEAR(g.output().l_ref_V.y(), 0.0, 1e-12) << "ramped to zero";
 }
 
-// Golden figure: the Fig. 3 scenario (12 N s from behind at t = 1 s) for α ∈ {0.7, 0.8, 0.9}, saved
-// as an image for a person to compare with the paper.
+// Golden figure: the Fig. 3 scenario (12 N s from behind at t = 1 s) for α ∈ {0.7, 0.8, 0.9} at
+// β = 0.4 and β ∈ {0.3, 0.4, 0.5} at α = 0.7, saved as an image for a person to compare with the paper.
 TEST(ReferenceGenerator, Fig3GoldenFigure) {
   const std::string dir = hpr::test::temp_dir("fig3");
   std::ofstream csv(dir + "/fig3.csv");
-  csv << "alpha,t,tau_ankle,tau_thres,tau_limit,l_ref,ldot_ref,phase\n";
-  for (double alpha : {0.7, 0.8, 0.9}) {
-    const auto s = run_axis({alpha, 0.4}, [](double t) { return push_trace(t, 1.0, 95.0, 0.6); }, 4.0);
+  csv << "series,alpha,beta,t,tau_ankle,tau_min,tau_max,tau_thres,l_ref,ldot_ref,phase\n";
+  auto write = [&](const char* series, AxisParams p) {
+    const auto s = run_axis(p, [](double t) { return push_trace(t, 1.0, 95.0, 0.6); }, 4.0);
     for (const auto& x : s) {
-      csv << alpha << "," << x.t << "," << x.tau << "," << -alpha * kLimit << "," << kLimit << "," << x.l << ","
-          << x.ldot << "," << static_cast<int>(x.phase) << "\n";
+      csv << series << "," << p.alpha << "," << p.beta << "," << x.t << "," << x.tau << "," << -kLimit << "," << kLimit << ","
+          << x.thres << "," << x.l << "," << x.ldot << "," << static_cast<int>(x.phase) << "\n";
     }
-  }
+  };
+  for (double alpha : {0.7, 0.8, 0.9}) write("alpha", {alpha, 0.4});
+  for (double beta : {0.3, 0.4, 0.5}) write("beta", {0.7, beta});
   csv.close();
   const std::string png = dir + "/fig3_reference_generation.png";
   const std::string cmd = "/usr/bin/python3 " + hpr::test::source_dir() + "/tools/plots/plot_fig3.py " + dir +
