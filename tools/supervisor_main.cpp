@@ -280,6 +280,7 @@ int run_supervisor(const launch::GroupSpec& group, const Options& o, const std::
     }
   });
   bool down_requested = false;
+  std::string down_source;  // who asked for the down: the goodbye names it
   double last_refusal_log = -1e9;
   std::int64_t refused_commands = 0;
   Subscription<humanoid::supervisor_command_t> command_sub(lcm, "SUPERVISOR_COMMAND", [&](const humanoid::supervisor_command_t& c) {
@@ -296,7 +297,10 @@ int run_supervisor(const launch::GroupSpec& group, const Options& o, const std::
       return;
     }
     if (c.command == humanoid::supervisor_command_t::COMMAND_DOWN) {
-      if (!down_requested) std::cout << fmt::format("[{}] down requested by {}", now_text(), c.source) << std::endl;
+      if (!down_requested) {
+        std::cout << fmt::format("[{}] down requested by {}", now_text(), c.source) << std::endl;
+        down_source = c.source;
+      }
       down_requested = true;
     } else if (c.command == humanoid::supervisor_command_t::COMMAND_RESTART) {
       if (sup.restart(c.process, monotonic_s())) {
@@ -362,7 +366,7 @@ int run_supervisor(const launch::GroupSpec& group, const Options& o, const std::
     if (down_started && sup.all_ended()) break;
   }
   launcher.stop_all(std::chrono::milliseconds(500));
-  Status m = make_status(sup, ++seq, "stopped", monotonic_s());
+  Status m = make_status(sup, ++seq, down_source.empty() ? "stopped" : "stopped: down by " + down_source, monotonic_s());
   m.state = Status::STATE_STOPPED;
   for (int i = 0; i < 3; ++i) {
     lcm.publish("SUPERVISOR_STATUS", &m);
@@ -543,12 +547,15 @@ int cmd_status(const Options& o, const std::string& url) {
   return hosts.empty() ? 3 : 0;
 }
 
+/// Who sends this process's SUPERVISOR_COMMANDs: a supervisor names it in the goodbye that answers a down.
+std::string command_source() { return "supervisor-cli@" + machine_host() + ":" + std::to_string(::getpid()); }
+
 void send_command(lcm::LCM& lcm, const Options& o, int8_t command, const std::string& process) {
   static std::int64_t seq = 0;
   humanoid::supervisor_command_t c{};
   c.tick = ++seq;
   c.utime = wall_us();
-  c.source = "supervisor-cli@" + machine_host() + ":" + std::to_string(::getpid());
+  c.source = command_source();
   c.host = o.host_given ? o.host : "";
   c.group = o.group_filter;
   c.command = command;
@@ -565,20 +572,25 @@ int cmd_down(const Options& o, const std::string& url) {
     bool stopped = false;
   };
   std::map<std::pair<std::string, std::string>, Seen> seen;
+  const std::string me = command_source();
   Subscription<Status> sub(lcm, "SUPERVISOR_STATUS", [&](const Status& s) {
     if (!o.group_filter.empty() && s.group != o.group_filter) return;
     if (o.host_given && s.host != o.host) return;
+    // A goodbye from a supervisor not heard before is an old one (another down's), unless it
+    // names this down: a supervisor that stopped before any of its statuses reached us.
+    const bool goodbye = s.state == Status::STATE_STOPPED;
+    if (goodbye && !seen.contains({s.host, s.group}) && s.message.find(me) == std::string::npos) return;
     auto& e = seen[{s.host, s.group}];
-    if (e.heard == 0 && s.state == Status::STATE_STOPPED) return;  // an old goodbye
     e.last = s;
     e.heard = monotonic_s();
     e.stopped = e.stopped || s.state == Status::STATE_STOPPED;
   });
-  // A supervisor is done when it said goodbye and its pid is gone (or 3 s passed: the pid may be
-  // another machine's), or when it has been silent for 2 s.
+  // A supervisor is done when it said goodbye and its pid is gone (or 10 s passed: the pid may be
+  // another machine's, and a process of this one may have the same number), or when it has been
+  // silent for 2 s.
   const auto finished = [](const Seen& e) {
     const double silent = monotonic_s() - e.heard;
-    return e.stopped ? ::kill(e.last.pid, 0) != 0 || silent > 3.0 : silent > 2.0;
+    return e.stopped ? ::kill(e.last.pid, 0) != 0 || silent > 10.0 : silent > 2.0;
   };
   const double start = monotonic_s();
   double last_send = -10;

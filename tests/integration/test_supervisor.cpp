@@ -151,9 +151,12 @@ TEST(Supervisor, UpStatusCriticalDeathRecordAndDownLeaveNothingBehind) {
   const auto down = run_command({supervisor(), "down", "--lcm-url", url});
   EXPECT_EQ(down.exit_code, 0) << down.out;
   EXPECT_NE(down.out.find("stopped"), std::string::npos) << down.out;
-  std::this_thread::sleep_for(300ms);
+  // down returns once the supervisor's pid is gone (or 10 s after its goodbye); a loaded machine
+  // may take a moment to reap it.
+  const auto deadline = std::chrono::steady_clock::now() + 10s;
+  while (alive(supervisor_pid) && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(50ms);
   for (const auto& [name, pid] : pids) EXPECT_FALSE(alive(pid)) << name << " (pid " << pid << ") is still running after down";
-  EXPECT_FALSE(alive(supervisor_pid)) << "the supervisor is still running after down";
+  EXPECT_FALSE(alive(supervisor_pid)) << "the supervisor is still running 10 s after down";
   EXPECT_EQ(status(url)["supervisors"].size(), 0U);
 }
 
