@@ -62,8 +62,9 @@ void InputBase::accept(std::int64_t tick) {
   if (tick > tick_ || tick_ < 0) advance_time_ = receive_time_;
   tick_ = tick;
   ++count_;
-  runtime_.on_input(*this);
 }
+
+void InputBase::notify() { runtime_.on_input(*this); }
 
 void InputBase::reject(std::size_t bytes, const std::string& why) {
   ++errors_;

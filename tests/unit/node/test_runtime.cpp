@@ -220,3 +220,27 @@ TEST_F(TickStream, ARepeatOfAWaitingTickIsDroppedSoTheStepUsesTheFirstMessage) {
 }
 
 }  // namespace
+
+namespace {
+
+TEST_F(TickStream, AStepSeesWhatTheCallbackOfTheMessageThatReleasedItDid) {
+  // The wbc marks the motion optimiser's command as received in its callback and uses it in the
+  // step that command releases: the callback runs before that step, also for the very first message.
+  bool have_balance = false;
+  auto& marked = rt.subscribe<humanoid::balance_status_t>("MARKED", {}, [&](const humanoid::balance_status_t&) { have_balance = true; });
+  std::vector<bool> had;
+  rt.on_tick(sensors, {{&marked, 0, {}}}, 10.0, [&](const hpr::node::TickInfo& info) {
+    stepped.push_back(info.tick);
+    had.push_back(have_balance);
+  });
+  send(0);
+  EXPECT_TRUE(stepped.empty()) << "stepped before its synced input";
+  humanoid::balance_status_t m{};
+  m.tick = 0;
+  rt.lcm().publish("MARKED", &m);
+  rt.spin_once(0.0);
+  ASSERT_EQ(stepped, (std::vector<std::int64_t>{0}));
+  EXPECT_TRUE(had[0]) << "the step of tick 0 ran before the callback of the message it waited for";
+}
+
+}  // namespace

@@ -73,7 +73,10 @@ class InputBase {
 
  protected:
   InputBase(Runtime& rt, std::string channel) : runtime_(rt), channel_(std::move(channel)) {}
+  /// Records an accepted message of `tick`; then the subscriber's callback runs, then notify()
+  /// releases the steps waiting for it (so a step sees what the callback did with the message).
   void accept(std::int64_t tick);
+  void notify();
   void reject(std::size_t bytes, const std::string& why);
   /// Whether `tick` continues the stream: from the last accepted tick up to the window ahead.
   [[nodiscard]] bool in_window(std::int64_t tick) const;
@@ -146,6 +149,7 @@ class Input final : public InputBase {
     std::swap(latest_, spare_);
     accept(latest_.tick);
     if (on_message_) on_message_(latest_);
+    notify();
   }
 
   std::string validated(const Msg& m) {
@@ -167,6 +171,7 @@ class Input final : public InputBase {
     std::swap(latest_, held_msg_);
     accept(latest_.tick);
     if (on_message_) on_message_(latest_);
+    notify();
     return true;
   }
 
