@@ -28,7 +28,7 @@ void usage(std::FILE* out) {
   std::fprintf(out, R"(usage: push_trial [options]
 
 One push experiment: sim_bullet, estimator, wbc and (strategy cam) reference_gen and motion_opt in
-lockstep on a private LCM URL. Prints a JSON object: recovered, fallen, applied impulse, maximum foot
+lockstep on a private LCM URL (or, with --in-process, their libraries in one thread). Prints a JSON object: recovered, fallen, applied impulse, maximum foot
 tilt, maximum sole slip, peak CAM per axis, minimum CoP margin, time to return to the posture.
 
   --support S           double | left | right (default double)
@@ -122,6 +122,9 @@ int main(int argc, char** argv) {
       throw std::invalid_argument("the push needs --peak > 0 and a positive --impulse or --duration");
     }
     spec.config = find_config(spec.config);
+    if (spec.in_process && (!spec.log_file.empty() || !video_file.empty())) {
+      throw std::invalid_argument("--in-process writes no log: --log and --video need the processes");
+    }
     if (!video_file.empty() && spec.log_file.empty()) {
       spec.log_file = (std::filesystem::path(video_file).replace_extension(".lcm")).string();
     }

@@ -7,15 +7,15 @@
 #include <cstdio>
 #include <vector>
 
-#include "hpr/closed_loop/closed_loop.hpp"
+#include "hpr/pipeline/closed_loop.hpp"
 #include "hpr/common/stats.hpp"
 
 int main(int argc, char** argv) {
-  const auto args = hpr::closed_loop::read_bench_args(argc, argv, "bench_estimator");
+  const auto args = hpr::pipeline::read_bench_args(argc, argv, "bench_estimator");
   if (!args) return 2;
   const std::string& robot = args->robot;
   const double seconds = args->seconds;
-  hpr::closed_loop::ClosedLoop loop(std::string(HPR_SOURCE_DIR) + "/config/" + robot + ".yaml", {"sim.noise.enabled=true"},
+  hpr::pipeline::ClosedLoop loop(std::string(HPR_SOURCE_DIR) + "/config/" + robot + ".yaml", {"sim.noise.enabled=true"},
                                     {.run_estimator = true});
   loop.push_base(15.0, 65.0, Eigen::Vector3d::UnitX(), 3.0);
   std::vector<double> us;

@@ -9,15 +9,15 @@
 #include <cstdio>
 #include <vector>
 
-#include "hpr/closed_loop/closed_loop.hpp"
+#include "hpr/pipeline/closed_loop.hpp"
 #include "hpr/common/stats.hpp"
 
 int main(int argc, char** argv) {
-  const auto args = hpr::closed_loop::read_bench_args(argc, argv, "bench_motion_opt");
+  const auto args = hpr::pipeline::read_bench_args(argc, argv, "bench_motion_opt");
   if (!args) return 2;
   const std::string& robot = args->robot;
   const double seconds = args->seconds;
-  hpr::closed_loop::ClosedLoop loop(std::string(HPR_SOURCE_DIR) + "/config/" + robot + ".yaml", {}, {.cam = true});
+  hpr::pipeline::ClosedLoop loop(std::string(HPR_SOURCE_DIR) + "/config/" + robot + ".yaml", {}, {.cam = true});
   loop.push_base(18.0, 65.0, Eigen::Vector3d::UnitX(), 3.0);
   std::vector<double> us;
   int max_changes = 0;

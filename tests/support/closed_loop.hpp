@@ -1,18 +1,18 @@
 #pragma once
-// The in-process closed loop (hpr/closed_loop) for a robot of this tree's config folder, by name.
+// The in-process closed loop (hpr/pipeline) for a robot of this tree's config folder, by name.
 #include <string>
 #include <vector>
 
-#include "hpr/closed_loop/closed_loop.hpp"
+#include "hpr/pipeline/closed_loop.hpp"
 #include "process_group.hpp"
 
 namespace hpr::test {
 
-using closed_loop::ClosedLoopOptions;
+using pipeline::ClosedLoopOptions;
 
-struct ClosedLoop : closed_loop::ClosedLoop {
+struct ClosedLoop : pipeline::ClosedLoop {
   explicit ClosedLoop(const std::string& robot, const std::vector<std::string>& overrides = {}, ClosedLoopOptions options = {})
-      : closed_loop::ClosedLoop(source_dir() + "/config/" + robot + ".yaml", overrides, options) {}
+      : pipeline::ClosedLoop(source_dir() + "/config/" + robot + ".yaml", overrides, options) {}
 };
 
 }  // namespace hpr::test

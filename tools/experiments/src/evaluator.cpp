@@ -153,6 +153,7 @@ std::string TrialResult::to_json(const TrialSpec& spec) const {
   j["support"] = spec.support;
   j["strategy"] = to_string(spec.strategy);
   j["direction_deg"] = spec.direction_deg;
+  j["pipeline"] = spec.in_process ? "in-process" : "processes";
   j["peak_force_N"] = spec.peak;
   j["duration_s"] = spec.push_duration();
   j["recovered"] = recovered;

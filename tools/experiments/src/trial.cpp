@@ -65,6 +65,7 @@ std::string TrialSpec::describe() const {
   if (alpha) s += fmt::format(" --alpha {:g}", *alpha);
   if (beta) s += fmt::format(" --beta {:g}", *beta);
   for (const auto& o : overrides) s += " --set " + o;
+  if (in_process) s += " --in-process";
   return s;
 }
 
@@ -93,11 +94,12 @@ class Listener {
 
 }  // namespace
 
-TrialResult run_trial(const TrialSpec& spec, const std::function<void(const std::string&)>& progress) {
-  const auto wall0 = std::chrono::steady_clock::now();
-  const std::string config = find_config(spec.config);
-  const Config cfg = Config::load(config, spec.overrides);
-  const auto robot = model::RobotSpec::load(cfg.section("robot"));
+TrialPlan plan_trial(const TrialSpec& spec) {
+  TrialPlan plan;
+  plan.config = find_config(spec.config);
+  const Config cfg = Config::load(plan.config, spec.overrides);
+  plan.robot = std::make_shared<const model::RobotSpec>(model::RobotSpec::load(cfg.section("robot")));
+  const model::RobotSpec& robot = *plan.robot;
   if (spec.support != "double" && spec.support != "left" && spec.support != "right") {
     throw std::invalid_argument("support '" + spec.support + "': expected double, left or right");
   }
@@ -106,21 +108,51 @@ TrialResult run_trial(const TrialSpec& spec, const std::function<void(const std:
   const Config balance = cfg.section("balance");
   double settled = balance.real_or("init_time", 1.0);
   if (spec.support != "double") settled += balance.real_or("shift_time", 1.2) + balance.real_or("lift_time", 0.6);
-  const double t_push = spec.push_time > 0.0 ? spec.push_time : settled + 1.0;
-  const double t_end = t_push + spec.push_duration();
+  plan.push.id = 1;
+  plan.push.start = spec.push_time > 0.0 ? spec.push_time : settled + 1.0;
+  plan.push.duration = spec.push_duration();
+  plan.push.profile = sim::Push::Profile::kHalfSine;
   // The push point: on the link (default the base), at the requested height above the ground in
   // the standing posture.
-  const std::string link = spec.link.empty() ? robot.model.body_name[0] : spec.link;
-  const int frame = robot.model.frame_index(link);
-  Eigen::Vector3d point_L = Eigen::Vector3d::Zero();
+  plan.push.link = spec.link.empty() ? robot.model.body_name[0] : spec.link;
+  const int frame = robot.model.frame_index(plan.push.link);
   if (spec.height) {
     model::Data data(robot.model);
     model::forward_kinematics(robot.model, data, robot.standing_configuration());
     const model::SE3& X = model::update_frame_placement(robot.model, data, frame);
-    point_L = X.R.transpose() * Eigen::Vector3d(0.0, 0.0, *spec.height - X.p.z());
+    plan.push.point_L = X.R.transpose() * Eigen::Vector3d(0.0, 0.0, *spec.height - X.p.z());
   }
   const double th = spec.direction_deg * M_PI / 180.0;
-  const Eigen::Vector3d force = spec.peak * Eigen::Vector3d(std::cos(th), std::sin(th), 0.0);
+  plan.push.force_W = spec.peak * Eigen::Vector3d(std::cos(th), std::sin(th), 0.0);
+  // The numbers as the scenario file carries them to the simulator (6 decimals), so that every
+  // way of running the trial pushes alike.
+  const auto carried = [](double x) { return std::stod(fmt::format("{:.6f}", x)); };
+  for (int i = 0; i < 3; ++i) {
+    plan.push.point_L(i) = carried(plan.push.point_L(i));
+    plan.push.force_W(i) = i < 2 ? carried(plan.push.force_W(i)) : 0.0;
+  }
+  plan.push.start = carried(plan.push.start);
+  plan.push.duration = carried(plan.push.duration);
+  plan.sim_duration = plan.push.start + plan.push.duration + spec.after + 0.01;
+  // Every process's overrides, in this order.
+  plan.overrides = {"balance.support=" + spec.support};
+  plan.overrides.insert(plan.overrides.end(), spec.overrides.begin(), spec.overrides.end());
+  if (spec.alpha) plan.overrides.push_back(fmt::format("reference_gen.alpha={}", *spec.alpha));
+  if (spec.beta) plan.overrides.push_back(fmt::format("reference_gen.beta={}", *spec.beta));
+  return plan;
+}
+
+TrialResult run_trial(const TrialSpec& spec, const std::function<void(const std::string&)>& progress) {
+  if (spec.in_process) return run_trial_in_process(spec, progress);
+  const auto wall0 = std::chrono::steady_clock::now();
+  const TrialPlan plan = plan_trial(spec);
+  const std::string& config = plan.config;
+  const model::RobotSpec& robot = *plan.robot;
+  const double t_push = plan.push.start;
+  const double t_end = t_push + plan.push.duration;
+  const Eigen::Vector3d& point_L = plan.push.point_L;
+  const Eigen::Vector3d& force = plan.push.force_W;
+  const std::string& link = plan.push.link;
 
   std::string work = spec.work_dir;
   if (work.empty()) {
@@ -132,20 +164,12 @@ TrialResult run_trial(const TrialSpec& spec, const std::function<void(const std:
     std::ofstream f(scenario);
     f << fmt::format("pushes:\n  - {{link: {}, point: [{:.6f}, {:.6f}, {:.6f}], force: [{:.6f}, {:.6f}, 0.0], start: {:.6f}, "
                      "duration: {:.6f}, profile: half_sine}}\n",
-                     link, point_L.x(), point_L.y(), point_L.z(), force.x(), force.y(), t_push, spec.push_duration());
+                     link, point_L.x(), point_L.y(), point_L.z(), force.x(), force.y(), t_push, plan.push.duration);
   }
-  std::vector<std::string> common = {"--config", config, "--set", "balance.support=" + spec.support};
-  for (const auto& o : spec.overrides) {
+  std::vector<std::string> common = {"--config", config};
+  for (const auto& o : plan.overrides) {
     common.emplace_back("--set");
     common.push_back(o);
-  }
-  if (spec.alpha) {
-    common.emplace_back("--set");
-    common.push_back(fmt::format("reference_gen.alpha={}", *spec.alpha));
-  }
-  if (spec.beta) {
-    common.emplace_back("--set");
-    common.push_back(fmt::format("reference_gen.beta={}", *spec.beta));
   }
   auto with = [&](std::vector<std::string> extra) {
     std::vector<std::string> a = common;
@@ -195,7 +219,7 @@ TrialResult run_trial(const TrialSpec& spec, const std::function<void(const std:
     }
     throw std::runtime_error(msg);
   }
-  const double sim_duration = t_end + spec.after + 0.01;
+  const double sim_duration = plan.sim_duration;
   const pid_t sim = group.start("sim_bullet",
                                 with({"--set", "sim.mode=lockstep", "--set", fmt::format("sim.duration={:.6f}", sim_duration),
                                       "--set", "sim.scenario=" + scenario}),
@@ -259,6 +283,8 @@ const char* const kPushOptionsUsage =
   --push-time S         simulation time of the push (default: 1 s after the support is settled)
   --after S             simulated time after the push ends (default 5)
   --set KEY=VALUE       configuration override for every process (repeatable)
+  --in-process          the stack's libraries stepping in one thread (the in-process pipeline)
+                        instead of the processes over LCM: many times faster, no log
 )";
 
 bool read_push_option(ArgReader& args, TrialSpec& spec) {
@@ -280,6 +306,8 @@ bool read_push_option(ArgReader& args, TrialSpec& spec) {
     spec.after = args.number();
   } else if (args.is("--set")) {
     spec.overrides.push_back(args.value());
+  } else if (args.is("--in-process")) {
+    spec.in_process = true;
   } else {
     return false;
   }

@@ -14,11 +14,13 @@
 
 #include <Eigen/Core>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "hpr/model/robot.hpp"
+#include "hpr/sim/simulator.hpp"
 
 namespace hpr {
 class ArgReader;
@@ -57,6 +59,7 @@ struct TrialSpec {
   std::string work_dir;               ///< folder for the processes' output (default: a temporary one)
   double timeout = 600.0;             ///< [s] wall clock for the whole run
   bool stop_when_decided = false;     ///< end the run as soon as it cannot count as recovered (sweeps)
+  bool in_process = false;            ///< through the in-process pipeline, not the processes (no log)
 
   /// The push's duration from impulse and peak when not given.
   [[nodiscard]] double push_duration() const;
@@ -126,12 +129,29 @@ class TrialEvaluator {
   bool evaluated_after_push_ = false;
 };
 
+/// What a spec asks of the stack, the same however the trial runs.
+struct TrialPlan {
+  std::string config;                   ///< the configuration file
+  std::vector<std::string> overrides;   ///< every process's: the support, the spec's, α and β
+  std::shared_ptr<const model::RobotSpec> robot;  ///< the robot as the configuration gives it
+  sim::Push push;                       ///< the push, its numbers as the simulator receives them
+  double sim_duration = 0.0;            ///< [s] simulated in all
+};
+TrialPlan plan_trial(const TrialSpec& spec);
+
 /// Runs the experiment: starts the processes on a private LCM URL, logs when asked, evaluates,
-/// stops everything. `progress` receives a line per simulated second (may be empty).
+/// stops everything (or, with `spec.in_process`, runs run_trial_in_process). `progress` receives a
+/// line per simulated second (may be empty).
 TrialResult run_trial(const TrialSpec& spec, const std::function<void(const std::string&)>& progress = {});
 
+/// The same experiment through the in-process pipeline (hpr::pipeline: the simulator, estimator,
+/// reference generator, motion optimiser and wbc libraries stepping in one thread, no LCM, no
+/// log), evaluated from the same messages. Many times faster than run_trial, for sweeps and
+/// tuning; run_trial stays the end-to-end check of the processes. `spec.log_file` must be empty.
+TrialResult run_trial_in_process(const TrialSpec& spec, const std::function<void(const std::string&)>& progress = {});
+
 /// The options that shape the push and the robot, shared by push_trial and push_sweep: --robot,
-/// --peak, --link, --height, --alpha, --beta, --push-time, --after, --set. Reads the current one
+/// --peak, --link, --height, --alpha, --beta, --push-time, --after, --set, --in-process. Reads the current one
 /// into `spec` and returns true, or returns false when the current argument is none of them.
 bool read_push_option(ArgReader& args, TrialSpec& spec);
 /// Their lines for a usage text.

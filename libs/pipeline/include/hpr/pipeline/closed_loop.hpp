@@ -1,9 +1,13 @@
 #pragma once
 // In-process closed loop: the Bullet simulator and the controllers' libraries stepping in one
-// process, without LCM, for closed-loop tests and the per-component benchmarks. The data flow per
-// tick is the stack's: sensors → estimator → (reference_gen with the previous tick's balance status
-// → motion_opt) → wbc → joint command → simulator. The processes themselves (the same libraries
-// behind LCM nodes) are exercised by push_trial and the integration tests.
+// process, without LCM, for closed-loop tests, the per-component benchmarks and in-process push
+// trials. The data flow per tick is the stack's: sensors → estimator → (reference_gen with the
+// previous tick's balance status → motion_opt) → wbc → joint command → simulator. With the
+// estimator in the loop, every channel between the components passes through the conversion its
+// node applies (ROBOT_SENSORS, ROBOT_STATE, WHOLEBODY_COMMAND; times in whole microseconds as the
+// messages carry them), so the controllers compute what the processes compute from the same
+// messages. The processes themselves (the same libraries behind LCM nodes) are exercised by
+// push_trial and the integration tests.
 #include <Eigen/Core>
 #include <functional>
 #include <optional>
@@ -15,12 +19,14 @@
 #include "hpr/estimator/estimator.hpp"
 #include "hpr/model/robot.hpp"
 #include "hpr/model/urdf.hpp"
+#include "hpr/msg/robot_io.hpp"
+#include "hpr/msg/state.hpp"
 #include "hpr/motion_opt/optimizer.hpp"
 #include "hpr/reference_gen/generator.hpp"
 #include "hpr/sim/simulator.hpp"
 #include "hpr/wbc/controller.hpp"
 
-namespace hpr::closed_loop {
+namespace hpr::pipeline {
 
 struct ClosedLoopOptions {
   bool cam = false;                ///< reference_gen + motion_opt in the loop (else the ankle strategy)
@@ -65,6 +71,21 @@ struct ClosedLoop {
   double posture_error = 0.0;
   int motion_opt_iterations = 0;  ///< working-set changes of the last motion_opt QP
   StepTimes times;
+
+ private:
+  /// The estimator's input: the simulator's sensors as the estimator node decodes ROBOT_SENSORS.
+  const SensorSample& sensors_as_received();
+
+  // The channels between the components, as the nodes exchange them.
+  msg::RobotNames names_;
+  std::vector<std::string> free_names_;
+  humanoid::robot_sensors_t sensors_msg_{};
+  humanoid::robot_state_t state_msg_{};
+  humanoid::wholebody_command_t wholebody_msg_{};
+  SensorSample sample_;
+  EstimatedState state_;
+  balance::TaskReference wholebody_;
+  bool reference_started_ = false;
 };
 
 /// The command line of the per-component benchmarks that run this loop: `NAME [robot] [seconds]`
@@ -76,4 +97,4 @@ struct BenchArgs {
 /// Reads argv; on bad use prints why (prefixed by `name`) and returns nothing.
 std::optional<BenchArgs> read_bench_args(int argc, char** argv, const char* name);
 
-}  // namespace hpr::closed_loop
+}  // namespace hpr::pipeline

@@ -1,0 +1,79 @@
+// A push trial through the in-process pipeline: the same plan (configuration, overrides, push) as
+// run_trial, the same evaluation from the same messages, the stack's libraries stepping in one
+// thread instead of processes over LCM.
+#include <fmt/format.h>
+
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+
+#include "hpr/experiments/trial.hpp"
+#include "hpr/msg/robot_io.hpp"
+#include "hpr/pipeline/closed_loop.hpp"
+#include "hpr/sim/sim_io.hpp"
+
+namespace hpr::experiments {
+
+TrialResult run_trial_in_process(const TrialSpec& spec, const std::function<void(const std::string&)>& progress) {
+  if (!spec.log_file.empty()) throw std::invalid_argument("an in-process trial writes no log: run it through the processes (run_trial)");
+  const auto wall0 = std::chrono::steady_clock::now();
+  const TrialPlan plan = plan_trial(spec);
+  pipeline::ClosedLoopOptions options;
+  options.cam = spec.strategy == Strategy::kCam;
+  options.estimator_in_loop = true;
+  pipeline::ClosedLoop loop(plan.config, plan.overrides, options);
+  loop.sim.add_push(plan.push);
+  const double t_push = plan.push.start, t_end = t_push + plan.push.duration;
+  TrialEvaluator eval(loop.spec, spec.support, t_push, t_end);
+
+  // The messages the evaluator reads, as sim_bullet and motion_opt would publish them.
+  msg::RobotNames names;
+  names.joints = loop.spec.model.joint_name;
+  humanoid::sim_truth_t truth{};
+  humanoid::robot_sensors_t sensors{};
+  humanoid::wholebody_command_t wholebody{};
+  const auto observe_plant = [&] {  // in sim_bullet's order: ROBOT_SENSORS, then SIM_TRUTH
+    msg::to_message(loop.sim.sensors(), names, sensors);
+    eval.on_sensors(sensors);
+    sim::to_message(loop.sim.truth(), names.feet, truth);
+    eval.on_truth(truth);
+  };
+  const auto deadline = wall0 + std::chrono::duration<double>(spec.timeout);
+  double next_report = 1.0;
+  bool timed_out = false;
+  // As sim_bullet in lockstep: the plant's messages of every tick before the end, each answered.
+  while (loop.sim.time() < plan.sim_duration) {
+    observe_plant();
+    if (progress && eval.last_time() >= next_report) {
+      progress(fmt::format("  t = {:5.2f} s{}", eval.last_time(), eval.last_time() >= t_push && eval.last_time() < t_end ? "  (push)" : ""));
+      next_report = std::floor(eval.last_time()) + 1.0;
+    }
+    if (eval.fallen()) {
+      if (progress) progress(fmt::format("  fell at t = {:.2f} s", eval.last_time()));
+      break;
+    }
+    if (spec.stop_when_decided && eval.failed()) {
+      if (progress) progress(fmt::format("  not recoverable at t = {:.2f} s: stopped", eval.last_time()));
+      break;
+    }
+    if (std::chrono::steady_clock::now() > deadline) {
+      timed_out = true;
+      break;
+    }
+    const double t = loop.sim.time();
+    loop.step();
+    if (loop.optimizer) {
+      // The evaluator reads the commanded CAM of WHOLEBODY_COMMAND (stamped with the state's time).
+      wholebody.utime = static_cast<std::int64_t>(std::llround(t * 1e6));
+      const Eigen::Vector3d& l_cmd = loop.optimizer->output().l_cmd;
+      for (int k = 0; k < 3; ++k) wholebody.l_cmd_W[k] = l_cmd(k);
+      eval.on_wholebody(wholebody);
+    }
+  }
+  TrialResult r = eval.result();
+  if (timed_out) r.failure += (r.failure.empty() ? "" : "; ") + fmt::format("timed out after {:.0f} s", spec.timeout);
+  r.wall_time = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+  return r;
+}
+
+}  // namespace hpr::experiments
