@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include "hpr/common/args.hpp"
+#include "hpr/experiments/bisection.hpp"
 #include "hpr/experiments/trial.hpp"
 #include "hpr/launch/process_group.hpp"
 
@@ -170,47 +171,13 @@ int main(int argc, char** argv) {
                    to_string(c.strategy), c.direction, impulse, ok ? "recovered" : ("not recovered (" + why + ")").c_str());
       return ok;
     };
-    // Bracket: grow from the start while recovered, shrink while not.
-    double lo = 0.0, hi = 0.0, g = start;
-    if (trial(g)) {
-      lo = g;
-      while (true) {
-        g = std::min(max_impulse, g * 1.5);
-        if (trial(g)) {
-          lo = g;
-          if (g >= max_impulse) {
-            c.reached_max = true;
-            break;
-          }
-        } else {
-          hi = g;
-          break;
-        }
-      }
-    } else {
-      hi = g;
-      while (g > resolution) {
-        g /= 1.5;
-        if (trial(g)) {
-          lo = g;
-          break;
-        }
-        hi = g;
-      }
-    }
-    while (!c.reached_max && hi - lo > resolution) {
-      const double mid = 0.5 * (lo + hi);
-      if (trial(mid)) {
-        lo = mid;
-      } else {
-        hi = mid;
-      }
-    }
-    c.max_recovered = lo;
-    c.min_lost = c.reached_max ? 0.0 : hi;
+    const ImpulseBracket b = largest_recovered(trial, start, max_impulse, resolution);
+    c.reached_max = b.reached_max;
+    c.max_recovered = b.max_recovered;
+    c.min_lost = b.min_lost;
     std::lock_guard<std::mutex> lock(print_mutex);
     std::fprintf(stderr, "  => %s %s %.0f deg: largest recovered impulse %.2f N s%s\n", c.support.c_str(), to_string(c.strategy),
-                 c.direction, lo, c.reached_max ? " (the maximum tried)" : "");
+                 c.direction, c.max_recovered, c.reached_max ? " (the maximum tried)" : "");
   };
   // Cases run `jobs` at a time, each on its own LCM URL.
   std::atomic<size_t> next{0};

@@ -217,7 +217,9 @@ std::map<std::pair<std::string, double>, double> sweep(const std::string& args, 
 
 TEST(PaperExperiments, EnvelopeCamBeatsTheAnkleStrategyInEveryDirection) {
   const std::string dir = hpr::test::temp_dir("envelope");
-  const auto m = sweep("--robot toro --supports double --strategies cam,ankle --directions 8 --resolution 0.5", dir);
+  // Through the in-process pipeline, which gives the processes' messages bit for bit (InProcess.*):
+  // 38 s instead of 264 s on 2 cores.
+  const auto m = sweep("--robot toro --supports double --strategies cam,ankle --directions 8 --resolution 0.5 --in-process", dir);
   ASSERT_EQ(m.size(), 16U);
   for (double d = 0; d < 360; d += 45) {
     const double cam = m.at({"cam", d}), ankle = m.at({"ankle", d});

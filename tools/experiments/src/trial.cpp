@@ -13,6 +13,7 @@
 #include <lcm/lcm-cpp.hpp>
 #include <memory>
 #include <set>
+#include <yaml-cpp/yaml.h>
 
 #include "hpr/common/args.hpp"
 #include "hpr/common/config.hpp"
@@ -283,6 +284,8 @@ const char* const kPushOptionsUsage =
   --push-time S         simulation time of the push (default: 1 s after the support is settled)
   --after S             simulated time after the push ends (default 5)
   --set KEY=VALUE       configuration override for every process (repeatable)
+  --overlay FILE         configuration overrides from a YAML file in the configuration's layout
+                        (e.g. push_tune's tuned.yaml), before the --set ones
   --in-process          the stack's libraries stepping in one thread (the in-process pipeline)
                         instead of the processes over LCM: many times faster, no log
 )";
@@ -308,10 +311,45 @@ bool read_push_option(ArgReader& args, TrialSpec& spec) {
     spec.overrides.push_back(args.value());
   } else if (args.is("--in-process")) {
     spec.in_process = true;
+  } else if (args.is("--overlay")) {
+    const auto o = overlay_overrides(args.value());
+    spec.overrides.insert(spec.overrides.begin(), o.begin(), o.end());
   } else {
     return false;
   }
   return true;
+}
+
+namespace {
+
+void flatten(const YAML::Node& node, const std::string& prefix, const std::string& path, std::vector<std::string>& out) {
+  if (node.IsMap()) {
+    for (const auto& kv : node) flatten(kv.second, prefix.empty() ? kv.first.as<std::string>() : prefix + "." + kv.first.as<std::string>(), path, out);
+  } else if (node.IsScalar() || node.IsSequence()) {
+    if (prefix.find('.') == std::string::npos) {
+      throw std::runtime_error(fmt::format("{}:{}: '{}' is not inside a section", path, node.Mark().line + 1, prefix));
+    }
+    YAML::Emitter e;
+    e << YAML::Flow << node;
+    out.push_back(prefix + "=" + e.c_str());
+  } else {
+    throw std::runtime_error(fmt::format("{}:{}: '{}' has no value", path, node.Mark().line + 1, prefix));
+  }
+}
+
+}  // namespace
+
+std::vector<std::string> overlay_overrides(const std::string& path) {
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(path);
+  } catch (const YAML::Exception& e) {
+    throw std::runtime_error("overlay " + path + ": " + e.what());
+  }
+  if (!root.IsMap()) throw std::runtime_error("overlay " + path + ": not a mapping of configuration sections");
+  std::vector<std::string> out;
+  flatten(root, "", path, out);
+  return out;
 }
 
 }  // namespace hpr::experiments

@@ -157,4 +157,9 @@ bool read_push_option(ArgReader& args, TrialSpec& spec);
 /// Their lines for a usage text.
 extern const char* const kPushOptionsUsage;
 
+/// The leaves of a configuration overlay (a YAML file in the configuration's layout, such as
+/// push_tune's tuned.yaml) as overrides "section.key=value", lists in flow style. Throws
+/// std::runtime_error naming the file (and line) when it cannot be read or is not a mapping.
+std::vector<std::string> overlay_overrides(const std::string& path);
+
 }  // namespace hpr::experiments
