@@ -13,6 +13,7 @@
 #include <fmt/format.h>
 
 #include <Eigen/Cholesky>
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
@@ -80,7 +81,16 @@ SimConfig SimConfig::load(const Config& c) {
     s.joint_friction_coulomb = j.real_or("coulomb", s.joint_friction_coulomb, 0.0, 100.0);
     s.joint_friction_viscous = j.real_or("viscous", s.joint_friction_viscous, 0.0, 100.0);
   }
-  s.actuation_delay_ticks = static_cast<int>(c.integer_or("actuation_delay_ticks", s.actuation_delay_ticks, 0, 1));
+  s.actuation_delay_ticks = static_cast<int>(c.integer_or("actuation_delay_ticks", s.actuation_delay_ticks, 0, 10));
+  if (c.has("model_error")) {
+    for (const Config& e : c.items("model_error")) {
+      BodyError b;
+      b.body = e.string("body");
+      b.mass_scale = e.real_or("mass_scale", b.mass_scale, 0.1, 10.0);
+      b.com_offset = e.vec3_or("com_offset", b.com_offset, -0.5, 0.5);
+      s.model_error.push_back(b);
+    }
+  }
   s.command_timeout = c.real_or("command_timeout", s.command_timeout, 1e-3, 10.0);
   s.damping_kd = c.real_or("damping_kd", s.damping_kd, 0.0, 1e3);
   if (c.has("start")) {
@@ -203,8 +213,31 @@ struct Simulator::Impl {
   }
 };
 
+namespace {
+
+/// The simulated robot's bodies as `errors` say they differ from the description.
+void apply_model_error(model::Model& m, const std::vector<SimConfig::BodyError>& errors) {
+  for (const auto& e : errors) {
+    const auto it = std::find(m.body_name.begin(), m.body_name.end(), e.body);
+    if (it == m.body_name.end()) {
+      std::string bodies;
+      for (const auto& b : m.body_name) bodies += (bodies.empty() ? "" : ", ") + b;
+      throw std::invalid_argument("sim.model_error: no body '" + e.body + "' (bodies: " + bodies + ")");
+    }
+    const int b = static_cast<int>(it - m.body_name.begin());
+    const model::Inertia& old = m.inertia[static_cast<std::size_t>(b)];
+    m.set_inertia(b, model::Inertia::from_com(e.mass_scale * old.m, old.com() + e.com_offset, e.mass_scale * old.inertia_about_com()));
+    const model::Inertia& I = m.inertia[static_cast<std::size_t>(b)];
+    log::info("sim.model_error: body '{}' simulated with {:.3f} kg (x{:.3f}), CoM moved by ({:.3f}, {:.3f}, {:.3f}) m", e.body, I.m,
+              e.mass_scale, e.com_offset.x(), e.com_offset.y(), e.com_offset.z());
+  }
+}
+
+}  // namespace
+
 Simulator::Simulator(const model::RobotSpec& robot, SimConfig config)
     : robot_(&robot), config_(config), full_(robot.full_model()), impl_(std::make_unique<Impl>()), rng_(config.noise.seed) {
+  apply_model_error(full_, config_.model_error);
   const model::Model& m = full_;
   const model::RobotDescription& description = robot.description;
   Impl& I = *impl_;
@@ -485,7 +518,8 @@ void Simulator::reset() {
   command_.qd_des = VectorXd::Zero(m.nj);
   command_.kp = settle_kp_;
   command_.kd = settle_kd_;
-  delayed_ = command_;
+  delay_line_.assign(static_cast<std::size_t>(config_.actuation_delay_ticks) + 1, command_);
+  delay_head_ = 0;
   command_time_ = 0.0;
   compute_truth();
   compute_sensors();
@@ -498,8 +532,9 @@ bool Simulator::set_command(const JointCommand& c, std::string* why) {
     if (why != nullptr) *why = reason;
     return false;
   }
-  delayed_ = command_;
   command_ = c;
+  delay_head_ = (delay_head_ + 1) % delay_line_.size();
+  delay_line_[delay_head_] = c;
   command_time_ = time_;
   have_command_ = true;
   return true;
@@ -513,7 +548,8 @@ void Simulator::add_push(Push push) {
 void Simulator::apply_actuation() {
   const model::Model& m = robot_->model;
   btMultiBody* mb = impl_->bullet->multibody();
-  const JointCommand& c = config_.actuation_delay_ticks > 0 ? delayed_ : command_;
+  // The oldest command of the delay line (the newest, command_, without a delay).
+  const JointCommand& c = delay_line_[(delay_head_ + 1) % delay_line_.size()];
   stale_ = time_ - command_time_ > config_.command_timeout + 1e-9;
   JointCommand::Mode mode = stale_ ? JointCommand::Mode::kDamp : c.mode;
   for (int j = 0; j < m.nj; ++j) {

@@ -206,6 +206,14 @@ Model Model::build(const RobotDescription& d, const ModelOptions& options) {
   return m;
 }
 
+void Model::set_inertia(int body, const Inertia& I) {
+  const auto b = static_cast<size_t>(body);
+  mass += I.m - inertia.at(b).m;
+  inertia[b] = I;
+  com_body.at(b) = I.com();
+  inertia_com_body.at(b) = I.inertia_about_com();
+}
+
 Model Model::from_urdf(const std::string& path, const std::string& base_link) {
   return build(load_urdf(path), base_link);
 }

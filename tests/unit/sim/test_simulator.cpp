@@ -272,3 +272,79 @@ TEST(Simulator, HeldJointsStayAtTheirPositionsOutsideTheCommands) {
 }
 
 }  // namespace
+
+namespace {
+
+// Model uncertainty: a body simulated heavier, with its centre of mass moved, as the configuration
+// says; the simulator's momentum and CoM (from Bullet's link states) then match the model library
+// on the same changed body and differ from the controllers' model by the expected amounts.
+TEST(Simulator, ModelErrorChangesTheSimulatedBodyOnly) {
+  Robot r("toro");
+  r.sim_config.model_error = {{"torso", 1.1, Vector3d(0.02, 0.0, 0.0)}};
+  sim::Simulator s(*r.spec, r.sim_config);
+  model::Model changed = r.spec->model;
+  const auto b = static_cast<size_t>(std::find(changed.body_name.begin(), changed.body_name.end(), "torso") - changed.body_name.begin());
+  ASSERT_LT(b, changed.body_name.size());
+  const model::Inertia before = changed.inertia[b];
+  changed.set_inertia(static_cast<int>(b), model::Inertia::from_com(1.1 * before.m, before.com() + Vector3d(0.02, 0, 0), 1.1 * before.inertia_about_com()));
+  EXPECT_NEAR(changed.mass - r.spec->model.mass, 0.1 * before.m, 1e-12);
+  test::RandomState rs(5);
+  model::Data data(changed), nominal(r.spec->model);
+  for (int k = 0; k < 10; ++k) {
+    VectorXd q = rs.q(changed), v = rs.v(changed);
+    q(2) += 3.0;
+    s.set_state(q, v);
+    model::ccrba(changed, data, q, v);
+    model::ccrba(r.spec->model, nominal, q, v);
+    const auto& t = s.truth();
+    EXPECT_LT((t.p_WCom - data.com).norm(), 1e-9);
+    EXPECT_LT((t.l_WCom - data.hg.tail<3>()).norm(), 1e-6 * data.hg.tail<3>().norm());
+    EXPECT_GT((t.p_WCom - nominal.com).norm(), 1e-3) << "the simulated CoM must differ from the controllers' model's";
+  }
+  // The simulated total mass: linear momentum / CoM velocity.
+  const auto& t = s.truth();
+  EXPECT_NEAR(t.h_lin_W.norm() / t.v_WCom.norm(), changed.mass, 1e-6 * changed.mass);
+  // An unknown body is refused, naming the bodies there are.
+  Robot bad("toro");
+  bad.sim_config.model_error = {{"trunk", 1.1, Vector3d::Zero()}};
+  try {
+    sim::Simulator unused(*bad.spec, bad.sim_config);
+    FAIL() << "an unknown body was accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("no body 'trunk'"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("torso"), std::string::npos) << e.what();
+  }
+}
+
+// An actuation delay of N ticks: a torque step commanded at tick k acts from tick k + N on.
+TEST(Simulator, ActuationDelayAppliesTheCommandOfNTicksAgo) {
+  for (const int delay : {0, 1, 3}) {
+    Robot r("toro");
+    r.sim_config.actuation_delay_ticks = delay;
+    r.sim_config.gravity.setZero();
+    sim::Simulator s(*r.spec, r.sim_config);
+    float_at_rest(r, s);
+    sim::JointCommand c;
+    c.resize(r.spec->model.nj);
+    c.mode = sim::JointCommand::Mode::kRun;
+    c.q_des = r.spec->q_joints_stand;  // kp = kd = 0: torque only
+    const int j = r.spec->model.joint_index("r_elbow");
+    std::vector<double> qdd;
+    for (int k = 0; k < 8; ++k) {
+      c.tau_ff(j) = k >= 2 ? 5.0 : 0.0;  // the step is commanded at tick 2
+      ASSERT_TRUE(s.set_command(c));
+      const double v0 = s.truth().v(6 + j);
+      s.step();
+      qdd.push_back(s.truth().v(6 + j) - v0);
+    }
+    for (int k = 0; k < 8; ++k) {
+      if (k < 2 + delay) {
+        EXPECT_NEAR(qdd[static_cast<size_t>(k)], 0.0, 1e-9) << "delay " << delay << ", tick " << k << ": moved before its time";
+      } else {
+        EXPECT_GT(qdd[static_cast<size_t>(k)], 1e-4) << "delay " << delay << ", tick " << k << ": the torque did not act";
+      }
+    }
+  }
+}
+
+}  // namespace

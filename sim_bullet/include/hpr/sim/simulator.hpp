@@ -61,7 +61,7 @@ struct SimConfig {
   int friction_directions = 2;          ///< 2: isotropic friction; 1: Bullet's single direction
   double joint_friction_coulomb = 0.0;  ///< [Nm]
   double joint_friction_viscous = 0.0;  ///< [Nm s/rad]
-  int actuation_delay_ticks = 0;        ///< 0 or 1
+  int actuation_delay_ticks = 0;        ///< the drives apply the command of this many ticks ago (0..10)
   double command_timeout = 0.02;        ///< a command older than this [s] is replaced by damping
   double damping_kd = 10.0;             ///< [Nm s/rad] used when damping by itself
   double settle_time = 0.5;             ///< [s] holding the standing posture before tick 0
@@ -70,6 +70,15 @@ struct SimConfig {
   double fallen_base_height = 0.45;     ///< [m] pelvis below this: fallen
   double fallen_tilt_deg = 45.0;        ///< pelvis tilt above this: fallen
   NoiseConfig noise;
+  /// A body of the simulated robot that differs from the description the controllers use (model
+  /// uncertainty, for robustness studies): its mass and rotational inertia scaled together
+  /// (density), its centre of mass moved in the body frame.
+  struct BodyError {
+    std::string body;                                      ///< a body of the model (a link, or the link fixed links merge into)
+    double mass_scale = 1.0;
+    Eigen::Vector3d com_offset = Eigen::Vector3d::Zero();  ///< [m], body frame
+  };
+  std::vector<BodyError> model_error;
 
   /// Reads and validates the `sim` section.
   static SimConfig load(const Config& sim_section);
@@ -185,7 +194,9 @@ class Simulator {
   std::unique_ptr<Impl> impl_;
   SensorData sensors_;
   TruthData truth_;
-  JointCommand command_, delayed_;
+  JointCommand command_;
+  std::vector<JointCommand> delay_line_;  ///< the last actuation_delay_ticks + 1 commands, a ring
+  std::size_t delay_head_ = 0;            ///< the newest
   bool have_command_ = false, stale_ = false;
   double command_time_ = -1e9;
   std::int64_t rejected_ = 0;

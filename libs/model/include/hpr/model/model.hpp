@@ -101,6 +101,9 @@ class Model {
   [[nodiscard]] int body_index(const std::string& name) const;
   [[nodiscard]] int frame_index(const std::string& name) const;
   [[nodiscard]] bool has_frame(const std::string& name) const;
+  /// Replaces a body's inertia and what is derived from it (its centre of mass and inertia about
+  /// it, the total mass): e.g. a simulated robot that differs from the description.
+  void set_inertia(int body, const Inertia& I);
   /// Adds a frame on the body of frame `parent_frame`, at X_PF relative to that frame.
   int add_frame(const std::string& name, const std::string& parent_frame, const SE3& X_PF);
 
