@@ -116,12 +116,7 @@ int main(int argc, char** argv) {
     usage(stderr);
     return 2;
   }
-  if (out_dir.empty()) {
-    const auto t = std::time(nullptr);
-    char buf[64];
-    std::strftime(buf, sizeof(buf), "sweep-%Y%m%d-%H%M%S", std::localtime(&t));
-    out_dir = buf;
-  }
+  if (out_dir.empty()) out_dir = dated_name("sweep");
   fs::create_directories(out_dir);
 
   std::vector<Case> cases;

@@ -218,12 +218,7 @@ int main(int argc, char** argv) {
     usage(stderr);
     return 2;
   }
-  if (out_dir.empty()) {
-    const auto t = std::time(nullptr);
-    char buf[64];
-    std::strftime(buf, sizeof(buf), "tune-%Y%m%d-%H%M%S", std::localtime(&t));
-    out_dir = buf;
-  }
+  if (out_dir.empty()) out_dir = dated_name("tune");
   fs::create_directories(out_dir);
   // The candidates' configurations load once per trial: their warnings (an α outside the paper's
   // range, say) would bury the progress lines.

@@ -38,28 +38,11 @@ TrialResult run_trial_in_process(const TrialSpec& spec, const std::function<void
     sim::to_message(loop.sim.truth(), names.feet, truth);
     eval.on_truth(truth);
   };
-  const auto deadline = wall0 + std::chrono::duration<double>(spec.timeout);
-  double next_report = 1.0;
-  bool timed_out = false;
+  TrialWatch watch(spec, eval, t_push, t_end, progress, wall0);
   // As sim_bullet in lockstep: the plant's messages of every tick before the end, each answered.
   while (loop.sim.time() < plan.sim_duration) {
     observe_plant();
-    if (progress && eval.last_time() >= next_report) {
-      progress(fmt::format("  t = {:5.2f} s{}", eval.last_time(), eval.last_time() >= t_push && eval.last_time() < t_end ? "  (push)" : ""));
-      next_report = std::floor(eval.last_time()) + 1.0;
-    }
-    if (eval.fallen()) {
-      if (progress) progress(fmt::format("  fell at t = {:.2f} s", eval.last_time()));
-      break;
-    }
-    if (spec.stop_when_decided && eval.failed()) {
-      if (progress) progress(fmt::format("  not recoverable at t = {:.2f} s: stopped", eval.last_time()));
-      break;
-    }
-    if (std::chrono::steady_clock::now() > deadline) {
-      timed_out = true;
-      break;
-    }
+    if (watch.stop()) break;
     const double t = loop.sim.time();
     loop.step();
     if (loop.optimizer) {
@@ -70,10 +53,7 @@ TrialResult run_trial_in_process(const TrialSpec& spec, const std::function<void
       eval.on_wholebody(wholebody);
     }
   }
-  TrialResult r = eval.result();
-  if (timed_out) r.failure += (r.failure.empty() ? "" : "; ") + fmt::format("timed out after {:.0f} s", spec.timeout);
-  r.wall_time = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
-  return r;
+  return watch.result();
 }
 
 }  // namespace hpr::experiments

@@ -95,6 +95,47 @@ class Listener {
 
 }  // namespace
 
+TrialWatch::TrialWatch(const TrialSpec& spec, const TrialEvaluator& eval, double push_start, double push_end,
+                       std::function<void(const std::string&)> progress, std::chrono::steady_clock::time_point start)
+    : spec_(spec), eval_(eval), push_start_(push_start), push_end_(push_end), progress_(std::move(progress)),
+      start_(start),
+      deadline_(start_ + std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(spec.timeout))) {}
+
+bool TrialWatch::stop() {
+  const double t = eval_.last_time();
+  if (progress_ && t >= next_report_) {
+    progress_(fmt::format("  t = {:5.2f} s{}", t, t >= push_start_ && t < push_end_ ? "  (push)" : ""));
+    next_report_ = std::floor(t) + 1.0;
+  }
+  if (eval_.fallen()) {
+    if (progress_) progress_(fmt::format("  fell at t = {:.2f} s", t));
+    return true;
+  }
+  if (spec_.stop_when_decided && eval_.failed()) {
+    if (progress_) progress_(fmt::format("  not recoverable at t = {:.2f} s: stopped", t));
+    return true;
+  }
+  if (std::chrono::steady_clock::now() > deadline_) {
+    timed_out_ = true;
+    return true;
+  }
+  return false;
+}
+
+TrialResult TrialWatch::result() const {
+  TrialResult r = eval_.result();
+  if (timed_out_) r.failure += (r.failure.empty() ? "" : "; ") + fmt::format("timed out after {:.0f} s", spec_.timeout);
+  r.wall_time = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  return r;
+}
+
+std::string dated_name(const std::string& prefix) {
+  const auto t = std::time(nullptr);
+  char buf[32];
+  std::strftime(buf, sizeof(buf), "-%Y%m%d-%H%M%S", std::localtime(&t));
+  return prefix + buf;
+}
+
 TrialPlan plan_trial(const TrialSpec& spec) {
   TrialPlan plan;
   plan.config = find_config(spec.config);
@@ -225,28 +266,10 @@ TrialResult run_trial(const TrialSpec& spec, const std::function<void(const std:
                                 with({"--set", "sim.mode=lockstep", "--set", fmt::format("sim.duration={:.6f}", sim_duration),
                                       "--set", "sim.scenario=" + scenario}),
                                 {}, work + "/sim_bullet.log");
-  double next_report = 1.0;
-  const auto deadline = wall0 + std::chrono::duration<double>(spec.timeout);
-  bool timed_out = false;
+  TrialWatch watch(spec, eval, t_push, t_end, progress, wall0);
   while (group.running(sim)) {
     lcm.handleTimeout(50);
-    if (progress && eval.last_time() >= next_report) {
-      progress(fmt::format("  t = {:5.2f} s{}", eval.last_time(),
-                           eval.last_time() >= t_push && eval.last_time() < t_end ? "  (push)" : ""));
-      next_report = std::floor(eval.last_time()) + 1.0;
-    }
-    if (eval.fallen()) {
-      if (progress) progress(fmt::format("  fell at t = {:.2f} s", eval.last_time()));
-      break;
-    }
-    if (spec.stop_when_decided && eval.failed()) {
-      if (progress) progress(fmt::format("  not recoverable at t = {:.2f} s: stopped", eval.last_time()));
-      break;
-    }
-    if (std::chrono::steady_clock::now() > deadline) {
-      timed_out = true;
-      break;
-    }
+    if (watch.stop()) break;
   }
   // Drain what is still in flight. When the simulator has finished, until the evaluation has its
   // last tick (on a loaded machine this listener may trail the lockstep chain by a second), or its
@@ -267,10 +290,8 @@ TrialResult run_trial(const TrialSpec& spec, const std::function<void(const std:
     }
   }
   group.stop_all(2000ms);
-  TrialResult r = eval.result();
-  if (timed_out) r.failure += (r.failure.empty() ? "" : "; ") + fmt::format("timed out after {:.0f} s", spec.timeout);
+  TrialResult r = watch.result();
   r.log_file = spec.log_file;
-  r.wall_time = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
   if (spec.work_dir.empty()) fs::remove_all(work);
   return r;
 }

@@ -13,6 +13,7 @@
 #include <humanoid/wholebody_command_t.hpp>
 
 #include <Eigen/Core>
+#include <chrono>
 #include <functional>
 #include <memory>
 #include <optional>
@@ -128,6 +129,32 @@ class TrialEvaluator {
   double last_out_of_posture_ = -1.0;  ///< last time (after the push start) the posture was outside the band
   bool evaluated_after_push_ = false;
 };
+
+/// What both ways of running a trial check while it runs: a progress line per simulated second,
+/// and whether to stop (a fall; a run that can no longer count as recovered, when the spec stops on
+/// that; the spec's wall-clock limit).
+class TrialWatch {
+ public:
+  /// `start`: when the run began (its wall time and time limit count from there).
+  TrialWatch(const TrialSpec& spec, const TrialEvaluator& eval, double push_start, double push_end,
+             std::function<void(const std::string&)> progress, std::chrono::steady_clock::time_point start);
+  /// After the evaluation has taken in the messages at hand: true when the run should stop.
+  bool stop();
+  [[nodiscard]] bool timed_out() const { return timed_out_; }
+  /// The result, with the time limit named when it ended the run.
+  [[nodiscard]] TrialResult result() const;
+
+ private:
+  const TrialSpec& spec_;
+  const TrialEvaluator& eval_;
+  double push_start_, push_end_, next_report_ = 1.0;
+  std::function<void(const std::string&)> progress_;
+  std::chrono::steady_clock::time_point start_, deadline_;
+  bool timed_out_ = false;
+};
+
+/// A new folder name for a tool's output: "<prefix>-YYYYmmdd-HHMMSS" (local time).
+std::string dated_name(const std::string& prefix);
 
 /// What a spec asks of the stack, the same however the trial runs.
 struct TrialPlan {
