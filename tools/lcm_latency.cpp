@@ -1,0 +1,136 @@
+// lcm_latency: the control chain's delay per tick, from a recording of a running stack: the time
+// from ROBOT_SENSORS of tick k to JOINT_COMMAND of tick k, as the recorder received them (one
+// receive clock for every channel), and each hop's share: the estimator (ROBOT_SENSORS → ROBOT_STATE),
+// the reference generator (→ CAM_REFERENCE), the motion optimiser (→ WHOLEBODY_COMMAND) and the wbc
+// (→ JOINT_COMMAND); without the CAM channels, the wbc's hop starts at ROBOT_STATE.
+//
+//   lcm_latency LOG [--json FILE]
+//
+// Median, p99 and max per hop over the ticks that have every channel of the chain; the recorder's
+// own delay is in every time alike and cancels. Meaningful for a real-time run (tools/record beside
+// tools/supervisor up sim); in lockstep the times measure how fast the chain runs, not a deadline.
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <fstream>
+#include <lcm/lcm-cpp.hpp>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "hpr/common/args.hpp"
+#include "hpr/common/stats.hpp"
+#include "hpr/msg/log_check.hpp"
+
+namespace {
+
+/// The int64 tick every message of the stack starts with (LCM: 8-byte fingerprint, then the
+/// fields big-endian in order); nothing for a message too short to hold one.
+bool tick_of(const lcm::LogEvent& e, std::int64_t& tick) {
+  if (e.datalen < 16) return false;
+  const auto* d = static_cast<const unsigned char*>(e.data) + 8;
+  std::uint64_t v = 0;
+  for (int i = 0; i < 8; ++i) v = (v << 8) | d[i];
+  tick = static_cast<std::int64_t>(v);
+  return true;
+}
+
+void usage(std::FILE* out) {
+  std::fputs("usage: lcm_latency LOG [--json FILE]\n\n"
+             "The delay from ROBOT_SENSORS(k) to JOINT_COMMAND(k) per tick in a recording, and each hop's share\n"
+             "(estimator, reference_gen, motion_opt, wbc): median, p99, max [us].\n",
+             out);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string log_path, json_path;
+  try {
+    hpr::ArgReader args(argc, argv);
+    while (args.next()) {
+      if (args.is("-h", "--help")) {
+        usage(stdout);
+        return 0;
+      } else if (args.is("--json")) {
+        json_path = args.value();
+      } else if (args.positional() && log_path.empty()) {
+        log_path = args.current();
+      } else {
+        args.unknown();
+      }
+    }
+    if (log_path.empty()) throw hpr::UsageError("need LOG");
+  } catch (const hpr::UsageError& e) {
+    std::fprintf(stderr, "lcm_latency: %s\n", e.what());
+    usage(stderr);
+    return 2;
+  }
+  lcm::LogFile log(log_path, "r");
+  if (!log.good()) {
+    std::fprintf(stderr, "lcm_latency: cannot open %s\n", log_path.c_str());
+    return 1;
+  }
+  const std::vector<std::string> chain = {"ROBOT_SENSORS", "ROBOT_STATE", "CAM_REFERENCE", "WHOLEBODY_COMMAND", "JOINT_COMMAND"};
+  // channel → tick → first receive time [us] (a republished tick counts from its first copy).
+  std::map<std::string, std::map<std::int64_t, std::int64_t>> seen;
+  long bad = 0;
+  while (const lcm::LogEvent* e = log.readNextEvent()) {
+    std::string channel = e->channel;
+    if (const auto slash = channel.rfind('/'); slash != std::string::npos) channel = channel.substr(slash + 1);
+    if (std::find(chain.begin(), chain.end(), channel) == chain.end()) continue;
+    std::int64_t tick = 0;
+    if (!hpr::msg::check_message(e->channel, e->data, e->datalen).empty() || !tick_of(*e, tick)) {
+      ++bad;
+      continue;
+    }
+    seen[channel].emplace(tick, e->timestamp);
+  }
+  const bool cam = !seen["CAM_REFERENCE"].empty() && !seen["WHOLEBODY_COMMAND"].empty();
+  std::vector<std::string> path = {"ROBOT_SENSORS", "ROBOT_STATE"};
+  if (cam) path.insert(path.end(), {"CAM_REFERENCE", "WHOLEBODY_COMMAND"});
+  path.push_back("JOINT_COMMAND");
+  const std::map<std::string, std::string> hop_name = {{"ROBOT_STATE", "estimator"},
+                                                       {"CAM_REFERENCE", "reference_gen"},
+                                                       {"WHOLEBODY_COMMAND", "motion_opt"},
+                                                       {"JOINT_COMMAND", "wbc"}};
+  std::vector<std::vector<double>> hops(path.size() - 1);
+  std::vector<double> total;
+  for (const auto& [tick, t0] : seen["ROBOT_SENSORS"]) {
+    std::vector<std::int64_t> t = {t0};
+    for (size_t i = 1; i < path.size(); ++i) {
+      const auto& m = seen[path[i]];
+      const auto it = m.find(tick);
+      if (it == m.end()) break;
+      t.push_back(it->second);
+    }
+    if (t.size() != path.size()) continue;
+    for (size_t i = 0; i + 1 < t.size(); ++i) hops[i].push_back(static_cast<double>(t[i + 1] - t[i]));
+    total.push_back(static_cast<double>(t.back() - t.front()));
+  }
+  if (total.empty()) {
+    std::fprintf(stderr, "lcm_latency: no tick of %s has every channel of the chain (%s)\n", log_path.c_str(),
+                 fmt::format("{}", fmt::join(path, " -> ")).c_str());
+    return 1;
+  }
+  nlohmann::ordered_json j;
+  j["log"] = log_path;
+  j["ticks"] = total.size();
+  j["undecodable_events"] = bad;
+  std::printf("%s: %zu ticks with every channel of the chain%s\n", log_path.c_str(), total.size(),
+              bad > 0 ? fmt::format(" ({} undecodable events skipped)", bad).c_str() : "");
+  std::printf("%-50s %10s %10s %10s  [us]\n", "", "median", "p99", "max");
+  const auto row = [&](const std::string& name, const std::vector<double>& v, const std::string& key) {
+    const double med = hpr::percentile(v, 0.5), p99 = hpr::percentile(v, 0.99), mx = hpr::percentile(v, 1.0);
+    std::printf("%-50s %10.1f %10.1f %10.1f\n", name.c_str(), med, p99, mx);
+    j[key] = {{"median_us", med}, {"p99_us", p99}, {"max_us", mx}};
+  };
+  for (size_t i = 0; i < hops.size(); ++i) {
+    row(fmt::format("{} ({} -> {})", hop_name.at(path[i + 1]), path[i], path[i + 1]), hops[i], hop_name.at(path[i + 1]));
+  }
+  row("ROBOT_SENSORS(k) -> JOINT_COMMAND(k)", total, "total");
+  if (!json_path.empty()) std::ofstream(json_path) << j.dump(2) << "\n";
+  return 0;
+}
