@@ -6,9 +6,12 @@
 //
 //   lcm_latency LOG [--json FILE]
 //
-// Median, p99 and max per hop over the ticks that have every channel of the chain; the recorder's
-// own delay is in every time alike and cancels. Meaningful for a real-time run (tools/record beside
-// tools/supervisor up sim); in lockstep the times measure how fast the chain runs, not a deadline.
+// Median, p99 and max per hop over the ticks that have every channel of the chain. The times are
+// the recorder's receive times, so the recorder must read each message as it arrives: run it above
+// the chain's real-time priority (chrt -f 95 tools/record). One the scheduler holds back reads
+// several messages in one burst and stamps them alike (hops of a few microseconds). Meaningful
+// for a real-time run (tools/supervisor up sim); in lockstep the times measure how fast the chain
+// runs, not a deadline.
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -40,7 +43,8 @@ bool tick_of(const lcm::LogEvent& e, std::int64_t& tick) {
 void usage(std::FILE* out) {
   std::fputs("usage: lcm_latency LOG [--json FILE]\n\n"
              "The delay from ROBOT_SENSORS(k) to JOINT_COMMAND(k) per tick in a recording, and each hop's share\n"
-             "(estimator, reference_gen, motion_opt, wbc): median, p99, max [us].\n",
+             "(estimator, reference_gen, motion_opt, wbc): median, p99, max [us]. Record above the chain's\n"
+             "real-time priority (chrt -f 95 tools/record), so that each message is stamped as it arrives.\n",
              out);
 }
 
