@@ -5,7 +5,7 @@
 //     J = min over the directions of the largest recovered impulse [N s]
 //         − w · mean over the directions of the posture return time at that impulse [s]
 //
-// each largest impulse found by bracketing and bisection (push_sweep's search) with the CAM
+// each largest impulse found by bracketing and bisection (push_sweep's search, from the same start) with the CAM
 // strategy through the in-process pipeline, the directions in parallel. Every evaluation is
 // appended to a results file (JSON lines); --resume answers the optimiser's requests from it, so
 // an interrupted run continues where it stopped. The best parameters are written as a YAML overlay
@@ -21,7 +21,6 @@
 #include <fstream>
 #include <future>
 #include <map>
-#include <mutex>
 #include <nlohmann/json.hpp>
 #include <nlopt.hpp>
 #include <sstream>
@@ -133,6 +132,7 @@ overlay for --overlay) and a summary.
   --seed N               the random search's seed (default 1)
   --population N         the random search's population (default 3 (n + 1) for n parameters;
                          NLopt's own 10 (n + 1) spends a short run on its first random draw)
+  --start NS             first impulse of every search [N s] (default 15, as push_sweep)
   --resolution NS        bisection resolution [N s] (default 0.5)
   --max-impulse NS       largest impulse tried [N s] (default 80)
   --return-weight W      w of the return-time penalty [N s per s] (default 0.5)
@@ -159,7 +159,7 @@ int main(int argc, char** argv) {
   int evaluations = 60, jobs = static_cast<int>(std::max(1U, std::thread::hardware_concurrency()));
   unsigned seed = 1;
   int population = 0;
-  double resolution = 0.5, max_impulse = 80.0, return_weight = 0.5;
+  double start = 15.0, resolution = 0.5, max_impulse = 80.0, return_weight = 0.5;
   bool resume = false;
   try {
     hpr::ArgReader args(argc, argv);
@@ -190,6 +190,8 @@ int main(int argc, char** argv) {
         if (population < 2) throw hpr::UsageError("--population: at least 2");
       } else if (args.is("--seed")) {
         seed = static_cast<unsigned>(args.integer());
+      } else if (args.is("--start")) {
+        start = args.number();
       } else if (args.is("--resolution")) {
         resolution = args.number();
       } else if (args.is("--max-impulse")) {
@@ -209,8 +211,8 @@ int main(int argc, char** argv) {
     }
     base.in_process = true;
     base.config = find_config(base.config);
-    if (!(resolution > 0) || !(max_impulse > resolution) || !(base.peak > 0)) {
-      throw hpr::UsageError("need --resolution > 0, --max-impulse above it and --peak > 0");
+    if (!(resolution > 0) || !(start > 0) || !(max_impulse > start) || !(base.peak > 0)) {
+      throw hpr::UsageError("need --resolution > 0, 0 < --start < --max-impulse and --peak > 0");
     }
     if (resume && out_dir.empty()) throw hpr::UsageError("--resume needs --out DIR");
   } catch (const std::exception& e) {
@@ -273,9 +275,6 @@ int main(int argc, char** argv) {
   }
   std::ofstream results(results_path, resume ? std::ios::app : std::ios::trunc);
 
-  // The largest recovered impulse so far per direction: where the next search starts.
-  std::vector<double> start(angles.size(), 15.0);
-  std::mutex mutex;
   const auto t0 = std::chrono::steady_clock::now();
   int n_eval = 0, total_trials = 0;
   Evaluation best;
@@ -307,12 +306,10 @@ int main(int argc, char** argv) {
             tried[impulse] = r;
             return r.recovered;
           };
-          double s0;
-          {
-            std::lock_guard<std::mutex> lock(mutex);
-            s0 = start[a];
-          }
-          const ImpulseBracket b = largest_recovered(recovered, std::max(s0, 2.0 * resolution), max_impulse, resolution);
+          // Every search starts where push_sweep's does: recovery is not monotonic in the impulse
+          // near the limit, so a search from elsewhere may end half a step off, and the objective
+          // would depend on the order of the evaluations.
+          const ImpulseBracket b = largest_recovered(recovered, start, max_impulse, resolution);
           e.impulse[a] = b.max_recovered;
           const auto it = tried.find(b.max_recovered);
           e.return_time[a] = it != tried.end() && it->second.return_time ? *it->second.return_time : 5.0;
@@ -355,7 +352,6 @@ int main(int argc, char** argv) {
     }
     ++n_eval;
     total_trials += cached ? 0 : e.trials;
-    for (size_t a = 0; a < angles.size(); ++a) start[a] = std::max(start[a], e.impulse[a]);
     if (e.objective > best.objective) best = e;
     std::string line = fmt::format("[{:3d}/{}, {:5.0f} s]", n_eval, evaluations,
                                    std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
