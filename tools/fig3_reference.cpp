@@ -20,6 +20,7 @@
 #include "hpr/common/args.hpp"
 #include "hpr/common/config.hpp"
 #include "hpr/experiments/trial.hpp"
+#include "hpr/msg/log_check.hpp"
 #include "hpr/reference_gen/generator.hpp"
 
 namespace {
@@ -52,16 +53,15 @@ std::vector<Sample> read_balance(const std::string& path, int axis) {
   lcm::LogFile log(path, "r");
   if (!log.good()) throw std::runtime_error("cannot open the log " + path);
   std::vector<Sample> out;
-  const std::string name = "BALANCE_STATUS";
   long undecodable = 0;
   while (const lcm::LogEvent* e = log.readNextEvent()) {
-    const std::string& ch = e->channel;
-    if (ch.size() < name.size() || ch.compare(ch.size() - name.size(), name.size(), name) != 0) continue;
-    humanoid::balance_status_t m;
-    if (m.decode(e->data, 0, static_cast<int>(e->datalen)) < 0) {
+    if (hpr::msg::type_of_channel(e->channel) != "humanoid.balance_status_t") continue;
+    if (!hpr::msg::check_message(e->channel, e->data, e->datalen).empty()) {
       ++undecodable;
       continue;
     }
+    humanoid::balance_status_t m;
+    m.decode(e->data, 0, static_cast<int>(e->datalen));
     out.push_back({static_cast<double>(m.utime) * 1e-6, m.tau_ankle_V[axis], m.tau_min_V[axis], m.tau_max_V[axis]});
   }
   if (undecodable > 0) std::fprintf(stderr, "fig3_reference: %ld BALANCE_STATUS events did not decode (skipped)\n", undecodable);

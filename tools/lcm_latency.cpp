@@ -14,7 +14,6 @@
 // runs, not a deadline.
 #include <fmt/format.h>
 
-#include <algorithm>
 #include <cstdio>
 #include <fstream>
 #include <lcm/lcm-cpp.hpp>
@@ -26,19 +25,9 @@
 #include "hpr/common/args.hpp"
 #include "hpr/common/stats.hpp"
 #include "hpr/msg/log_check.hpp"
+#include "hpr/msg/ticks.hpp"
 
 namespace {
-
-/// The int64 tick every message of the stack starts with (LCM: 8-byte fingerprint, then the
-/// fields big-endian in order); nothing for a message too short to hold one.
-bool tick_of(const lcm::LogEvent& e, std::int64_t& tick) {
-  if (e.datalen < 16) return false;
-  const auto* d = static_cast<const unsigned char*>(e.data) + 8;
-  std::uint64_t v = 0;
-  for (int i = 0; i < 8; ++i) v = (v << 8) | d[i];
-  tick = static_cast<std::int64_t>(v);
-  return true;
-}
 
 void usage(std::FILE* out) {
   std::fputs("usage: lcm_latency LOG [--json FILE]\n\n"
@@ -77,20 +66,23 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "lcm_latency: cannot open %s\n", log_path.c_str());
     return 1;
   }
-  const std::vector<std::string> chain = {"ROBOT_SENSORS", "ROBOT_STATE", "CAM_REFERENCE", "WHOLEBODY_COMMAND", "JOINT_COMMAND"};
+  // The chain's channels by their message type (a channel may carry a prefix: "robotA/ROBOT_STATE").
+  const std::map<std::string, std::string> chain = {{"humanoid.robot_sensors_t", "ROBOT_SENSORS"},
+                                                    {"humanoid.robot_state_t", "ROBOT_STATE"},
+                                                    {"humanoid.cam_reference_t", "CAM_REFERENCE"},
+                                                    {"humanoid.wholebody_command_t", "WHOLEBODY_COMMAND"},
+                                                    {"humanoid.joint_command_t", "JOINT_COMMAND"}};
   // channel → tick → first receive time [us] (a republished tick counts from its first copy).
   std::map<std::string, std::map<std::int64_t, std::int64_t>> seen;
   long bad = 0;
   while (const lcm::LogEvent* e = log.readNextEvent()) {
-    std::string channel = e->channel;
-    if (const auto slash = channel.rfind('/'); slash != std::string::npos) channel = channel.substr(slash + 1);
-    if (std::find(chain.begin(), chain.end(), channel) == chain.end()) continue;
-    std::int64_t tick = 0;
-    if (!hpr::msg::check_message(e->channel, e->data, e->datalen).empty() || !tick_of(*e, tick)) {
+    const auto it = chain.find(hpr::msg::type_of_channel(e->channel));
+    if (it == chain.end()) continue;
+    if (!hpr::msg::check_message(e->channel, e->data, e->datalen).empty()) {
       ++bad;
       continue;
     }
-    seen[channel].emplace(tick, e->timestamp);
+    seen[it->second].emplace(hpr::msg::tick_of(e->data, e->datalen), e->timestamp);
   }
   const bool cam = !seen["CAM_REFERENCE"].empty() && !seen["WHOLEBODY_COMMAND"].empty();
   std::vector<std::string> path = {"ROBOT_SENSORS", "ROBOT_STATE"};

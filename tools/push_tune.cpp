@@ -73,16 +73,9 @@ double from_unit(const Param& p, double u) {
   return p.log_scale ? p.lo * std::pow(p.hi / p.lo, u) : p.lo + u * (p.hi - p.lo);
 }
 
-/// The configured value of a parameter (the first entry of a per-axis list).
-double configured(const hpr::Config& cfg, const Param& p, const std::vector<std::string>& overrides) {
+/// The configured value of a parameter, overrides applied (the first entry of a per-axis list).
+double configured(const hpr::Config& cfg, const Param& p) {
   const std::string key = p.key;
-  for (auto it = overrides.rbegin(); it != overrides.rend(); ++it) {
-    if (it->rfind(key + "=", 0) == 0) {
-      std::string v = it->substr(key.size() + 1);
-      v.erase(std::remove_if(v.begin(), v.end(), [](char c) { return c == '[' || c == ']'; }), v.end());
-      return hpr::parse_number(v.substr(0, v.find(',')), key);
-    }
-  }
   const auto dot = key.find('.');
   const hpr::Config section = cfg.section(key.substr(0, dot));
   const std::string rest = key.substr(dot + 1);
@@ -93,7 +86,7 @@ double configured(const hpr::Config& cfg, const Param& p, const std::vector<std:
   try {
     return sub.real(leaf);
   } catch (const std::exception&) {
-    return sub.reals(leaf).at(0);  // a per-axis list: its first entry
+    return sub.reals(leaf).at(0);
   }
 }
 
@@ -232,7 +225,7 @@ int main(int argc, char** argv) {
   std::vector<double> x0;
   try {
     const hpr::Config cfg = hpr::Config::load(base.config, base.overrides);
-    for (const Param* p : params) x0.push_back(to_unit(*p, configured(cfg, *p, base.overrides)));
+    for (const Param* p : params) x0.push_back(to_unit(*p, configured(cfg, *p)));
   } catch (const std::exception& e) {
     std::fprintf(stderr, "push_tune: %s\n", e.what());
     return 2;

@@ -218,13 +218,14 @@ namespace {
 /// The simulated robot's bodies as `errors` say they differ from the description.
 void apply_model_error(model::Model& m, const std::vector<SimConfig::BodyError>& errors) {
   for (const auto& e : errors) {
-    const auto it = std::find(m.body_name.begin(), m.body_name.end(), e.body);
-    if (it == m.body_name.end()) {
+    int b = 0;
+    try {
+      b = m.body_index(e.body);
+    } catch (const model::ModelError& err) {
       std::string bodies;
-      for (const auto& b : m.body_name) bodies += (bodies.empty() ? "" : ", ") + b;
-      throw std::invalid_argument("sim.model_error: no body '" + e.body + "' (bodies: " + bodies + ")");
+      for (const auto& name : m.body_name) bodies += (bodies.empty() ? "" : ", ") + name;
+      throw std::invalid_argument(std::string("sim.model_error: ") + err.what() + " (bodies: " + bodies + ")");
     }
-    const int b = static_cast<int>(it - m.body_name.begin());
     const model::Inertia& old = m.inertia[static_cast<std::size_t>(b)];
     m.set_inertia(b, model::Inertia::from_com(e.mass_scale * old.m, old.com() + e.com_offset, e.mass_scale * old.inertia_about_com()));
     const model::Inertia& I = m.inertia[static_cast<std::size_t>(b)];
@@ -512,13 +513,14 @@ void Simulator::reset() {
   have_foot_momentum_prev_ = false;
   q_meas_prev_.resize(0);
   // Tick 0 is the settled state; without a command the drives hold it with the settle gains.
-  command_.mode = JointCommand::Mode::kRun;
-  command_.tau_ff = VectorXd::Zero(m.nj);
-  command_.q_des = robot_->q_joints_stand;
-  command_.qd_des = VectorXd::Zero(m.nj);
-  command_.kp = settle_kp_;
-  command_.kd = settle_kd_;
-  delay_line_.assign(static_cast<std::size_t>(config_.actuation_delay_ticks) + 1, command_);
+  JointCommand settle;
+  settle.mode = JointCommand::Mode::kRun;
+  settle.tau_ff = VectorXd::Zero(m.nj);
+  settle.q_des = robot_->q_joints_stand;
+  settle.qd_des = VectorXd::Zero(m.nj);
+  settle.kp = settle_kp_;
+  settle.kd = settle_kd_;
+  delay_line_.assign(static_cast<std::size_t>(config_.actuation_delay_ticks) + 1, settle);
   delay_head_ = 0;
   command_time_ = 0.0;
   compute_truth();
@@ -532,7 +534,6 @@ bool Simulator::set_command(const JointCommand& c, std::string* why) {
     if (why != nullptr) *why = reason;
     return false;
   }
-  command_ = c;
   delay_head_ = (delay_head_ + 1) % delay_line_.size();
   delay_line_[delay_head_] = c;
   command_time_ = time_;
@@ -548,7 +549,7 @@ void Simulator::add_push(Push push) {
 void Simulator::apply_actuation() {
   const model::Model& m = robot_->model;
   btMultiBody* mb = impl_->bullet->multibody();
-  // The oldest command of the delay line (the newest, command_, without a delay).
+  // The oldest command of the delay line (the newest one without a delay).
   const JointCommand& c = delay_line_[(delay_head_ + 1) % delay_line_.size()];
   stale_ = time_ - command_time_ > config_.command_timeout + 1e-9;
   JointCommand::Mode mode = stale_ ? JointCommand::Mode::kDamp : c.mode;
@@ -753,8 +754,9 @@ void Simulator::compute_sensors() {
     }
     s.tau(j) = applied_(j) + (noisy ? nc.joint_torque_noise * nd(rng_) : 0.0);
     std::int32_t st = 0;
-    if (command_.mode == JointCommand::Mode::kRun && !stale_) st |= 1;
-    if (command_.mode == JointCommand::Mode::kDamp || stale_) st |= 2;
+    const JointCommand::Mode commanded = delay_line_[delay_head_].mode;  // the latest command's mode
+    if (commanded == JointCommand::Mode::kRun && !stale_) st |= 1;
+    if (commanded == JointCommand::Mode::kDamp || stale_) st |= 2;
     if (stale_) st |= 8;
     if (std::abs(applied_(j)) >= m.tau_max[static_cast<size_t>(j)] - 1e-9) st |= 16;
     s.drive_status[static_cast<size_t>(j)] = st;

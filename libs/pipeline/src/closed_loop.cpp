@@ -46,7 +46,7 @@ const SensorSample& ClosedLoop::sensors_as_received() {
 
 void ClosedLoop::step() {
   const double dt = sim.config().dt;
-  wbc::RobotState st;
+  wbc::RobotState& st = wbc_state_;  // kept between ticks: no allocation
   if (opt.estimator_in_loop) {
     // ROBOT_STATE as the controllers decode it.
     msg::to_message(estimator->state(), names_, state_msg_);

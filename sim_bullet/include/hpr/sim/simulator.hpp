@@ -194,9 +194,8 @@ class Simulator {
   std::unique_ptr<Impl> impl_;
   SensorData sensors_;
   TruthData truth_;
-  JointCommand command_;
   std::vector<JointCommand> delay_line_;  ///< the last actuation_delay_ticks + 1 commands, a ring
-  std::size_t delay_head_ = 0;            ///< the newest
+  std::size_t delay_head_ = 0;            ///< the newest (the command the drives were last sent)
   bool have_command_ = false, stale_ = false;
   double command_time_ = -1e9;
   std::int64_t rejected_ = 0;

@@ -84,6 +84,7 @@ struct ClosedLoop {
   humanoid::wholebody_command_t wholebody_msg_{};
   SensorSample sample_;
   EstimatedState state_;
+  wbc::RobotState wbc_state_;  ///< the wbc's input of the tick
   balance::TaskReference wholebody_;
   bool reference_started_ = false;
 };
