@@ -11,6 +11,7 @@
 #include "hpr/hal/drive_emulator.hpp"
 #include "hpr/model/robot.hpp"
 #include "hpr/model/urdf.hpp"
+#include "hpr/msg/sim_truth.hpp"
 #include "hpr/sim/sim_io.hpp"
 #include "hpr/node/command_line.hpp"
 #include "hpr/node/runtime.hpp"
@@ -86,7 +87,7 @@ int run(const node::CommandLine& cl, const Config& cfg) {
       log::info("drives in motor mode: released from the gantry at tick {}", simulator.tick());
     }
     if (emu.released()) {
-      sim::to_message(simulator.truth(), feet, truth_msg);
+      msg::to_message(simulator.truth(), feet, truth_msg);
       truth_out.publish(truth_msg);
     }
     if (simulator.truth().fallen && !fallen_reported) {

@@ -23,7 +23,7 @@ int main(int argc, char** argv) {
   int max_changes = 0;
   loop.run(seconds, [&] {
     us.push_back(loop.times.motion_opt_us);
-    max_changes = std::max(max_changes, loop.motion_opt_iterations);
+    max_changes = std::max(max_changes, loop.wholebody.qp_iterations);
   });
   std::printf("motion_opt step (%s, %zu ticks, 18 N s push at t = 3 s, fallen %d): median %.1f us, p99 %.1f us, max %.1f us; "
               "working-set changes per tick max %d\n",

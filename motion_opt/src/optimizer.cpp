@@ -13,6 +13,7 @@ using Eigen::VectorXd;
 
 MotionOptConfig MotionOptConfig::load(const Config& c, const model::RobotSpec& robot) {
   MotionOptConfig m;
+  m.dt = c.real_or("dt", m.dt, 1e-5, 0.1);
   const Config adj = c.section("adjusted");
   m.adjusted_double = adj.strings("double");
   m.adjusted_single = adj.strings("single");
@@ -83,7 +84,11 @@ MotionOptimizer::MotionOptimizer(const model::RobotSpec& robot, MotionOptConfig 
   }
   const int nc = static_cast<int>(coords_.size());
   delta_ = delta_dot_ = delta_dot_prev_ = delta_acc_ = VectorXd::Zero(nc);
-  xdot_ref_ = xdot_cmd_ = VectorXd::Zero(robot.model.nv);
+  xdot_ref_ = xdot_cmd_ = xu_ = VectorXd::Zero(robot.model.nv);
+  set_.reserve(coords_.size());
+  last_set_.reserve(coords_.size());
+  out_.adjusted.reserve(coords_.size());
+  adjusted_.assign(coords_.size(), 0);
   // Segments for the CAM contributions (Fig. 7d): the trunk (CoM and base rotation), the
   // configured joint groups among the free joints, and each foot.
   out_.segment_names.push_back("trunk");
@@ -108,10 +113,10 @@ MotionOptimizer::MotionOptimizer(const model::RobotSpec& robot, MotionOptConfig 
   out_.segment_l.assign(out_.segment_names.size(), Vector3d::Zero());
 }
 
-std::vector<int> MotionOptimizer::adjusted_set(const balance::TaskReference& ref) const {
+void MotionOptimizer::adjusted_set(const balance::TaskReference& ref, std::vector<int>& set) const {
   const bool single = ref.support != balance::Support::kDouble;
   const int swing = ref.support == balance::Support::kRight ? model::kLeft : model::kRight;
-  std::vector<int> set;
+  set.clear();  // capacity: every coordinate, reserved at construction
   for (const auto& name : single ? config_.adjusted_single : config_.adjusted_double) {
     for (int c = 0; c < static_cast<int>(coords_.size()); ++c) {
       const Coordinate& co = coords_[static_cast<size_t>(c)];
@@ -123,7 +128,6 @@ std::vector<int> MotionOptimizer::adjusted_set(const balance::TaskReference& ref
       }
     }
   }
-  return set;
 }
 
 void MotionOptimizer::limits(int c, const balance::TaskReference& ref, double& dmin, double& dmax, double& vmax) const {
@@ -152,15 +156,24 @@ void MotionOptimizer::limits(int c, const balance::TaskReference& ref, double& d
 
 const MotionOptOutput& MotionOptimizer::step(const VectorXd& q, const VectorXd& v, const balance::TaskReference& ref,
                                              const Vector3d& l_ref, bool l_ref_fresh, double dt, bool cam_active) {
-  const model::Model& m = robot_->model;
-  const int nc = static_cast<int>(coords_.size());
-  model::ccrba(m, data_, q, v);  // A_G, I_c, the CoM and its Jacobian: all Ā needs
-  out_.singular = !task_.update(m, data_);
-  const auto& Abar = task_.Abar();
+  model::ccrba(robot_->model, data_, q, v);  // A_G, I_c, the CoM and its Jacobian: all Ā needs
+  out_.singular = !task_.update(robot_->model, data_);
+  select_adjusted(ref);
+  decay_unadjusted(ref);
+  build_qp(ref, l_ref_fresh ? l_ref : Vector3d::Zero(), dt, cam_active);
+  out_.reference_stale = !l_ref_fresh;
+  solve_qp();
+  integrate_offsets(ref, dt);
+  compose_command(ref, dt);
+  first_ = false;
+  return out_;
+}
 
-  const std::vector<int> set = adjusted_set(ref);
-  const int k = static_cast<int>(set.size());
-  if (set != last_set_) {
+void MotionOptimizer::select_adjusted(const balance::TaskReference& ref) {
+  adjusted_set(ref, set_);
+  const int k = static_cast<int>(set_.size());
+  if (set_ != last_set_) {
+    // A new QP size (a change of support) allocates its solver once; within a support mode, nothing.
     if (k != solver_size_) {
       solver_ = std::make_unique<qp::Solver>(k, 0, qp::Options{config_.max_working_set_changes, 1e-10, 1e-12, 1e-12});
       solver_size_ = k;
@@ -171,14 +184,24 @@ const MotionOptOutput& MotionOptimizer::step(const VectorXd& q, const VectorXd& 
       A_.resize(0, k);
       lbA_.resize(0);
       ubA_.resize(0);
+      xd_.resize(k);
+      xa_.resize(k);
+      Aa_.resize(3, k);
+      for (VectorXd* o : {&out_.xa_opt, &out_.xad_opt, &out_.xa_min, &out_.xa_max, &out_.xad_min, &out_.xad_max}) o->resize(k);
     } else {
       solver_->reset();
     }
-    last_set_ = set;
+    last_set_ = set_;
+    out_.adjusted = set_;
+    out_.adjusted_name.resize(set_.size());
+    for (size_t a = 0; a < set_.size(); ++a) out_.adjusted_name[a] = coords_[static_cast<size_t>(set_[a])].name;
   }
-  std::vector<char> adjusted(static_cast<size_t>(nc), 0);
-  for (int c : set) adjusted[static_cast<size_t>(c)] = 1;
+  std::fill(adjusted_.begin(), adjusted_.end(), 0);
+  for (int c : set_) adjusted_[static_cast<size_t>(c)] = 1;
+}
 
+void MotionOptimizer::decay_unadjusted(const balance::TaskReference& ref) {
+  const int nc = static_cast<int>(coords_.size());
   // Reference task velocity ẋ^ref = (ẋ_c, ω_b, ν_r, ν_l, q̇_f).
   xdot_ref_.segment<3>(0) = ref.v_com;
   xdot_ref_.segment<3>(3) = ref.omega_base;
@@ -188,7 +211,7 @@ const MotionOptOutput& MotionOptimizer::step(const VectorXd& q, const VectorXd& 
 
   // Coordinates outside x_a: their offsets decay (feet faster, and not at all once in contact).
   for (int c = 0; c < nc; ++c) {
-    if (adjusted[static_cast<size_t>(c)] != 0) continue;
+    if (adjusted_[static_cast<size_t>(c)] != 0) continue;
     const Coordinate& co = coords_[static_cast<size_t>(c)];
     const double rate = co.kind == Coordinate::Kind::kFoot ? config_.swing_return_rate : config_.K_p;
     double dmin = 0, dmax = 0, vmax = 0;
@@ -197,31 +220,26 @@ const MotionOptOutput& MotionOptimizer::step(const VectorXd& q, const VectorXd& 
   }
   xdot_cmd_ = xdot_ref_;
   for (int c = 0; c < nc; ++c) {
-    if (adjusted[static_cast<size_t>(c)] == 0) xdot_cmd_(coords_[static_cast<size_t>(c)].task) += delta_dot_(c);
+    if (adjusted_[static_cast<size_t>(c)] == 0) xdot_cmd_(coords_[static_cast<size_t>(c)].task) += delta_dot_(c);
   }
+}
+
+void MotionOptimizer::build_qp(const balance::TaskReference& ref, const Vector3d& lref, double dt, bool cam_active) {
+  const auto& Abar = task_.Abar();
+  const int k = static_cast<int>(set_.size());
   // Ā_u ẋ_u: the CAM of everything but the adjusted coordinates.
-  VectorXd xu = xdot_cmd_;
-  for (int c : set) xu(coords_[static_cast<size_t>(c)].task) = 0.0;
-  const Vector3d l_u = Abar * xu;
-  const Vector3d lref = l_ref_fresh ? l_ref : Vector3d::Zero();
-  out_.reference_stale = !l_ref_fresh;
+  xu_ = xdot_cmd_;
+  for (int c : set_) xu_(coords_[static_cast<size_t>(c)].task) = 0.0;
+  const Vector3d l_u = Abar * xu_;
+  out_.l_ref = lref;
 
   // QP (13) over ẋ_a.
-  out_.adjusted = set;
-  out_.xa_opt.resize(k);
-  out_.xad_opt.resize(k);
-  out_.xa_min.resize(k);
-  out_.xa_max.resize(k);
-  out_.xad_min.resize(k);
-  out_.xad_max.resize(k);
-  VectorXd xd(k);
-  Eigen::Matrix<double, 3, Eigen::Dynamic> Aa(3, k);
   for (int a = 0; a < k; ++a) {
-    const int c = set[static_cast<size_t>(a)];
+    const int c = set_[static_cast<size_t>(a)];
     const Coordinate& co = coords_[static_cast<size_t>(c)];
-    Aa.col(a) = Abar.col(co.task);
+    Aa_.col(a) = Abar.col(co.task);
     const double xref_dot = xdot_ref_(co.task);
-    xd(a) = xref_dot - config_.K_p * delta_(c);  // (16)
+    xd_(a) = xref_dot - config_.K_p * delta_(c);  // (16)
     double dmin = 0, dmax = 0, vmax = 0;
     limits(c, ref, dmin, dmax, vmax);
     // (17) in offset form: x_min − x^opt = δ_min − δ.
@@ -238,7 +256,7 @@ const MotionOptOutput& MotionOptimizer::step(const VectorXd& q, const VectorXd& 
     const double qp_w = it != config_.Q_p_overrides.end() ? it->second : config_.Q_p;
     H_.row(a).setZero();
     H_(a, a) = qp_w;
-    g_(a) = -qp_w * xd(a);
+    g_(a) = -qp_w * xd_(a);
   }
   // CAM weight: full while CAM is generated, ramped down to the idle fraction otherwise.
   // The release follows a smoothstep in time (C¹), so that the posture return starts without a
@@ -257,9 +275,12 @@ const MotionOptOutput& MotionOptimizer::step(const VectorXd& q, const VectorXd& 
   }
   out_.cam_weight_scale = cam_scale_;
   const Eigen::Matrix3d Ql = (cam_scale_ * config_.Q_l).asDiagonal();
-  H_.noalias() += Aa.transpose() * Ql * Aa;
-  g_.noalias() += Aa.transpose() * Ql * (l_u - lref);
-  VectorXd xa(k);
+  H_.noalias() += Aa_.transpose() * Ql * Aa_;
+  g_.noalias() += Aa_.transpose() * Ql * (l_u - lref);
+}
+
+void MotionOptimizer::solve_qp() {
+  const int k = static_cast<int>(set_.size());
   const double t0 = monotonic_s();
   const qp::Status st = k > 0 ? solver_->solve_hot(H_, g_, A_, lb_, ub_, lbA_, ubA_) : qp::Status::kOptimal;
   out_.qp_solve_time_us = (monotonic_s() - t0) * 1e6;
@@ -267,13 +288,18 @@ const MotionOptOutput& MotionOptimizer::step(const VectorXd& q, const VectorXd& 
   out_.qp_iterations = k > 0 ? solver_->working_set_changes() : 0;
   out_.qp_failed = !(qp::usable(st) && (k == 0 || solver_->primal_feasible()));
   if (!out_.qp_failed && k > 0) {
-    xa = solver_->x();
+    xa_ = solver_->x();
   } else {
-    xa = xd.cwiseMax(lb_).cwiseMin(ub_);  // the posture task alone, within the limits
+    xa_ = xd_.cwiseMax(lb_).cwiseMin(ub_);  // the posture task alone, within the limits
   }
+}
+
+void MotionOptimizer::integrate_offsets(const balance::TaskReference& ref, double dt) {
+  const int nc = static_cast<int>(coords_.size());
+  const int k = static_cast<int>(set_.size());
   for (int a = 0; a < k; ++a) {
-    const int c = set[static_cast<size_t>(a)];
-    delta_dot_(c) = xa(a) - xdot_ref_(coords_[static_cast<size_t>(c)].task);
+    const int c = set_[static_cast<size_t>(a)];
+    delta_dot_(c) = xa_(a) - xdot_ref_(coords_[static_cast<size_t>(c)].task);
   }
   // Feet that carry load have no offset.
   for (int c = 0; c < nc; ++c) {
@@ -289,11 +315,14 @@ const MotionOptOutput& MotionOptimizer::step(const VectorXd& q, const VectorXd& 
   xdot_cmd_ = xdot_ref_;
   for (int c = 0; c < nc; ++c) xdot_cmd_(coords_[static_cast<size_t>(c)].task) += delta_dot_(c);
   for (int a = 0; a < k; ++a) {
-    const int c = set[static_cast<size_t>(a)];
+    const int c = set_[static_cast<size_t>(a)];
     out_.xa_opt(a) = delta_(c);
-    out_.xad_opt(a) = xa(a);
+    out_.xad_opt(a) = xa_(a);
   }
+}
 
+void MotionOptimizer::compose_command(const balance::TaskReference& ref, double dt) {
+  const auto& Abar = task_.Abar();
   // The commanded trajectory: the reference with the offsets applied.
   balance::TaskReference& cmd = out_.command;
   cmd = ref;
@@ -313,7 +342,6 @@ const MotionOptOutput& MotionOptimizer::step(const VectorXd& q, const VectorXd& 
   }
 
   // Commanded CAM Ā ẋ^cmd, its rate, and the share of each segment.
-  out_.l_ref = lref;
   out_.l_cmd = Abar * xdot_cmd_;
   out_.ldot_cmd = first_ ? Vector3d::Zero() : Vector3d((out_.l_cmd - l_cmd_prev_) / dt);
   l_cmd_prev_ = out_.l_cmd;
@@ -323,8 +351,6 @@ const MotionOptOutput& MotionOptimizer::step(const VectorXd& q, const VectorXd& 
     out_.segment_l[s] = l;
   }
   out_.posture_error = delta_.cwiseAbs().maxCoeff();
-  first_ = false;
-  return out_;
 }
 
 void MotionOptimizer::reset() {

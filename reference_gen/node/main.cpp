@@ -11,6 +11,8 @@
 #include <array>
 #include <cmath>
 
+#include "hpr/msg/balance.hpp"
+#include "hpr/msg/state.hpp"
 #include "hpr/node/command_line.hpp"
 #include "hpr/node/runtime.hpp"
 #include "hpr/reference_gen/generator.hpp"
@@ -18,16 +20,6 @@
 namespace {
 
 using namespace hpr;
-
-std::string check_balance(const humanoid::balance_status_t& m) {
-  for (int k = 0; k < 3; ++k) {
-    if (!std::isfinite(m.tau_ankle_V[k]) || !std::isfinite(m.tau_min_V[k]) || !std::isfinite(m.tau_max_V[k])) {
-      return "non-finite torque or limit";
-    }
-    if (m.tau_min_V[k] > m.tau_max_V[k]) return "torque limits inverted";
-  }
-  return std::isfinite(m.yaw_WV) ? "" : "non-finite yaw";
-}
 
 /// α and β per axis ("x.alpha") and for all three ("alpha", shown as NaN while the axes differ),
 /// the posture tolerance; ranges as the configuration accepts them.
@@ -85,59 +77,38 @@ int main(int argc, char** argv) {
         reference_gen::ReferenceGenerator gen(reference_gen::GeneratorConfig::load(section));
         const bool wait = section.boolean_or("wait_for_balance", true);
         const double timeout = section.real_or("balance_timeout", 0.5, 0.0, 60.0);
-        const double dt = section.real_or("dt", 1e-3, 1e-5, 0.1);
-        node::Runtime rt(cl.name, node::lcm_url(cl, cfg), node::runtime_options(cfg, dt));
-        auto& state = rt.subscribe<humanoid::robot_state_t>("ROBOT_STATE", [](const humanoid::robot_state_t& m) {
-          return m.utime >= 0 ? std::string() : std::string("negative time");
+        node::Runtime rt(cl.name, node::lcm_url(cl, cfg), node::runtime_options(cfg, gen.config().dt));
+        EstimatedState state;  // only tick and time are read: the header of ROBOT_STATE
+        balance::BalanceStatus balance_status;
+        balance::WholebodyCommand wholebody;
+        auto& state_in = rt.subscribe<humanoid::robot_state_t>("ROBOT_STATE", [&](const humanoid::robot_state_t& m) {
+          if (m.utime < 0) return std::string("negative time");
+          state.tick = m.tick;
+          state.time = static_cast<double>(m.utime) * 1e-6;
+          return std::string();
         });
-        auto& balance = rt.subscribe<humanoid::balance_status_t>("BALANCE_STATUS", check_balance);
-        auto& wholebody = rt.subscribe<humanoid::wholebody_command_t>(
-            "WHOLEBODY_COMMAND", [](const humanoid::wholebody_command_t& m) {
-              return std::isfinite(m.posture_error) ? std::string() : std::string("non-finite posture error");
-            });
+        auto& balance_in = rt.subscribe<humanoid::balance_status_t>(
+            "BALANCE_STATUS", [&](const humanoid::balance_status_t& m) { return msg::from_message(m, balance_status); });
+        auto& wholebody_in = rt.subscribe<humanoid::wholebody_command_t>(
+            "WHOLEBODY_COMMAND", [&](const humanoid::wholebody_command_t& m) { return msg::from_message(m, {}, wholebody); });
         add_parameters(rt.parameters(), gen);
         auto out = rt.advertise<humanoid::cam_reference_t>("CAM_REFERENCE");
+        balance::CamReference reference;
         humanoid::cam_reference_t msg{};
         std::vector<node::Sync> sync;
-        if (wait) sync.push_back({&balance, -1, {}, true});  // optional: without it, the reference ramps to zero
-        rt.on_restart(state, [&] { gen.reset(); });
-        rt.on_tick(state, sync, timeout, [&](const node::TickInfo& info) {
-          const auto& s = state.latest();
-          const double t = static_cast<double>(s.utime) * 1e-6;
-          reference_gen::BalanceInput b;
-          const bool valid = balance.has_value();
-          if (valid) {
-            const auto& m = balance.latest();
-            b.time = static_cast<double>(m.utime) * 1e-6;
-            b.tau_ankle_V = Eigen::Vector3d(m.tau_ankle_V[0], m.tau_ankle_V[1], m.tau_ankle_V[2]);
-            b.tau_min_V = Eigen::Vector3d(m.tau_min_V[0], m.tau_min_V[1], m.tau_min_V[2]);
-            b.tau_max_V = Eigen::Vector3d(m.tau_max_V[0], m.tau_max_V[1], m.tau_max_V[2]);
-            b.yaw_WV = m.yaw_WV;
-          }
-          const double posture_error = wholebody.has_value() ? wholebody.latest().posture_error : 0.0;
-          const auto& o = gen.step(t, dt, b, valid, posture_error);
-          if (o.stale && info.tick > 1) {
-            rt.set_fault("balance", o.ramping ? "BALANCE_STATUS stale: CAM reference ramped to zero"
-                                              : "BALANCE_STATUS stale: CAM reference held");
+        if (wait) sync.push_back({&balance_in, -1, {}, true});  // optional: without it, the reference ramps to zero
+        rt.on_restart(state_in, [&] { gen.reset(); });
+        rt.on_tick(state_in, sync, timeout, [&](const node::TickInfo& info) {
+          gen.step({info.tick, state.time, balance_in.has_value() ? &balance_status : nullptr,
+                    wholebody_in.has_value() ? wholebody.posture_error : 0.0},
+                   reference);
+          if (reference.stale && info.tick > 1) {
+            rt.set_fault("balance", reference.ramping ? "BALANCE_STATUS stale: CAM reference ramped to zero"
+                                                      : "BALANCE_STATUS stale: CAM reference held");
           } else {
             rt.clear_fault("balance");
           }
-          msg.tick = info.tick;
-          msg.utime = s.utime;
-          msg.yaw_WV = o.yaw_WV;
-          for (int k = 0; k < 3; ++k) {
-            msg.l_ref_W[k] = o.l_ref_W(k);
-            msg.ldot_ref_W[k] = o.ldot_ref_W(k);
-            msg.l_ref_V[k] = o.l_ref_V(k);
-            msg.ldot_ref_V[k] = o.ldot_ref_V(k);
-            msg.phase[k] = static_cast<int8_t>(o.phase[static_cast<size_t>(k)]);
-            msg.tau_thres_V[k] = o.tau_thres_V(k);
-            msg.ldot_max_V[k] = o.ldot_max_V(k);
-            for (int p = 0; p < 3; ++p) msg.t_phase_start[k][p] = o.t_phase_start[static_cast<size_t>(k)][static_cast<size_t>(p)];
-          }
-          msg.status = (o.stale ? humanoid::cam_reference_t::STATUS_BALANCE_STALE : 0) |
-                       (o.ramping ? humanoid::cam_reference_t::STATUS_RAMPING_DOWN : 0);
-          msg.balance_tick = balance.tick();
+          msg::to_message(reference, msg);
           out.publish(msg);
         });
         return rt.run();

@@ -36,6 +36,7 @@ GeneratorConfig GeneratorConfig::load(const Config& c) {
   g.stale_hold_time = c.real_or("stale_hold_time", g.stale_hold_time, 1e-3, 10.0);
   g.stale_ramp_time = c.real_or("stale_ramp_time", g.stale_ramp_time, 0.0, 10.0);
   g.stale_ramp_rate = c.real_or("stale_ramp_rate", g.stale_ramp_rate, 1e-3, 1e3);
+  g.dt = c.real_or("dt", g.dt, 1e-5, 0.1);
   return g;
 }
 
@@ -134,8 +135,17 @@ void ReferenceGenerator::set_axis_params(int i, AxisParams p) {
   axes_[static_cast<size_t>(i)].params() = p;
 }
 
+void ReferenceGenerator::step(const Inputs& in, Outputs& out) {
+  static const balance::BalanceStatus kNone{};
+  step(in.time, config_.dt, in.balance != nullptr ? *in.balance : kNone, in.balance != nullptr, in.posture_error);
+  out_.tick = in.tick;
+  out_.balance_tick = in.balance != nullptr ? in.balance->tick : -1;
+  out = out_;
+}
+
 const CamReference& ReferenceGenerator::step(double t, double dt, const BalanceInput& b, bool balance_valid,
                                              double posture_error) {
+  out_.time = t;
   const double age = t - b.time;
   const bool stale = !balance_valid || age > config_.stale_hold_time;
   const bool converged = posture_error < config_.posture_tolerance;

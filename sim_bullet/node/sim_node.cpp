@@ -4,6 +4,7 @@
 
 #include "hpr/common/log.hpp"
 #include "hpr/common/time.hpp"
+#include "hpr/msg/sim_truth.hpp"
 #include "hpr/sim/sim_io.hpp"
 
 namespace hpr::sim {
@@ -59,7 +60,7 @@ void SimNode::publish() {
   msg::to_message(sim_.sensors(), names_, sensors_msg_);
   sensors_out_.publish(sensors_msg_);
   if (!options_.publish_truth) return;
-  to_message(sim_.truth(), names_.feet, truth_msg_);
+  msg::to_message(sim_.truth(), names_.feet, truth_msg_);
   truth_out_.publish(truth_msg_);
 }
 

@@ -119,11 +119,11 @@ TEST(EstimatorAccuracy, ContactSwitchesWithin5ms) {
   loop.run(9.0, [&] {
     const auto& t = loop.sim.truth();
     if (!requested_single && t.time >= 1.0) {
-      loop.reference.request_support(hpr::balance::Support::kRight, t.time);
+      loop.request_support(hpr::balance::Support::kRight, t.time);
       requested_single = true;
     }
     if (!requested_double && t.time >= 5.0) {
-      loop.reference.request_support(hpr::balance::Support::kDouble, t.time);
+      loop.request_support(hpr::balance::Support::kDouble, t.time);
       requested_double = true;
     }
     left.push_back({t.time, t.contact_wrench_W[1](2), est.state().contact[1]});
@@ -186,7 +186,7 @@ LoopResult stand_and_push(const std::string& robot, bool with_estimator) {
   LoopResult r;
   loop.run(t_push + 5.0, [&] {
     const auto& t = loop.sim.truth();
-    const double dev = (t.p_WCom - loop.reference.reference().p_com).norm();
+    const double dev = (t.p_WCom - loop.wbc.posture_reference().reference().p_com).norm();
     if (t.time > 1.5 && t.time < t_push) r.com_err_standing = std::max(r.com_err_standing, dev);
     if (t.time >= t_push) r.peak_dev = std::max(r.peak_dev, dev);
     r.final_dev = dev;

@@ -141,8 +141,8 @@ void expect_same_messages(Strategy strategy) {
         cam_cmp.add(k, differ("l_ref_W", r->second.l_ref_W, o.l_ref_W.data(), 3));
       }
       if (const auto w = wholebodies.find(k); w != wholebodies.end()) {
-        const auto& o = loop.optimizer->output();
-        hpr::msg::to_message(o.command, free_names, names, wholebody);
+        const auto& o = loop.wholebody;
+        hpr::msg::to_message(o, free_names, names, wholebody);
         const auto& rec = w->second;
         std::string what = differ("l_cmd_W", rec.l_cmd_W, o.l_cmd.data(), 3);
         if (what.empty()) what = differ("p_WCom", rec.p_WCom, wholebody.p_WCom, 3);
@@ -157,7 +157,7 @@ void expect_same_messages(Strategy strategy) {
         wholebody_cmp.add(k, what);
       }
     }
-    hpr::msg::to_message(loop.wbc.command(), names, command);
+    hpr::msg::to_message(loop.wbc_out.command, names, command);
     std::string what = differ("tau_ff", c->second.tau_ff, command.tau_ff);
     if (what.empty()) what = differ("q_des", c->second.q_des, command.q_des);
     if (what.empty()) what = differ("qd_des", c->second.qd_des, command.qd_des);

@@ -16,7 +16,9 @@
 #include "hpr/msg/commands.hpp"
 #include "hpr/msg/state.hpp"
 #include "hpr/node/runtime.hpp"
-#include "hpr/wbc/controller.hpp"
+#include "hpr/msg/balance.hpp"
+#include "hpr/msg/sim_truth.hpp"
+#include "hpr/wbc/component.hpp"
 
 namespace hpr::wbc {
 
@@ -32,18 +34,16 @@ struct WbcNodeOptions {
 
 class WbcNode {
  public:
-  WbcNode(node::Runtime& rt, const model::RobotSpec& robot, WholeBodyController& wbc,
-          balance::PostureReference& reference, WbcNodeOptions options);
+  WbcNode(node::Runtime& rt, const model::RobotSpec& robot, WbcComponent& wbc, WbcNodeOptions options);
 
  private:
-  void step(std::int64_t tick, const EstimatedState& state, bool wholebody_fresh);
-  void publish_damp(std::int64_t tick, const std::string& why);
+  void step(const EstimatedState& state, bool wholebody_fresh);
+  void publish(const std::string& damp_reason);
   void add_parameters();
 
   node::Runtime& rt_;
-  const model::RobotSpec& robot_;
-  WholeBodyController& wbc_;
-  balance::PostureReference& reference_;
+  WbcComponent& wbc_;
+  WbcComponent::Outputs out_;
   WbcNodeOptions options_;
   msg::RobotNames names_;
   std::vector<std::string> free_names_;
@@ -55,12 +55,11 @@ class WbcNode {
   node::Output<humanoid::balance_status_t> status_out_;
   EstimatedState state_;
   SensorSample sensors_;
-  balance::TaskReference wholebody_;
+  SimTruth truth_;
+  balance::WholebodyCommand wholebody_;
   humanoid::joint_command_t command_msg_;
   humanoid::balance_status_t status_msg_;
-  bool damping_ = false;  ///< OPERATOR damp/stop received: damp until enable
   bool have_wholebody_ = false;
-  int bad_state_count_ = 0;          ///< consecutive ticks with a flagged state
 };
 
 }  // namespace hpr::wbc

@@ -152,6 +152,8 @@ const JointCommand& WholeBodyController::step(const RobotState& state, const bal
   const Eigen::VectorXd& q = state.q;
   const Eigen::VectorXd& v = state.v;
 
+  status_.tick = state.tick;
+  status_.time = state.time;
   model::compute_all_terms(m, data_, q, v);
   status_.singular = !task_.update(m, data_);
   const Vector3d c = data_.com, cd = data_.vcom;
@@ -294,7 +296,7 @@ const JointCommand& WholeBodyController::step(const RobotState& state, const bal
   status_.w_des = w_des;
   status_.w_achieved = qp_ok ? qp_.achieved() : status_.w_achieved;
   for (int k = 0; k < 2; ++k) {
-    status_.contact_wrench[static_cast<size_t>(k)] = w_grf[static_cast<size_t>(k)];
+    status_.contact_wrench_W[static_cast<size_t>(k)] = w_grf[static_cast<size_t>(k)];
     status_.contact_active[static_cast<size_t>(k)] = contacts[static_cast<size_t>(k)].active;
   }
   status_.support = cmd.support;
@@ -357,7 +359,7 @@ void WholeBodyController::virtual_stance_foot(const balance::TaskReference& cmd,
   for (int k = 0; k < 2; ++k) {
     const auto ku = static_cast<size_t>(k);
     if (!cmd.feet[ku].contact) continue;
-    const Vector6d& w = status_.contact_wrench[ku];
+    const Vector6d& w = status_.contact_wrench_W[ku];
     tau_m += w.tail<3>() + (soles[ku].p - p_v).cross(w.head<3>());
     fz_m += w.z();
   }

@@ -106,8 +106,10 @@ std::string from_message(const humanoid::robot_state_t& m, const RobotNames& nam
   return "";
 }
 
-void to_message(const balance::TaskReference& r, const std::vector<std::string>& free_names, const RobotNames& names,
+void to_message(const balance::WholebodyCommand& c, const std::vector<std::string>& free_names, const RobotNames& names,
                 humanoid::wholebody_command_t& m) {
+  const balance::TaskReference& r = c.command;
+  m.tick = c.tick;
   m.utime = static_cast<int64_t>(std::llround(r.time * 1e6));
   m.support = static_cast<int8_t>(r.support);
   for (int k = 0; k < 3; ++k) {
@@ -142,13 +144,50 @@ void to_message(const balance::TaskReference& r, const std::vector<std::string>&
   m.q_free.assign(r.q_free.data(), r.q_free.data() + nf);
   m.qd_free.assign(r.qd_free.data(), r.qd_free.data() + nf);
   m.qdd_free.assign(r.qdd_free.data(), r.qdd_free.data() + nf);
+  for (int k = 0; k < 3; ++k) {
+    m.l_cmd_W[k] = c.l_cmd(k);
+    m.ldot_cmd_W[k] = c.ldot_cmd(k);
+    m.l_ref_W[k] = c.l_ref(k);
+  }
+  const auto na = static_cast<int>(c.adjusted_name.size());
+  m.num_adjusted = na;
+  m.adjusted_name = c.adjusted_name;
+  auto put = [na](const Eigen::VectorXd& v, std::vector<double>& dst) {
+    if (v.size() >= na) {
+      dst.assign(v.data(), v.data() + na);
+    } else {
+      dst.assign(static_cast<size_t>(na), 0.0);
+    }
+  };
+  put(c.xa_opt, m.xa_opt);
+  put(c.xad_opt, m.xad_opt);
+  put(c.xa_min, m.xa_min);
+  put(c.xa_max, m.xa_max);
+  put(c.xad_min, m.xad_min);
+  put(c.xad_max, m.xad_max);
+  m.num_segments = static_cast<int32_t>(c.segment_names.size());
+  m.segment_name = c.segment_names;
+  m.segment_l_W.resize(c.segment_names.size());
+  for (size_t s = 0; s < c.segment_names.size(); ++s) {
+    m.segment_l_W[s].assign(c.segment_l[s].data(), c.segment_l[s].data() + 3);
+  }
+  m.posture_error = c.posture_error;
+  m.qp_status = c.qp_status;
+  m.qp_iterations = c.qp_iterations;
+  m.qp_solve_time_us = c.qp_solve_time_us;
+  m.status = (c.reference_stale ? humanoid::wholebody_command_t::STATUS_REFERENCE_STALE : 0) |
+             (c.qp_failed ? humanoid::wholebody_command_t::STATUS_QP_FAILED : 0) |
+             (c.singular ? humanoid::wholebody_command_t::STATUS_SINGULAR : 0);
 }
 
 std::string from_message(const humanoid::wholebody_command_t& m, const std::vector<std::string>& free_names,
-                         balance::TaskReference& r) {
-  const auto nf = static_cast<int>(free_names.size());
+                         balance::WholebodyCommand& c) {
+  balance::TaskReference& r = c.command;
+  const int nf = free_names.empty() ? m.num_free : static_cast<int>(free_names.size());
   if (m.num_free != nf) return fmt::format("num_free {} != {} free joints", m.num_free, nf);
-  if (!m.free_joint.empty() && m.free_joint != free_names) return "free joint names differ from the configured robot";
+  if (!free_names.empty() && !m.free_joint.empty() && m.free_joint != free_names) {
+    return "free joint names differ from the configured robot";
+  }
   if (m.num_feet != 2) return fmt::format("num_feet {} != 2", m.num_feet);
   if (m.support < 0 || m.support > 2) return fmt::format("unknown support {}", static_cast<int>(m.support));
   if (!finite_array(m.p_WCom, 3) || !finite_array(m.v_WCom, 3) || !finite_array(m.a_WCom, 3) ||
@@ -162,8 +201,17 @@ std::string from_message(const humanoid::wholebody_command_t& m, const std::vect
       return "non-finite foot value";
     }
   }
+  if (!finite_array(m.l_cmd_W, 3) || !finite_array(m.ldot_cmd_W, 3) || !finite_array(m.l_ref_W, 3) ||
+      !std::isfinite(m.posture_error) || !finite_all(m.xa_opt) || !finite_all(m.xad_opt) || !finite_all(m.xa_min) ||
+      !finite_all(m.xa_max) || !finite_all(m.xad_min) || !finite_all(m.xad_max)) {
+    return "non-finite CAM, posture error or adjusted coordinate";
+  }
+  for (const auto& l : m.segment_l_W) {
+    if (!finite_all(l)) return "non-finite segment CAM";
+  }
   const Eigen::Quaterniond qb = quat_wxyz(m.quat_WB);
   if (std::abs(qb.norm() - 1.0) > 1e-3) return "base quaternion not normalised";
+  c.tick = m.tick;
   r.time = static_cast<double>(m.utime) * 1e-6;
   r.support = static_cast<balance::Support>(m.support);
   r.p_com = Eigen::Vector3d(m.p_WCom[0], m.p_WCom[1], m.p_WCom[2]);
@@ -184,6 +232,28 @@ std::string from_message(const humanoid::wholebody_command_t& m, const std::vect
   r.q_free = Eigen::Map<const Eigen::VectorXd>(m.q_free.data(), nf);
   r.qd_free = Eigen::Map<const Eigen::VectorXd>(m.qd_free.data(), nf);
   r.qdd_free = Eigen::Map<const Eigen::VectorXd>(m.qdd_free.data(), nf);
+  c.l_cmd = Eigen::Map<const Eigen::Vector3d>(m.l_cmd_W);
+  c.ldot_cmd = Eigen::Map<const Eigen::Vector3d>(m.ldot_cmd_W);
+  c.l_ref = Eigen::Map<const Eigen::Vector3d>(m.l_ref_W);
+  const auto na = static_cast<Eigen::Index>(m.num_adjusted);
+  c.adjusted.clear();  // indices into an optimiser's coordinates: not carried, the names are
+  c.adjusted_name = m.adjusted_name;
+  c.xa_opt = Eigen::Map<const Eigen::VectorXd>(m.xa_opt.data(), na);
+  c.xad_opt = Eigen::Map<const Eigen::VectorXd>(m.xad_opt.data(), na);
+  c.xa_min = Eigen::Map<const Eigen::VectorXd>(m.xa_min.data(), na);
+  c.xa_max = Eigen::Map<const Eigen::VectorXd>(m.xa_max.data(), na);
+  c.xad_min = Eigen::Map<const Eigen::VectorXd>(m.xad_min.data(), na);
+  c.xad_max = Eigen::Map<const Eigen::VectorXd>(m.xad_max.data(), na);
+  c.segment_names = m.segment_name;
+  c.segment_l.resize(m.segment_l_W.size());
+  for (size_t s = 0; s < m.segment_l_W.size(); ++s) c.segment_l[s] = Eigen::Map<const Eigen::Vector3d>(m.segment_l_W[s].data());
+  c.posture_error = m.posture_error;
+  c.qp_status = m.qp_status;
+  c.qp_iterations = m.qp_iterations;
+  c.qp_solve_time_us = m.qp_solve_time_us;
+  c.reference_stale = (m.status & humanoid::wholebody_command_t::STATUS_REFERENCE_STALE) != 0;
+  c.qp_failed = (m.status & humanoid::wholebody_command_t::STATUS_QP_FAILED) != 0;
+  c.singular = (m.status & humanoid::wholebody_command_t::STATUS_SINGULAR) != 0;
   return "";
 }
 

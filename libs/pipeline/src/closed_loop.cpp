@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <type_traits>
 
 #include "hpr/common/args.hpp"
 
@@ -22,91 +23,95 @@ ClosedLoop::ClosedLoop(const std::string& config_file, const std::vector<std::st
       cfg(Config::load(config_file, overrides)),
       spec(model::RobotSpec::load(cfg.section("robot"))),
       sim(spec, sim::SimConfig::load(cfg.section("sim"))),
-      wbc(spec, wbc::WbcConfig::load(cfg.section("wbc"), spec)),
-      reference(spec, balance::PostureReferenceConfig::load(cfg.section("balance"))) {
+      wbc(spec, wbc::WbcConfig::load(cfg.section("wbc"), spec), balance::PostureReferenceConfig::load(cfg.section("balance")),
+          static_cast<int>(cfg.section("wbc").integer_or("bad_state_ticks", 20, 1, 100000))) {
   names_.joints = spec.model.joint_name;
   for (int j : spec.free_joints) free_names_.push_back(spec.model.joint_name[static_cast<size_t>(j)]);
   sample_.resize(spec.model.nj);
+  wbc_out.command.resize(spec.model.nj);
   if (opt.estimator_in_loop || opt.run_estimator) {
     estimator.emplace(spec, estimator::EstimatorConfig::load(cfg.section("estimator")));
     estimator->update(sensors_as_received());
   }
   if (opt.cam) {
     generator.emplace(reference_gen::GeneratorConfig::load(cfg.section("reference_gen")));
-    optimizer.emplace(spec, motion_opt::MotionOptConfig::load(cfg.section("motion_opt"), spec));
+    optimizer.emplace(spec, motion_opt::MotionOptConfig::load(cfg.section("motion_opt"), spec),
+                      balance::PostureReferenceConfig::load(cfg.section("balance")));
+  }
+}
+
+template <class Message, class Value, class... Context>
+void ClosedLoop::pass(const char* channel, const Value& sent, Message& m, Value& value, const Context&... context) {
+  msg::to_message(sent, context..., m);
+  std::string why;
+  if constexpr (std::is_same_v<Message, humanoid::robot_sensors_t> || std::is_same_v<Message, humanoid::robot_state_t>) {
+    why = msg::from_message(m, names_, value);
+  } else if constexpr (std::is_same_v<Message, humanoid::wholebody_command_t>) {
+    why = msg::from_message(m, free_names_, value);
+  } else {
+    why = msg::from_message(m, value);
+  }
+  if (!why.empty()) throw std::runtime_error(std::string("in-process ") + channel + " refused: " + why);
+}
+
+template <class Message, class Value, class... Context>
+void ClosedLoop::receive(const char* channel, const Value& sent, Message& m, Value& value, const Context&... context) {
+  if (opt.estimator_in_loop) {
+    pass(channel, sent, m, value, context...);
+  } else {
+    value = sent;
   }
 }
 
 const SensorSample& ClosedLoop::sensors_as_received() {
-  msg::to_message(sim.sensors(), names_, sensors_msg_);
-  const std::string why = msg::from_message(sensors_msg_, names_, sample_);
-  if (!why.empty()) throw std::runtime_error("in-process ROBOT_SENSORS refused: " + why);
+  pass("ROBOT_SENSORS", sim.sensors(), sensors_msg_, sample_, names_);
   return sample_;
 }
 
-void ClosedLoop::step() {
-  const double dt = sim.config().dt;
-  wbc::RobotState& st = wbc_state_;  // kept between ticks: no allocation
-  if (opt.estimator_in_loop) {
-    // ROBOT_STATE as the controllers decode it.
-    msg::to_message(estimator->state(), names_, state_msg_);
-    const std::string why = msg::from_message(state_msg_, names_, state_);
-    if (!why.empty()) throw std::runtime_error("in-process ROBOT_STATE refused: " + why);
-    st.q = state_.q;
-    st.v = state_.v;
-    st.time = state_.time;
-  } else {
-    st.q = sim.truth().q;
-    st.v = sim.truth().v;
-    st.time = sim.time();
-  }
-  st.tick = sim.tick();
-  // The posture reference starts from the first state, as the wbc's and motion_opt's do.
-  if (!reference_started_) {
-    reference.start(st.q, st.time);
-    reference_started_ = true;
-  }
-  const balance::TaskReference& r = reference.update(st.time);
-  const balance::TaskReference* cmd = &r;
-  if (opt.cam) {
-    auto t0 = Clock::now();
-    const auto& o = generator->step(st.time, dt, balance, have_balance, posture_error);
-    times.reference_gen_us = us_since(t0);
-    const bool generating = std::any_of(o.phase.begin(), o.phase.end(), [](reference_gen::Phase p) {
-      return p == reference_gen::Phase::kGenerate || p == reference_gen::Phase::kReduce;
-    });
-    t0 = Clock::now();
-    const auto& m = optimizer->step(st.q, st.v, r, o.l_ref_W, true, dt, generating);
-    times.motion_opt_us = us_since(t0);
-    posture_error = m.posture_error;
-    motion_opt_iterations = m.qp_iterations;
-    cmd = &m.command;
-    if (opt.estimator_in_loop) {
-      // WHOLEBODY_COMMAND as the wbc decodes it.
-      msg::to_message(m.command, free_names_, names_, wholebody_msg_);
-      const std::string why = msg::from_message(wholebody_msg_, free_names_, wholebody_);
-      if (!why.empty()) throw std::runtime_error("in-process WHOLEBODY_COMMAND refused: " + why);
-      cmd = &wholebody_;
-    }
-  }
+template <class F>
+void ClosedLoop::run_component(Component c, double& us, F&& f) {
+  if (probe) probe(c, true);
   const auto t0 = Clock::now();
-  const auto& command = wbc.step(st, *cmd);
-  times.wbc_us = us_since(t0);
-  sim.set_command(command);
-  const auto& bs = wbc.status();
-  // BALANCE_STATUS carries the state's time in whole microseconds.
-  balance.time = opt.estimator_in_loop ? static_cast<double>(std::llround(st.time * 1e6)) * 1e-6 : sim.time();
-  balance.tau_ankle_V = bs.tau_ankle_V;
-  balance.tau_min_V = bs.tau_min_V;
-  balance.tau_max_V = bs.tau_max_V;
-  balance.yaw_WV = bs.yaw_WV;
-  have_balance = true;
+  f();
+  us = us_since(t0);
+  if (probe) probe(c, false);
+}
+
+void ClosedLoop::request_support(balance::Support s, double t) {
+  wbc.request_support(s, t);
+  if (optimizer) optimizer->request_support(s, t);
+}
+
+void ClosedLoop::step() {
+  if (opt.estimator_in_loop) {  // ROBOT_STATE as the controllers decode it
+    pass("ROBOT_STATE", estimator->state(), state_msg_, state_, names_);
+  } else {
+    state_.q = sim.truth().q;
+    state_.v = sim.truth().v;
+    state_.time = sim.time();
+    state_.status = 0;
+  }
+  state_.tick = sim.tick();
+  have_wholebody = false;
+  if (opt.cam) {
+    // reference_gen: BALANCE_STATUS of the previous tick, the posture error of the last command.
+    run_component(Component::kReferenceGen, times.reference_gen_us, [&] {
+      generator->step({state_.tick, state_.time, have_balance_ ? &balance_ : nullptr, wholebody_.posture_error}, cam);
+    });
+    receive("CAM_REFERENCE", cam, cam_msg_, cam_);
+    run_component(Component::kMotionOpt, times.motion_opt_us,
+                  [&] { have_wholebody = optimizer->step({&state_, &cam_}, wholebody); });
+    if (have_wholebody) receive("WHOLEBODY_COMMAND", wholebody, wholebody_msg_, wholebody_, free_names_, names_);
+  }
+  run_component(Component::kWbc, times.wbc_us,
+                [&] { wbc.step({&state_, have_wholebody ? &wholebody_.command : nullptr}, wbc_out); });
+  sim.set_command(wbc_out.command);
+  have_balance_ = wbc_out.mode == wbc::WbcComponent::Mode::kBalance;
+  if (have_balance_) receive("BALANCE_STATUS", wbc_out.status, balance_msg_, balance_, names_);
   sim.step();
   if (estimator) {
     const SensorSample& sample = sensors_as_received();
-    const auto t1 = Clock::now();
-    estimator->update(sample);
-    times.estimator_us = us_since(t1);
+    run_component(Component::kEstimator, times.estimator_us, [&] { estimator->update(sample); });
   }
 }
 

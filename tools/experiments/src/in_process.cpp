@@ -10,7 +10,7 @@
 #include "hpr/experiments/trial.hpp"
 #include "hpr/msg/robot_io.hpp"
 #include "hpr/pipeline/closed_loop.hpp"
-#include "hpr/sim/sim_io.hpp"
+#include "hpr/msg/sim_truth.hpp"
 
 namespace hpr::experiments {
 
@@ -35,7 +35,7 @@ TrialResult run_trial_in_process(const TrialSpec& spec, const std::function<void
   const auto observe_plant = [&] {  // in sim_bullet's order: ROBOT_SENSORS, then SIM_TRUTH
     msg::to_message(loop.sim.sensors(), names, sensors);
     eval.on_sensors(sensors);
-    sim::to_message(loop.sim.truth(), names.feet, truth);
+    msg::to_message(loop.sim.truth(), names.feet, truth);
     eval.on_truth(truth);
   };
   TrialWatch watch(spec, eval, t_push, t_end, progress, wall0);
@@ -45,10 +45,10 @@ TrialResult run_trial_in_process(const TrialSpec& spec, const std::function<void
     if (watch.stop()) break;
     const double t = loop.sim.time();
     loop.step();
-    if (loop.optimizer) {
+    if (loop.have_wholebody) {
       // The evaluator reads the commanded CAM of WHOLEBODY_COMMAND (stamped with the state's time).
       wholebody.utime = static_cast<std::int64_t>(std::llround(t * 1e6));
-      const Eigen::Vector3d& l_cmd = loop.optimizer->output().l_cmd;
+      const Eigen::Vector3d& l_cmd = loop.wholebody.l_cmd;
       for (int k = 0; k < 3; ++k) wholebody.l_cmd_W[k] = l_cmd(k);
       eval.on_wholebody(wholebody);
     }

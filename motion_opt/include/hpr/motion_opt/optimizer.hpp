@@ -23,6 +23,7 @@
 #include <string>
 #include <vector>
 
+#include "hpr/balance/ports.hpp"
 #include "hpr/balance/task_reference.hpp"
 #include "hpr/common/config.hpp"
 #include "hpr/model/centroidal.hpp"
@@ -48,6 +49,7 @@ struct MotionOptConfig {
   double swing_return_rate = 10.0;                             ///< [1/s] offset decay once the foot is not adjusted
   double acceleration_filter = 0.005;                          ///< [s] time constant of the differentiated acceleration
   int max_working_set_changes = 10;
+  double dt = 1e-3;                                            ///< control period [s]
   static MotionOptConfig load(const Config& section, const model::RobotSpec& robot);
 };
 
@@ -61,19 +63,8 @@ struct Coordinate {
   std::string name;
 };
 
-struct MotionOptOutput {
-  balance::TaskReference command;                 ///< full commanded task-space trajectory
-  Eigen::Vector3d l_cmd = Eigen::Vector3d::Zero(), ldot_cmd = Eigen::Vector3d::Zero(), l_ref = Eigen::Vector3d::Zero();
-  std::vector<int> adjusted;                      ///< indices into coordinates()
-  Eigen::VectorXd xa_opt, xad_opt, xa_min, xa_max, xad_min, xad_max;  ///< per adjusted coordinate (offset form)
-  std::vector<std::string> segment_names;
-  std::vector<Eigen::Vector3d> segment_l;         ///< contribution of each segment to l_cmd (Fig. 7d)
-  double posture_error = 0.0;
-  int qp_status = 0, qp_iterations = 0;
-  double qp_solve_time_us = 0.0;
-  double cam_weight_scale = 1.0;                  ///< the factor applied to Q_l this tick
-  bool qp_failed = false, reference_stale = false, singular = false;
-};
+/// WHOLEBODY_COMMAND: the command with what was optimised (`adjusted` indexes coordinates()).
+using MotionOptOutput = balance::WholebodyCommand;
 
 class MotionOptimizer {
  public:
@@ -106,7 +97,21 @@ class MotionOptimizer {
   [[nodiscard]] const qp::Solver& solver() const { return *solver_; }
 
  private:
-  std::vector<int> adjusted_set(const balance::TaskReference& ref) const;
+  /// The coordinates adjusted this tick (x_a of (10)), into `set`.
+  void adjusted_set(const balance::TaskReference& ref, std::vector<int>& set) const;
+  // The stages of step(), in order.
+  /// x_a for the reference's support; a new set size gets its QP workspace.
+  void select_adjusted(const balance::TaskReference& ref);
+  /// ẋ^ref, and the offsets of the unadjusted coordinates decaying with K_p (feet faster).
+  void decay_unadjusted(const balance::TaskReference& ref);
+  /// H, g and the bounds of (13)-(17), with the CAM weight of the phase.
+  void build_qp(const balance::TaskReference& ref, const Eigen::Vector3d& lref, double dt, bool cam_active);
+  /// ẋ_a^opt, or the posture task within the limits when the QP fails.
+  void solve_qp();
+  /// δ̇, δ and the filtered δ̈ of every coordinate.
+  void integrate_offsets(const balance::TaskReference& ref, double dt);
+  /// The commanded trajectory (the reference with the offsets) and the commanded CAM.
+  void compose_command(const balance::TaskReference& ref, double dt);
   void limits(int c, const balance::TaskReference& ref, double& dmin, double& dmax, double& vmax) const;
 
   const model::RobotSpec* robot_;
@@ -119,7 +124,10 @@ class MotionOptimizer {
   Eigen::VectorXd xdot_ref_, xdot_cmd_;
   std::unique_ptr<qp::Solver> solver_;
   int solver_size_ = -1;
-  std::vector<int> last_set_;
+  std::vector<int> set_, last_set_;  ///< x_a this tick and the last
+  std::vector<char> adjusted_;       ///< per coordinate: in set_
+  Eigen::VectorXd xu_, xd_, xa_;     ///< ẋ_u (task order), ẋ_a^d (16), ẋ_a^opt
+  Eigen::Matrix<double, 3, Eigen::Dynamic> Aa_;  ///< Ā_a
   Eigen::Vector3d l_cmd_prev_ = Eigen::Vector3d::Zero();
   bool first_ = true;
   double cam_scale_ = 1.0, release_progress_ = 1.0;

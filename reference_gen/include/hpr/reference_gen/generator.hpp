@@ -18,11 +18,15 @@
 #include <array>
 #include <cstdint>
 
+#include "hpr/balance/ports.hpp"
 #include "hpr/common/config.hpp"
 
 namespace hpr::reference_gen {
 
-enum class Phase : std::int8_t { kIdle = 0, kGenerate = 1, kReduce = 2, kRecover = 3 };
+using Phase = balance::Phase;
+using CamReference = balance::CamReference;
+/// The generator reads τ_v^ankle, its limits, the yaw of V and the time of a BALANCE_STATUS.
+using BalanceInput = balance::BalanceStatus;
 
 struct AxisParams {
   double alpha = 0.9;  ///< α ∈ (0, 1]: activation at this fraction of the contact torque limit (23)
@@ -39,6 +43,7 @@ struct GeneratorConfig {
   double stale_hold_time = 0.02;      ///< BALANCE_STATUS older than this: hold l^ref [s]
   double stale_ramp_time = 0.1;       ///< then, after this much more: ramp to zero [s]
   double stale_ramp_rate = 5.0;       ///< l̇^max for that ramp when phase 1 gave none [N m]
+  double dt = 1e-3;                   ///< control period [s]
   /// Reads and validates the `reference_gen` section (α, β per axis or for all; warns outside the
   /// paper's good ranges α ∈ [0.7, 0.9], β ∈ [0.3, 0.5]).
   static GeneratorConfig load(const Config& section);
@@ -82,26 +87,22 @@ class AxisGenerator {
   std::array<double, 3> t_start_{-1, -1, -1};
 };
 
-struct BalanceInput {
-  double time = 0;
-  Eigen::Vector3d tau_ankle_V = Eigen::Vector3d::Zero();
-  Eigen::Vector3d tau_min_V = Eigen::Vector3d::Zero(), tau_max_V = Eigen::Vector3d::Zero();
-  double yaw_WV = 0;
-};
-
-struct CamReference {
-  Eigen::Vector3d l_ref_V = Eigen::Vector3d::Zero(), ldot_ref_V = Eigen::Vector3d::Zero();
-  Eigen::Vector3d l_ref_W = Eigen::Vector3d::Zero(), ldot_ref_W = Eigen::Vector3d::Zero();
-  double yaw_WV = 0;
-  std::array<Phase, 3> phase{};
-  std::array<std::array<double, 3>, 3> t_phase_start{};
-  Eigen::Vector3d tau_thres_V = Eigen::Vector3d::Zero(), ldot_max_V = Eigen::Vector3d::Zero();
-  bool stale = false, ramping = false;
-};
-
 class ReferenceGenerator {
  public:
   explicit ReferenceGenerator(GeneratorConfig config);
+
+  /// The ports of one tick: CAM_REFERENCE of tick k from ROBOT_STATE k (its tick and time), the
+  /// BALANCE_STATUS of tick k−1 (the paper's one-period lag between the torque computation and the
+  /// reference update) and the posture error of the last WHOLEBODY_COMMAND.
+  struct Inputs {
+    std::int64_t tick = 0;
+    double time = 0.0;                                ///< [s]
+    const balance::BalanceStatus* balance = nullptr;  ///< latest BALANCE_STATUS; nullptr before the first
+    double posture_error = 0.0;                       ///< [rad]
+  };
+  using Outputs = balance::CamReference;
+  /// One tick of the configured period (no allocation).
+  void step(const Inputs& in, Outputs& out);
 
   /// One tick at time t. `balance` is the latest BALANCE_STATUS (its time says how old it is);
   /// `posture_error` the motion optimisation's distance to the reference posture.

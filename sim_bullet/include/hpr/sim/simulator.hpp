@@ -107,27 +107,8 @@ struct Push {
   [[nodiscard]] Eigen::Vector3d impulse() const;
 };
 
-struct TruthData {
-  std::int64_t tick = 0;
-  double time = 0.0;
-  Eigen::Vector3d p_WB, v_WB, omega_WB, p_WCom, v_WCom, h_lin_W, l_WCom;
-  Eigen::Vector4d quat_WB{1, 0, 0, 0};
-  std::array<Eigen::Vector3d, 2> p_WF;
-  std::array<Eigen::Vector4d, 2> quat_WF;
-  std::array<Eigen::Matrix<double, 6, 1>, 2> contact_wrench_W;  ///< ground on foot at the sole centre
-  std::array<bool, 2> foot_contact{};
-  std::array<double, 2> foot_tilt{};
-  std::int64_t push_id = -1;
-  bool push_active = false;
-  Eigen::Vector3d push_force_W = Eigen::Vector3d::Zero();
-  Eigen::Vector3d push_impulse_W = Eigen::Vector3d::Zero();
-  Eigen::Vector3d push_point_W = Eigen::Vector3d::Zero();  ///< where the current or last push acts [m]
-  bool fallen = false;
-  Eigen::VectorXd q, v;  ///< Bullet's state in the controlled model's coordinates (held joints left out)
-  Eigen::VectorXd q_held;  ///< positions of the held joints, in the order of RobotSpec::model.held_joint_name
-  Eigen::VectorXd v_held;  ///< their velocities
-  Eigen::VectorXd tau_held;  ///< the torques their drives applied in the last sub-step
-};
+/// The simulator's ground truth of a step (SIM_TRUTH).
+using TruthData = SimTruth;
 
 class Simulator {
  public:

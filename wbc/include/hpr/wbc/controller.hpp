@@ -16,6 +16,7 @@
 
 #include <array>
 
+#include "hpr/balance/ports.hpp"
 #include "hpr/balance/task_reference.hpp"
 #include "hpr/common/config.hpp"
 #include "hpr/common/robot_io.hpp"
@@ -51,25 +52,7 @@ struct RobotState {
 };
 
 /// What goes out on BALANCE_STATUS (frame V: the virtual stance foot, yaw of the support).
-struct BalanceStatus {
-  balance::Support support = balance::Support::kDouble;
-  Eigen::Vector3d p_WV = Eigen::Vector3d::Zero();
-  double yaw_WV = 0.0;
-  Eigen::Vector3d tau_ankle_V = Eigen::Vector3d::Zero(), tau_hip_V = Eigen::Vector3d::Zero(),
-                  tau_V = Eigen::Vector3d::Zero(), tau_min_V = Eigen::Vector3d::Zero(),
-                  tau_max_V = Eigen::Vector3d::Zero();
-  Eigen::Vector2d cop_V = Eigen::Vector2d::Zero(), cop_measured_V = Eigen::Vector2d::Zero();
-  double f_vz = 0.0;
-  Vector6d w_des = Vector6d::Zero(), w_achieved = Vector6d::Zero();
-  std::array<Vector6d, 2> contact_wrench{};
-  std::array<bool, 2> contact_active{};
-  int qp_status = 0, qp_iterations = 0;
-  double qp_solve_time_us = 0.0;
-  bool qp_fallback = false;
-  bool qp_exact = false;  ///< the desired CoM wrench was met exactly (else: least error)
-  bool singular = false;
-  bool saturated = false;  ///< a torque, velocity or position target was cut to the joint's limit
-};
+using BalanceStatus = balance::BalanceStatus;
 
 class WholeBodyController {
  public:

@@ -60,6 +60,37 @@ struct EstimatedState {
   std::array<Eigen::Matrix<double, 6, 1>, 2> foot_wrench_W{};
   Eigen::Vector3d l_com = Eigen::Vector3d::Zero(), ldot_com = Eigen::Vector3d::Zero();  ///< measured CAM and rate
   std::int32_t status = 0;                      ///< robot_state_t::STATUS_* bits
+
+  /// Status bits (robot_state_t::STATUS_*).
+  static constexpr std::int32_t kSensorStale = 1, kNoContact = 2, kCovariance = 4, kImplausible = 8, kInitialising = 16;
+  /// Bits of an estimate nothing may act on or start from: sensors stale or incomplete, a reading
+  /// implausible, the filter diverged.
+  static constexpr std::int32_t kUnusable = kSensorStale | kImplausible | kCovariance;
+  [[nodiscard]] bool usable() const { return (status & kUnusable) == 0; }
+};
+
+/// Ground truth of a simulation step (SIM_TRUTH): what no sensor measures directly, for tests,
+/// figures and the evaluation of trials. W world, B the root link, F a sole centre, Com the CoM.
+struct SimTruth {
+  std::int64_t tick = 0;
+  double time = 0.0;
+  Eigen::Vector3d p_WB, v_WB, omega_WB, p_WCom, v_WCom, h_lin_W, l_WCom;
+  Eigen::Vector4d quat_WB{1, 0, 0, 0};  ///< (w, x, y, z)
+  std::array<Eigen::Vector3d, 2> p_WF;
+  std::array<Eigen::Vector4d, 2> quat_WF;  ///< (w, x, y, z)
+  std::array<Eigen::Matrix<double, 6, 1>, 2> contact_wrench_W;  ///< ground on foot at the sole centre
+  std::array<bool, 2> foot_contact{};
+  std::array<double, 2> foot_tilt{};  ///< [rad] between the sole normal and world z
+  std::int64_t push_id = -1;
+  bool push_active = false;
+  Eigen::Vector3d push_force_W = Eigen::Vector3d::Zero();
+  Eigen::Vector3d push_impulse_W = Eigen::Vector3d::Zero();
+  Eigen::Vector3d push_point_W = Eigen::Vector3d::Zero();  ///< where the current or last push acts [m]
+  bool fallen = false;
+  Eigen::VectorXd q, v;  ///< Bullet's state in the controlled model's coordinates (held joints left out)
+  Eigen::VectorXd q_held;  ///< positions of the held joints, in the order of RobotSpec::model.held_joint_name
+  Eigen::VectorXd v_held;  ///< their velocities
+  Eigen::VectorXd tau_held;  ///< the torques their drives applied in the last sub-step
 };
 
 }  // namespace hpr
