@@ -102,6 +102,10 @@ class Estimator {
   /// contact. A sample that fails the plausibility checks leaves the estimate untouched and is flagged
   /// (the returned state carries the sample's tick, so that consumers still step on it).
   const EstimatedState& update(const SensorSample& sample);
+  /// The ports of one tick: ROBOT_SENSORS of tick k in, ROBOT_STATE of tick k out (update()).
+  using Inputs = SensorSample;
+  using Outputs = EstimatedState;
+  void step(const Inputs& in, Outputs& out) { out = update(in); }
   /// Forgets everything; the next sample initialises.
   void reset();
 
