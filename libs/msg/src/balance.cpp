@@ -4,28 +4,18 @@
 
 #include <cmath>
 
+#include "arrays.hpp"
+
 namespace hpr::msg {
 
 namespace {
-
-bool finite(const double* v, int n) {
-  for (int i = 0; i < n; ++i) {
-    if (!std::isfinite(v[i])) return false;
-  }
-  return true;
-}
-template <int N>
-void put(const Eigen::Matrix<double, N, 1>& v, double* dst) {
-  for (int k = 0; k < N; ++k) dst[k] = v(k);
-}
-template <int N>
-Eigen::Matrix<double, N, 1> get(const double* src) {
-  return Eigen::Map<const Eigen::Matrix<double, N, 1>>(src);
-}
 std::int64_t to_utime(double t) { return static_cast<std::int64_t>(std::llround(t * 1e6)); }
 double from_utime(std::int64_t u) { return static_cast<double>(u) * 1e-6; }
-
 }  // namespace
+
+using detail::finite;
+using detail::get;
+using detail::put;
 
 void to_message(const balance::BalanceStatus& s, const RobotNames& names, humanoid::balance_status_t& m) {
   m.tick = s.tick;

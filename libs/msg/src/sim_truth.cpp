@@ -5,24 +5,13 @@
 #include <Eigen/Geometry>
 #include <cmath>
 
+#include "arrays.hpp"
+
 namespace hpr::msg {
 
-namespace {
-bool finite(const double* v, int n) {
-  for (int i = 0; i < n; ++i) {
-    if (!std::isfinite(v[i])) return false;
-  }
-  return true;
-}
-template <int N>
-void put(const Eigen::Matrix<double, N, 1>& v, double* dst) {
-  for (int k = 0; k < N; ++k) dst[k] = v(k);
-}
-template <int N>
-Eigen::Matrix<double, N, 1> get(const double* src) {
-  return Eigen::Map<const Eigen::Matrix<double, N, 1>>(src);
-}
-}  // namespace
+using detail::finite;
+using detail::get;
+using detail::put;
 
 void to_message(const SimTruth& t, const std::array<std::string, 2>& feet, humanoid::sim_truth_t& m) {
   m.tick = t.tick;

@@ -4,6 +4,8 @@
 
 #include <cmath>
 
+#include "arrays.hpp"
+
 namespace hpr::msg {
 
 namespace {
@@ -11,12 +13,6 @@ template <class T>
 bool finite_all(const T& v) {
   for (double x : v) {
     if (!std::isfinite(x)) return false;
-  }
-  return true;
-}
-bool finite_array(const double* v, int n) {
-  for (int i = 0; i < n; ++i) {
-    if (!std::isfinite(v[i])) return false;
   }
   return true;
 }
@@ -70,9 +66,9 @@ std::string from_message(const humanoid::robot_state_t& m, const RobotNames& nam
   if (!m.joint_name.empty() && m.joint_name != names.joints) return "joint names differ from the configured robot";
   if (m.num_feet != 2) return fmt::format("num_feet {} != 2", m.num_feet);
   if (!finite_all(m.q) || !finite_all(m.qd) || !finite_all(m.tau)) return "non-finite joint value";
-  if (!finite_array(m.p_WB, 3) || !finite_array(m.quat_WB, 4) || !finite_array(m.v_WB, 3) ||
-      !finite_array(m.omega_WB, 3) || !finite_array(m.p_WCom, 3) || !finite_array(m.v_WCom, 3) ||
-      !finite_array(m.l_WCom, 3) || !finite_array(m.ldot_WCom, 3)) {
+  if (!detail::finite(m.p_WB, 3) || !detail::finite(m.quat_WB, 4) || !detail::finite(m.v_WB, 3) ||
+      !detail::finite(m.omega_WB, 3) || !detail::finite(m.p_WCom, 3) || !detail::finite(m.v_WCom, 3) ||
+      !detail::finite(m.l_WCom, 3) || !detail::finite(m.ldot_WCom, 3)) {
     return "non-finite base, CoM or momentum value";
   }
   Eigen::Quaterniond quat = quat_wxyz(m.quat_WB);
@@ -190,8 +186,8 @@ std::string from_message(const humanoid::wholebody_command_t& m, const std::vect
   }
   if (m.num_feet != 2) return fmt::format("num_feet {} != 2", m.num_feet);
   if (m.support < 0 || m.support > 2) return fmt::format("unknown support {}", static_cast<int>(m.support));
-  if (!finite_array(m.p_WCom, 3) || !finite_array(m.v_WCom, 3) || !finite_array(m.a_WCom, 3) ||
-      !finite_array(m.quat_WB, 4) || !finite_array(m.omega_WB, 3) || !finite_array(m.omegadot_WB, 3) ||
+  if (!detail::finite(m.p_WCom, 3) || !detail::finite(m.v_WCom, 3) || !detail::finite(m.a_WCom, 3) ||
+      !detail::finite(m.quat_WB, 4) || !detail::finite(m.omega_WB, 3) || !detail::finite(m.omegadot_WB, 3) ||
       !finite_all(m.q_free) || !finite_all(m.qd_free) || !finite_all(m.qdd_free)) {
     return "non-finite value";
   }
@@ -201,7 +197,7 @@ std::string from_message(const humanoid::wholebody_command_t& m, const std::vect
       return "non-finite foot value";
     }
   }
-  if (!finite_array(m.l_cmd_W, 3) || !finite_array(m.ldot_cmd_W, 3) || !finite_array(m.l_ref_W, 3) ||
+  if (!detail::finite(m.l_cmd_W, 3) || !detail::finite(m.ldot_cmd_W, 3) || !detail::finite(m.l_ref_W, 3) ||
       !std::isfinite(m.posture_error) || !finite_all(m.xa_opt) || !finite_all(m.xad_opt) || !finite_all(m.xa_min) ||
       !finite_all(m.xa_max) || !finite_all(m.xad_min) || !finite_all(m.xad_max)) {
     return "non-finite CAM, posture error or adjusted coordinate";
