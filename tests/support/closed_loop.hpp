@@ -11,8 +11,8 @@ namespace hpr::test {
 using pipeline::ClosedLoopOptions;
 
 struct ClosedLoop : pipeline::ClosedLoop {
-  explicit ClosedLoop(const std::string& robot, const std::vector<std::string>& overrides = {}, ClosedLoopOptions options = {})
-      : pipeline::ClosedLoop(source_dir() + "/config/" + robot + ".yaml", overrides, options) {}
+  explicit ClosedLoop(const std::string& robot, const std::vector<std::string>& overrides = {}, ClosedLoopOptions loop_options = {})
+      : pipeline::ClosedLoop(source_dir() + "/config/" + robot + ".yaml", overrides, loop_options) {}
 };
 
 }  // namespace hpr::test

@@ -21,11 +21,9 @@
 #include "hpr/model/urdf.hpp"
 #include "hpr/msg/robot_io.hpp"
 #include "hpr/msg/state.hpp"
-#include "hpr/motion_opt/component.hpp"
-#include "hpr/msg/balance.hpp"
+#include "hpr/pipeline/controllers.hpp"
 #include "hpr/reference_gen/generator.hpp"
 #include "hpr/sim/simulator.hpp"
-#include "hpr/wbc/component.hpp"
 
 namespace hpr::pipeline {
 
@@ -35,23 +33,21 @@ struct ClosedLoopOptions {
   bool run_estimator = false;      ///< run the estimator alongside even when it is not in the loop
 };
 
-/// The components of the loop, for a probe around each one's step.
-enum class Component { kEstimator, kReferenceGen, kMotionOpt, kWbc };
-
-/// Compute time of each component in the last step [us] (0 for a component not in the loop).
-struct StepTimes {
-  double estimator_us = 0;
-  double reference_gen_us = 0;
-  double motion_opt_us = 0;
-  double wbc_us = 0;
+/// The configuration, the robot and its simulation (the first base of ClosedLoop, so that they
+/// exist before the controllers are built from them).
+struct SimulatedRobot {
+  SimulatedRobot(const std::string& config_file, const std::vector<std::string>& overrides);
+  Config cfg;
+  model::RobotSpec spec;
+  sim::Simulator sim;
 };
 
 /// The simulated robot and its controllers, stepped one control period at a time. The members are
 /// public: a test reads the simulator's truth, the estimator's state or the wbc's status directly.
-struct ClosedLoop {
+struct ClosedLoop : SimulatedRobot, Controllers {
   /// `config_file`: a robot configuration (config/<robot>.yaml) with `overrides` ("key.path=value").
   explicit ClosedLoop(const std::string& config_file, const std::vector<std::string>& overrides = {},
-                      ClosedLoopOptions options = {});
+                      ClosedLoopOptions loop_options = {});
 
   /// One control period.
   void step();
@@ -61,57 +57,15 @@ struct ClosedLoop {
   /// `impulse` [N s] (duration T = π I / (2 F)), starting at simulated time `start` [s].
   void push_base(double impulse, double peak, const Eigen::Vector3d& direction, double start);
 
-  /// A support mode requested from time t on, as an OPERATOR message asks the wbc and motion_opt.
-  void request_support(balance::Support s, double t);
-
   ClosedLoopOptions opt;
-  Config cfg;
-  model::RobotSpec spec;
-  sim::Simulator sim;
-  wbc::WbcComponent wbc;
-  std::optional<estimator::Estimator> estimator;
-  std::optional<reference_gen::ReferenceGenerator> generator;
-  std::optional<motion_opt::MotionOptComponent> optimizer;
-  // What each component published in the last tick.
-  wbc::WbcComponent::Outputs wbc_out;   ///< JOINT_COMMAND and BALANCE_STATUS
-  balance::CamReference cam;            ///< CAM_REFERENCE
-  balance::WholebodyCommand wholebody;  ///< WHOLEBODY_COMMAND
-  bool have_wholebody = false;          ///< motion_opt published this tick
-  StepTimes times;
-  /// Called right before (`entering` true) and right after each component's step, when set: for a
-  /// test that counts what a component does (allocations, say) apart from the rest of the loop.
-  std::function<void(Component, bool entering)> probe;
 
  private:
-  /// Times `f` (a component's step) into `us`, with the probe around it.
-  template <class F>
-  void run_component(Component c, double& us, F&& f);
   /// The estimator's input: the simulator's sensors as the estimator node decodes ROBOT_SENSORS.
   const SensorSample& sensors_as_received();
 
-  // The channels between the components, as the nodes exchange them.
-  /// `sent` through the channel's conversion (message `m`) into `value`, as its receiving node
-  /// decodes it.
-  template <class Message, class Value, class... Context>
-  void pass(const char* channel, const Value& sent, Message& m, Value& value, const Context&... context);
-  /// pass() with the estimator in the loop, else a copy (the controllers on the simulator's truth).
-  template <class Message, class Value, class... Context>
-  void receive(const char* channel, const Value& sent, Message& m, Value& value, const Context&... context);
-
-  msg::RobotNames names_;
-  std::vector<std::string> free_names_;
   humanoid::robot_sensors_t sensors_msg_{};
-  humanoid::robot_state_t state_msg_{};
-  humanoid::balance_status_t balance_msg_{};
-  humanoid::cam_reference_t cam_msg_{};
-  humanoid::wholebody_command_t wholebody_msg_{};
-  // The channels as their receivers decode them.
   SensorSample sample_;
-  EstimatedState state_;  ///< ROBOT_STATE of the tick (or the simulator's truth)
-  balance::BalanceStatus balance_;  ///< BALANCE_STATUS of the previous tick
-  bool have_balance_ = false;
-  balance::CamReference cam_;
-  balance::WholebodyCommand wholebody_;
+  EstimatedState truth_;  ///< the simulator's truth as a state (estimator not in the loop)
 };
 
 /// The command line of the per-component benchmarks that run this loop: `NAME [robot] [seconds]`

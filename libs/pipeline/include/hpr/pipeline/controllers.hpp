@@ -1,0 +1,118 @@
+#pragma once
+/// \file
+/// The stack's controllers as one: estimator → reference_gen → motion_opt → wbc, stepping tick by
+/// tick with the data flow of the processes (DESIGN.md section 3), for the in-process loop and the
+/// composed process. Every channel between the components passes through its hpr::msg conversion,
+/// as the processes exchange them, and the messages of the last tick are kept for a composed
+/// process to publish: the same traffic as the processes, bit for bit.
+///
+/// Per tick k:
+///   estimate(ROBOT_SENSORS k)                                  → ROBOT_STATE k
+///   reference_gen(ROBOT_STATE k, BALANCE_STATUS k−1, WHOLEBODY_COMMAND k−1) → CAM_REFERENCE k
+///   motion_opt(ROBOT_STATE k, CAM_REFERENCE k)                 → WHOLEBODY_COMMAND k
+///   wbc(ROBOT_STATE k, WHOLEBODY_COMMAND k)                     → JOINT_COMMAND k, BALANCE_STATUS k
+
+#include <humanoid/balance_status_t.hpp>
+#include <humanoid/cam_reference_t.hpp>
+#include <humanoid/joint_command_t.hpp>
+#include <humanoid/robot_sensors_t.hpp>
+#include <humanoid/robot_state_t.hpp>
+#include <humanoid/wholebody_command_t.hpp>
+
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "hpr/balance/ports.hpp"
+#include "hpr/common/config.hpp"
+#include "hpr/estimator/estimator.hpp"
+#include "hpr/model/robot.hpp"
+#include "hpr/motion_opt/component.hpp"
+#include "hpr/msg/robot_io.hpp"
+#include "hpr/reference_gen/generator.hpp"
+#include "hpr/wbc/component.hpp"
+
+namespace hpr::pipeline {
+
+/// The components, for a probe around each one's step.
+enum class Component { kEstimator, kReferenceGen, kMotionOpt, kWbc };
+
+/// Compute time of each component in the last tick [us] (0 for a component not in the loop).
+struct StepTimes {
+  double estimator_us = 0;
+  double reference_gen_us = 0;
+  double motion_opt_us = 0;
+  double wbc_us = 0;
+};
+
+struct ControllersOptions {
+  bool cam = true;        ///< reference_gen + motion_opt (else the wbc's own posture: the ankle strategy)
+  bool estimator = true;  ///< run the estimator
+  bool messages = true;   ///< pass every channel through its message (else hand the values over)
+};
+
+class Controllers {
+ public:
+  /// `cfg`: the robot configuration (sections robot, estimator, reference_gen, motion_opt, wbc,
+  /// balance) describing `robot`.
+  Controllers(const Config& cfg, const model::RobotSpec& robot, ControllersOptions options);
+
+  /// ROBOT_SENSORS of a tick into the estimator (required before control() with the estimate).
+  void estimate(const SensorSample& sample);
+  /// One control tick on the estimator's state (as ROBOT_STATE carries it).
+  void control();
+  /// One control tick on `state` (the simulator's truth, say; no ROBOT_STATE message).
+  void control(const EstimatedState& state);
+
+  /// A support mode requested from time t on, as an OPERATOR message asks the wbc and motion_opt.
+  void request_support(balance::Support s, double t);
+  /// Forgets the estimate, the references and the held posture (a clock that restarted).
+  void reset();
+
+  /// The state the last control tick used.
+  [[nodiscard]] const EstimatedState& state() const { return state_; }
+  [[nodiscard]] const msg::RobotNames& names() const { return names_; }
+
+  ControllersOptions options;
+  std::optional<estimator::Estimator> estimator;
+  std::optional<reference_gen::ReferenceGenerator> generator;
+  std::optional<motion_opt::MotionOptComponent> optimizer;
+  wbc::WbcComponent wbc;
+  // What each component published in the last tick.
+  balance::CamReference cam;            ///< CAM_REFERENCE
+  balance::WholebodyCommand wholebody;  ///< WHOLEBODY_COMMAND
+  bool have_wholebody = false;          ///< motion_opt published this tick
+  wbc::WbcComponent::Outputs wbc_out;   ///< JOINT_COMMAND and BALANCE_STATUS
+  /// The messages of the last tick (with `options.messages`): ROBOT_STATE, CAM_REFERENCE,
+  /// WHOLEBODY_COMMAND (when have_wholebody), JOINT_COMMAND, BALANCE_STATUS (when the wbc balanced).
+  humanoid::robot_state_t state_msg{};
+  humanoid::cam_reference_t cam_msg{};
+  humanoid::wholebody_command_t wholebody_msg{};
+  humanoid::joint_command_t command_msg{};
+  humanoid::balance_status_t balance_msg{};
+  StepTimes times;
+  /// Called right before (`entering` true) and right after each component's step, when set: for a
+  /// test that counts what a component does (allocations, say) apart from the rest.
+  std::function<void(Component, bool entering)> probe;
+
+ private:
+  /// `sent` through the channel's conversion (message `m`) into `value`, as its receiving node
+  /// decodes it; a copy without `options.messages`.
+  template <class Message, class Value, class... Context>
+  void pass(const char* channel, const Value& sent, Message& m, Value& value, const Context&... context);
+  /// Times `f` (a component's step) into `us`, with the probe around it.
+  template <class F>
+  void run_component(Component c, double& us, F&& f);
+
+  msg::RobotNames names_;
+  std::vector<std::string> free_names_;
+  // The channels as their receivers decode them.
+  EstimatedState state_;            ///< ROBOT_STATE of the tick
+  balance::BalanceStatus balance_;  ///< BALANCE_STATUS of the previous tick
+  bool have_balance_ = false;
+  balance::CamReference cam_;
+  balance::WholebodyCommand wholebody_;
+};
+
+}  // namespace hpr::pipeline

@@ -1,0 +1,103 @@
+#include "hpr/pipeline/controllers.hpp"
+
+#include <chrono>
+#include <stdexcept>
+#include <type_traits>
+
+#include "hpr/msg/balance.hpp"
+#include "hpr/msg/state.hpp"
+
+namespace hpr::pipeline {
+
+namespace {
+using Clock = std::chrono::steady_clock;
+}  // namespace
+
+Controllers::Controllers(const Config& cfg, const model::RobotSpec& robot, ControllersOptions opts)
+    : options(opts),
+      wbc(robot, wbc::WbcConfig::load(cfg.section("wbc"), robot), balance::PostureReferenceConfig::load(cfg.section("balance")),
+          static_cast<int>(cfg.section("wbc").integer_or("bad_state_ticks", 20, 1, 100000))) {
+  names_.joints = robot.model.joint_name;
+  for (int j : robot.free_joints) free_names_.push_back(robot.model.joint_name[static_cast<size_t>(j)]);
+  wbc_out.command.resize(robot.model.nj);
+  if (options.estimator) estimator.emplace(robot, estimator::EstimatorConfig::load(cfg.section("estimator")));
+  if (options.cam) {
+    generator.emplace(reference_gen::GeneratorConfig::load(cfg.section("reference_gen")));
+    optimizer.emplace(robot, motion_opt::MotionOptConfig::load(cfg.section("motion_opt"), robot),
+                      balance::PostureReferenceConfig::load(cfg.section("balance")));
+  }
+}
+
+template <class Message, class Value, class... Context>
+void Controllers::pass(const char* channel, const Value& sent, Message& m, Value& value, const Context&... context) {
+  if (!options.messages) {
+    value = sent;
+    return;
+  }
+  msg::to_message(sent, context..., m);
+  std::string why;
+  if constexpr (std::is_same_v<Message, humanoid::robot_state_t>) {
+    why = msg::from_message(m, names_, value);
+  } else if constexpr (std::is_same_v<Message, humanoid::wholebody_command_t>) {
+    why = msg::from_message(m, free_names_, value);
+  } else {
+    why = msg::from_message(m, value);
+  }
+  if (!why.empty()) throw std::runtime_error(std::string("in-process ") + channel + " refused: " + why);
+}
+
+template <class F>
+void Controllers::run_component(Component c, double& us, F&& f) {
+  if (probe) probe(c, true);
+  const auto t0 = Clock::now();
+  f();
+  us = std::chrono::duration<double, std::micro>(Clock::now() - t0).count();
+  if (probe) probe(c, false);
+}
+
+void Controllers::estimate(const SensorSample& sample) {
+  if (!estimator) throw std::logic_error("Controllers::estimate: no estimator in this loop");
+  run_component(Component::kEstimator, times.estimator_us, [&] { estimator->update(sample); });
+}
+
+void Controllers::control() {
+  if (!estimator) throw std::logic_error("Controllers::control: no estimator in this loop");
+  pass("ROBOT_STATE", estimator->state(), state_msg, state_, names_);
+  control(state_);
+}
+
+void Controllers::control(const EstimatedState& state) {
+  if (&state != &state_) state_ = state;
+  have_wholebody = false;
+  if (options.cam) {
+    run_component(Component::kReferenceGen, times.reference_gen_us, [&] {
+      generator->step({state_.tick, state_.time, have_balance_ ? &balance_ : nullptr, wholebody_.posture_error}, cam);
+    });
+    pass("CAM_REFERENCE", cam, cam_msg, cam_);
+    run_component(Component::kMotionOpt, times.motion_opt_us,
+                  [&] { have_wholebody = optimizer->step({&state_, &cam_}, wholebody); });
+    if (have_wholebody) pass("WHOLEBODY_COMMAND", wholebody, wholebody_msg, wholebody_, free_names_, names_);
+  }
+  run_component(Component::kWbc, times.wbc_us,
+                [&] { wbc.step({&state_, have_wholebody ? &wholebody_.command : nullptr}, wbc_out); });
+  if (options.messages) msg::to_message(wbc_out.command, names_, command_msg);
+  have_balance_ = wbc_out.mode == wbc::WbcComponent::Mode::kBalance;
+  if (have_balance_) pass("BALANCE_STATUS", wbc_out.status, balance_msg, balance_, names_);
+}
+
+void Controllers::request_support(balance::Support s, double t) {
+  wbc.request_support(s, t);
+  if (optimizer) optimizer->request_support(s, t);
+}
+
+void Controllers::reset() {
+  if (estimator) estimator->reset();
+  if (generator) generator->reset();
+  if (optimizer) optimizer->reset();
+  wbc.reset();
+  have_balance_ = false;
+  have_wholebody = false;
+  wholebody_.posture_error = 0.0;
+}
+
+}  // namespace hpr::pipeline
