@@ -51,7 +51,8 @@ namespace {
 constexpr const char* kUsage = R"(replay_check: re-run nodes on a log's recorded inputs and compare their outputs
 
 usage: replay_check LOG --nodes NAME[,NAME...] [options]
-  --nodes LIST      nodes to re-run: estimator, wbc, reference_gen, motion_opt
+  --nodes LIST      nodes to re-run: estimator, wbc, reference_gen, motion_opt, or controllers (the
+                    four composed in one process, compared on all their channels)
   --config FILE     the configuration the log was recorded with (default: config/toro.yaml)
   --set key=value   an override the log was recorded with (repeatable; e.g. balance.support=double)
   --timeout S       wall seconds to wait for one output before calling it missing (default 5)
@@ -67,6 +68,8 @@ const std::map<std::string, std::vector<std::string>> kOutputs = {
     {"wbc", {"JOINT_COMMAND", "BALANCE_STATUS"}},
     {"reference_gen", {"CAM_REFERENCE"}},
     {"motion_opt", {"WHOLEBODY_COMMAND"}},
+    // The four composed in one process (it publishes all of their channels).
+    {"controllers", {"ROBOT_STATE", "CAM_REFERENCE", "WHOLEBODY_COMMAND", "JOINT_COMMAND", "BALANCE_STATUS"}},
 };
 /// Channels never played back (each process publishes its own).
 const std::set<std::string> kNotPlayed = {"HEALTH", "PARAMS", "SUPERVISOR_STATUS", "SUPERVISOR_COMMAND"};
@@ -209,7 +212,7 @@ int main(int argc, char** argv) {
     if (log_path.empty()) throw std::invalid_argument("no LOG given");
     if (nodes.empty()) throw std::invalid_argument("--nodes is required");
     for (const auto& n : nodes) {
-      if (kOutputs.count(n) == 0) throw std::invalid_argument("unknown node '" + n + "' (estimator, wbc, reference_gen, motion_opt)");
+      if (kOutputs.count(n) == 0) throw std::invalid_argument("unknown node '" + n + "' (estimator, wbc, reference_gen, motion_opt, controllers)");
     }
   } catch (const std::exception& e) {
     std::cerr << "replay_check: " << e.what() << "\n\n" << kUsage;

@@ -187,6 +187,17 @@ TEST(Replay, RecordedPushExperimentReproducesExactlyAndADifferentGainDoesNot) {
     EXPECT_GT(s["channels"][c]["compared"].get<int>(), 2500) << c;  // 3.3 s at 1 kHz
     EXPECT_EQ(s["channels"][c]["different"].get<int>(), 0) << c;
   }
+  // The four controllers composed in one process answer the same inputs with the same messages,
+  // bit for bit, on every channel the four processes published.
+  const auto composed = run_command({tool, log, "--rerun", "controllers", "--set", "balance.support=double", "--json",
+                                     dir + "/composed.json", "--work-dir", dir + "/composed"});
+  EXPECT_EQ(composed.exit_code, 0) << composed.out;
+  const json c = json::parse(std::ifstream(dir + "/composed.json"));
+  EXPECT_TRUE(c["match"].get<bool>()) << c.dump(2);
+  for (const char* ch : {"ROBOT_STATE", "JOINT_COMMAND", "BALANCE_STATUS", "CAM_REFERENCE", "WHOLEBODY_COMMAND"}) {
+    EXPECT_GT(c["channels"][ch]["compared"].get<int>(), 2500) << ch;
+    EXPECT_EQ(c["channels"][ch]["different"].get<int>(), 0) << ch;
+  }
   // The comparison can fail: a 0.03 % change of one CoM stiffness shows on the wbc's outputs.
   const auto other = run_command({tool, log, "--rerun", "wbc", "--set", "balance.support=double", "--set",
                                   "wbc.com.stiffness=[1500, 1500, 3001]", "--json", dir + "/other.json", "--work-dir", dir + "/other"});

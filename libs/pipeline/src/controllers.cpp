@@ -60,9 +60,15 @@ void Controllers::estimate(const SensorSample& sample) {
   run_component(Component::kEstimator, times.estimator_us, [&] { estimator->update(sample); });
 }
 
-void Controllers::control() {
+void Controllers::control(std::int32_t extra_status) {
   if (!estimator) throw std::logic_error("Controllers::control: no estimator in this loop");
-  pass("ROBOT_STATE", estimator->state(), state_msg, state_, names_);
+  if (extra_status == 0) {
+    pass("ROBOT_STATE", estimator->state(), state_msg, state_, names_);
+  } else {
+    flagged_ = estimator->state();
+    flagged_.status |= extra_status;
+    pass("ROBOT_STATE", flagged_, state_msg, state_, names_);
+  }
   control(state_);
 }
 

@@ -60,8 +60,9 @@ class Controllers {
 
   /// ROBOT_SENSORS of a tick into the estimator (required before control() with the estimate).
   void estimate(const SensorSample& sample);
-  /// One control tick on the estimator's state (as ROBOT_STATE carries it).
-  void control();
+  /// One control tick on the estimator's state (as ROBOT_STATE carries it), with `extra_status`
+  /// bits set (EstimatedState::kSensorStale when the samples stopped and the last state goes on).
+  void control(std::int32_t extra_status = 0);
   /// One control tick on `state` (the simulator's truth, say; no ROBOT_STATE message).
   void control(const EstimatedState& state);
 
@@ -109,6 +110,7 @@ class Controllers {
   std::vector<std::string> free_names_;
   // The channels as their receivers decode them.
   EstimatedState state_;            ///< ROBOT_STATE of the tick
+  EstimatedState flagged_;          ///< the estimate with extra status bits
   balance::BalanceStatus balance_;  ///< BALANCE_STATUS of the previous tick
   bool have_balance_ = false;
   balance::CamReference cam_;
