@@ -78,6 +78,24 @@ TEST(LcmLatency, HopsAndTotalAreTheRecordedDelays) {
   EXPECT_DOUBLE_EQ(a["wbc"]["median_us"].get<double>(), 25.0);
   EXPECT_FALSE(a.contains("motion_opt"));
   EXPECT_DOUBLE_EQ(a["total"]["median_us"].get<double>(), 65.0);
+  EXPECT_FALSE(a["one_process"].get<bool>());
+
+  // The composed controllers: JOINT_COMMAND out first, the other channels of the tick after it.
+  {
+    lcm::LogFile log(dir + "/composed.lcm", "w");
+    ASSERT_TRUE(log.good());
+    for (std::int64_t k = 0; k < 10; ++k) {
+      write<humanoid::robot_sensors_t>(log, "ROBOT_SENSORS", k, 1000 * k);
+      write<humanoid::joint_command_t>(log, "JOINT_COMMAND", k, 1000 * k + 70);
+      write<humanoid::robot_state_t>(log, "ROBOT_STATE", k, 1000 * k + 80);
+      write<humanoid::cam_reference_t>(log, "CAM_REFERENCE", k, 1000 * k + 90);
+      write<humanoid::wholebody_command_t>(log, "WHOLEBODY_COMMAND", k, 1000 * k + 100);
+    }
+  }
+  const auto c = measure(dir + "/composed.lcm");
+  EXPECT_TRUE(c["one_process"].get<bool>());
+  EXPECT_FALSE(c.contains("wbc")) << "no hops for one process";
+  EXPECT_DOUBLE_EQ(c["total"]["median_us"].get<double>(), 70.0);
 }
 
 }  // namespace

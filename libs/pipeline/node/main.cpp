@@ -1,9 +1,10 @@
 // controllers: the estimator, reference_gen, motion_opt and wbc composed in one process.
 //
 // Steps on every ROBOT_SENSORS (tick k) through hpr::pipeline::Controllers, the same components and
-// conversions the four processes run, and publishes every channel they publish, in their order:
-// ROBOT_STATE, CAM_REFERENCE, WHOLEBODY_COMMAND, JOINT_COMMAND, BALANCE_STATUS of tick k. lcm-spy,
-// recording and replay see the same traffic as from the four processes, with the same contents.
+// conversions the four processes run, and publishes every channel they publish: JOINT_COMMAND of
+// tick k first (the robot waits for it), then ROBOT_STATE, CAM_REFERENCE, WHOLEBODY_COMMAND and
+// BALANCE_STATUS of tick k. lcm-spy, recording and replay see the same messages as from the four
+// processes, with the same contents.
 // When the samples stop for longer than `estimator.sensor_timeout`, the last state goes on flagged
 // stale at that period, and the wbc damps after `wbc.bad_state_ticks` of them, as with the processes.
 #include <humanoid/operator_t.hpp>
@@ -109,11 +110,13 @@ int main(int argc, char** argv) {
         auto wholebody_out = rt.advertise<humanoid::wholebody_command_t>("WHOLEBODY_COMMAND");
         auto command_out = rt.advertise<humanoid::joint_command_t>("JOINT_COMMAND");
         auto balance_out = rt.advertise<humanoid::balance_status_t>("BALANCE_STATUS");
+        // The joint command first (the drives wait for it), then what the four processes publish
+        // on the way to it, in their order.
         auto publish = [&] {
+          command_out.publish(c.command_msg);
           state_out.publish(c.state_msg);
           if (c.options.cam) cam_out.publish(c.cam_msg);
           if (c.have_wholebody) wholebody_out.publish(c.wholebody_msg);
-          command_out.publish(c.command_msg);
           if (c.wbc_out.mode == wbc::WbcComponent::Mode::kBalance) balance_out.publish(c.balance_msg);
         };
         bool stale = false;
