@@ -17,8 +17,8 @@ namespace {
 using namespace hpr::model;
 
 struct Fixture {
-  explicit Fixture(const std::string& name)
-      : robot(RobotSpec::load(hpr::Config::load(std::string(HPR_SOURCE_DIR) + "/config/" + name + ".yaml")
+  explicit Fixture(const std::string& name, const std::vector<std::string>& overrides = {})
+      : robot(RobotSpec::load(hpr::Config::load(std::string(HPR_SOURCE_DIR) + "/config/" + name + ".yaml", overrides)
                                   .section("robot"))),
         data(robot.model),
         task(robot) {
@@ -40,8 +40,14 @@ struct Fixture {
   Eigen::VectorXd q, v, a;
 };
 
+/// toro, h1_2, and the G1 with every joint of its URDF in the model (g1_hands: 43 joints and its
+/// hands, 49 DoF with the floating base; larger than the 38-DoF TALOS of the usual comparisons).
 Fixture& fixture(const std::string& name) {
   static Fixture toro("toro"), h1("h1_2");
+  if (name == "g1_hands") {
+    static Fixture g1("g1", {"robot.held_joints={}"});
+    return g1;
+  }
   return name == "toro" ? toro : h1;
 }
 
@@ -57,7 +63,7 @@ void BM_ForwardKinematics(benchmark::State& st, const std::string& name) {
 void BM_Crba(benchmark::State& st, const std::string& name) {
   Fixture& f = fixture(name);
   for (auto _ : st) benchmark::DoNotOptimize(crba(f.robot.model, f.data, f.q).data());
-  st.SetLabel(name);
+  st.SetLabel(name + " (nv " + std::to_string(f.robot.model.nv) + ")");
 }
 
 void BM_NonlinearEffects(benchmark::State& st, const std::string& name) {
@@ -78,7 +84,24 @@ void BM_CentroidalMap(benchmark::State& st, const std::string& name) {
   st.SetLabel(name);
 }
 
+// Both feet's Jacobians from q, each with the placements of its leg only (Pinocchio's
+// computeFrameJacobian, twice).
 void BM_FootJacobians(benchmark::State& st, const std::string& name) {
+  Fixture& f = fixture(name);
+  const Model& m = f.robot.model;
+  for (auto _ : st) {
+    for (int k = 0; k < 2; ++k) {
+      compute_frame_jacobian(m, f.data, f.q, f.robot.feet[static_cast<size_t>(k)].sole_frame,
+                             ReferenceFrame::kLocalWorldAligned, f.data.J);
+      benchmark::DoNotOptimize(f.data.J.data());
+    }
+  }
+  st.SetLabel(name);
+}
+
+// The whole tree's kinematics (with the world inertias the dynamics need), then both feet's
+// Jacobians from it.
+void BM_KinematicsAndFootJacobians(benchmark::State& st, const std::string& name) {
   Fixture& f = fixture(name);
   const Model& m = f.robot.model;
   for (auto _ : st) {
@@ -124,6 +147,11 @@ BENCHMARK_CAPTURE(BM_CentroidalMap, toro, std::string("toro"));
 BENCHMARK_CAPTURE(BM_CentroidalMap, h1_2, std::string("h1_2"));
 BENCHMARK_CAPTURE(BM_FootJacobians, toro, std::string("toro"));
 BENCHMARK_CAPTURE(BM_FootJacobians, h1_2, std::string("h1_2"));
+BENCHMARK_CAPTURE(BM_KinematicsAndFootJacobians, toro, std::string("toro"));
+BENCHMARK_CAPTURE(BM_KinematicsAndFootJacobians, h1_2, std::string("h1_2"));
+BENCHMARK_CAPTURE(BM_Crba, g1_hands, std::string("g1_hands"));
+BENCHMARK_CAPTURE(BM_CentroidalMap, g1_hands, std::string("g1_hands"));
+BENCHMARK_CAPTURE(BM_FootJacobians, g1_hands, std::string("g1_hands"));
 BENCHMARK_CAPTURE(BM_CentroidalInverseDynamics, toro, std::string("toro"));
 BENCHMARK_CAPTURE(BM_CentroidalInverseDynamics, h1_2, std::string("h1_2"));
 BENCHMARK_CAPTURE(BM_ModelUpdate, toro, std::string("toro"));

@@ -134,45 +134,66 @@ Eigen::Quaterniond base_quaternion(const ConstVector& q) {
   return Eigen::Quaterniond(q(6), q(3), q(4), q(5)).normalized();
 }
 
-void forward_kinematics(const Model& model, Data& data, const ConstVector& q) {
+namespace {
+
+/// The root link's placement and motion subspace from q.
+inline void root_placement(Data& data, const ConstVector& q) {
   SE3& X0 = data.oMi[0];
   X0.R = base_quaternion(q).toRotationMatrix();
   X0.p = q.head<3>();
   data.S0 = X0.motion_matrix();
-  world_inertia(model.inertia[0].m, model.com_body[0], model.inertia_com_body[0], X0, data.Iw[0]);
+}
+
+/// Body i's placement oMi and motion subspace S_i (world axes) from its parent's placement.
+inline void joint_placement(const Model& model, Data& data, const ConstVector& q, int i) {
+  const SE3& Xp = data.oMi[u(model.parent[u(i)])];
+  const SE3& XJ = model.X_PJ[u(i)];
+  SE3& X = data.oMi[u(i)];
+  const double qi = q(6 + i);
+  const Vector3d& a = model.axis[u(i)];
+  const int code = model.axis_code[u(i)];
   Matrix3d Rp;
-  for (int i = 1; i < model.nb; ++i) {
-    const SE3& Xp = data.oMi[u(model.parent[u(i)])];
-    const SE3& XJ = model.X_PJ[u(i)];
-    SE3& X = data.oMi[u(i)];
-    const double qi = q(6 + i);
-    const Vector3d& a = model.axis[u(i)];
-    const int code = model.axis_code[u(i)];
-    X.p.noalias() = Xp.R * XJ.p;
-    X.p += Xp.p;
-    if (model.placement_rotates[u(i)] != 0) {
-      Rp.noalias() = Xp.R * XJ.R;
-    } else {
-      Rp = Xp.R;
-    }
-    Vector6d& S = data.S[u(i)];
-    if (model.kind[u(i)] == JointKind::kRevolute) {
-      if (code != 0) {
-        rotate_about_axis(Rp, code, qi, X.R);
-        S.tail<3>() = (code > 0 ? 1.0 : -1.0) * X.R.col((code > 0 ? code : -code) - 1);
-      } else {
-        X.R.noalias() = Rp * joint_rotation(a, qi);
-        S.tail<3>().noalias() = X.R * a;
-      }
-      S.head<3>() = X.p.cross(S.tail<3>());
-    } else {
-      X.R = Rp;
-      S.head<3>().noalias() = X.R * a;
-      X.p += qi * S.head<3>();
-      S.tail<3>().setZero();
-    }
-    world_inertia(model.inertia[u(i)].m, model.com_body[u(i)], model.inertia_com_body[u(i)], X, data.Iw[u(i)]);
+  X.p.noalias() = Xp.R * XJ.p;
+  X.p += Xp.p;
+  if (model.placement_rotates[u(i)] != 0) {
+    Rp.noalias() = Xp.R * XJ.R;
+  } else {
+    Rp = Xp.R;
   }
+  Vector6d& S = data.S[u(i)];
+  if (model.kind[u(i)] == JointKind::kRevolute) {
+    if (code != 0) {
+      rotate_about_axis(Rp, code, qi, X.R);
+      S.tail<3>() = (code > 0 ? 1.0 : -1.0) * X.R.col((code > 0 ? code : -code) - 1);
+    } else {
+      X.R.noalias() = Rp * joint_rotation(a, qi);
+      S.tail<3>().noalias() = X.R * a;
+    }
+    S.head<3>() = X.p.cross(S.tail<3>());
+  } else {
+    X.R = Rp;
+    S.head<3>().noalias() = X.R * a;
+    X.p += qi * S.head<3>();
+    S.tail<3>().setZero();
+  }
+}
+
+}  // namespace
+
+void forward_kinematics(const Model& model, Data& data, const ConstVector& q) {
+  root_placement(data, q);
+  world_inertia(model.inertia[0].m, model.com_body[0], model.inertia_com_body[0], data.oMi[0], data.Iw[0]);
+  for (int i = 1; i < model.nb; ++i) {
+    joint_placement(model, data, q, i);
+    world_inertia(model.inertia[u(i)].m, model.com_body[u(i)], model.inertia_com_body[u(i)], data.oMi[u(i)], data.Iw[u(i)]);
+  }
+}
+
+void compute_frame_jacobian(const Model& model, Data& data, const ConstVector& q, int frame, ReferenceFrame rf,
+                            Eigen::Ref<Matrix6Xd> J) {
+  root_placement(data, q);
+  for (int j : model.support[u(model.frames[u(frame)].body)]) joint_placement(model, data, q, j + 1);
+  frame_jacobian(model, data, frame, rf, J);
 }
 
 void forward_kinematics(const Model& model, Data& data, const ConstVector& q, const ConstVector& v) {

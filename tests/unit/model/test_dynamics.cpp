@@ -148,6 +148,13 @@ TEST_P(Dynamics, FrameJacobiansMatchFiniteDifferences) {
       EXPECT_LT((Jl.topRows<3>() - R.transpose() * J.topRows<3>()).norm(), 1e-12);
       frame_jacobian(model(), *data, f, ReferenceFrame::kWorld, Jw);
       EXPECT_LT((Jw * v - data->vel[static_cast<size_t>(model().frames[fu].body)]).norm(), 1e-12);
+      // From q alone, over the frame's support chain only (on a workspace whose other bodies hold
+      // another configuration's placements): the same Jacobian, bit for bit.
+      hpr::model::Data other(model());
+      forward_kinematics(model(), other, rs.q(model()));
+      Matrix6Xd Jq(6, model().nv);
+      compute_frame_jacobian(model(), other, q, f, ReferenceFrame::kLocalWorldAligned, Jq);
+      EXPECT_EQ(Jq, J) << model().frames[fu].name;
     }
     // CoM Jacobian.
     const Vector3d cp = center_of_mass(model(), *data, integrate(model(), q, v * dt));

@@ -66,6 +66,11 @@ void compute_all_terms(const Model& model, Data& data, const ConstVector& q, con
 /// Jacobian of frame `frame` (after forward_kinematics; the frame placement is taken from oMi); J is
 /// 6 x nv (linear rows first). Columns of joints that do not move the frame are zero.
 void frame_jacobian(const Model& model, const Data& data, int frame, ReferenceFrame rf, Eigen::Ref<Matrix6Xd> J);
+/// The same from q alone (Pinocchio's computeFrameJacobian): the placements of the frame's support
+/// chain only (oMi and S of the bodies from the root to the frame's body; the rest of `data` is left
+/// as it was), then frame_jacobian. For a foot, about a quarter of the work of forward_kinematics.
+void compute_frame_jacobian(const Model& model, Data& data, const ConstVector& q, int frame, ReferenceFrame rf,
+                            Eigen::Ref<Matrix6Xd> J);
 /// Twist of frame `frame` (after forward_kinematics with v).
 Vector6d frame_velocity(const Model& model, const Data& data, int frame, ReferenceFrame rf);
 /// Classical acceleration of the frame origin and angular acceleration at zero joint acceleration
