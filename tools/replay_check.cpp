@@ -41,6 +41,7 @@
 #include "hpr/common/args.hpp"
 #include "hpr/common/time.hpp"
 #include "hpr/launch/process_group.hpp"
+#include "hpr/msg/graph.hpp"
 #include "hpr/msg/ticks.hpp"
 #include "hpr/node/lcm_url.hpp"
 
@@ -62,15 +63,15 @@ Exit status: 0 when every compared output matches and none is missing, 1 otherwi
 3 when the log lacks ticks of a played input (the outputs before the first gap are compared).
 )";
 
-/// What a node publishes (the channels compared) — the contract of DESIGN.md section 2.
-const std::map<std::string, std::vector<std::string>> kOutputs = {
-    {"estimator", {"ROBOT_STATE"}},
-    {"wbc", {"JOINT_COMMAND", "BALANCE_STATUS"}},
-    {"reference_gen", {"CAM_REFERENCE"}},
-    {"motion_opt", {"WHOLEBODY_COMMAND"}},
-    // The four composed in one process (it publishes all of their channels).
-    {"controllers", {"ROBOT_STATE", "CAM_REFERENCE", "WHOLEBODY_COMMAND", "JOINT_COMMAND", "BALANCE_STATUS"}},
-};
+/// What a node publishes (the channels compared), from the stack's declared data flow.
+std::vector<std::string> outputs_of(const std::string& node) {
+  static const std::set<std::string> kRerunnable = {"estimator", "wbc", "reference_gen", "motion_opt", "controllers"};
+  const hpr::msg::ProcessPorts* p = hpr::msg::find_process(node);
+  if (p == nullptr || kRerunnable.count(node) == 0) {
+    throw std::invalid_argument("unknown node '" + node + "' (estimator, wbc, reference_gen, motion_opt, controllers)");
+  }
+  return p->writes;
+}
 /// Channels never played back (each process publishes its own).
 const std::set<std::string> kNotPlayed = {"HEALTH", "PARAMS", "SUPERVISOR_STATUS", "SUPERVISOR_COMMAND"};
 
@@ -211,9 +212,7 @@ int main(int argc, char** argv) {
     }
     if (log_path.empty()) throw std::invalid_argument("no LOG given");
     if (nodes.empty()) throw std::invalid_argument("--nodes is required");
-    for (const auto& n : nodes) {
-      if (kOutputs.count(n) == 0) throw std::invalid_argument("unknown node '" + n + "' (estimator, wbc, reference_gen, motion_opt, controllers)");
-    }
+    for (const auto& n : nodes) (void)outputs_of(n);
   } catch (const std::exception& e) {
     std::cerr << "replay_check: " << e.what() << "\n\n" << kUsage;
     return 2;
@@ -230,7 +229,7 @@ int main(int argc, char** argv) {
   }
   std::vector<std::string> outputs;
   for (const auto& n : nodes) {
-    for (const auto& c : kOutputs.at(n)) outputs.push_back(c);
+    for (const auto& c : outputs_of(n)) outputs.push_back(c);
   }
   const std::set<std::string> output_set(outputs.begin(), outputs.end());
   if (work.empty()) work = (fs::temp_directory_path() / fmt::format("hpr-replay-{}", ::getpid())).string();

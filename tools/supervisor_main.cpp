@@ -50,6 +50,7 @@
 #include "hpr/launch/groups.hpp"
 #include "hpr/launch/process_group.hpp"
 #include "hpr/launch/supervisor.hpp"
+#include "hpr/msg/graph.hpp"
 
 namespace fs = std::filesystem;
 using namespace hpr;
@@ -410,9 +411,20 @@ std::vector<Status> collect_status(lcm::LCM& lcm, double wait_s, const std::stri
   return out;
 }
 
+/// The group's inputs that none of its processes writes (the stack's declared data flow), e.g. the
+/// sensors of the `control` group, which a backend group provides.
+std::vector<std::string> unmet_inputs(const launch::GroupSpec& g) {
+  std::vector<std::string> commands;
+  for (const auto& p : g.processes) commands.push_back(fs::path(p.command).filename().string());
+  return msg::unmet_inputs(commands);
+}
+
 int cmd_up(const Options& o) {
   const launch::GroupsFile file = launch::GroupsFile::load(o.groups_file, o.vars);
   const launch::GroupSpec& group = file.group(o.target);
+  for (const auto& u : unmet_inputs(group)) {
+    std::cout << fmt::format("supervisor: note: in group '{}', {}: another group or host must provide it\n", group.name, u);
+  }
   const auto hosts = group.hosts();
   if (!hosts.empty() && std::find(hosts.begin(), hosts.end(), o.host) == hosts.end() && !group.default_host.empty() && group.default_host != o.host) {
     std::string list;
@@ -705,6 +717,7 @@ int cmd_groups(const Options& o) {
       std::cout << fmt::format("      {:<16} {}{}{}{}\n", p.name, p.command, g.host_of(p).empty() ? "" : "  @" + g.host_of(p),
                                p.critical ? "  critical" : "", p.depends_on.empty() ? "" : "  after " + fmt::format("{}", fmt::join(p.depends_on, ",")));
     }
+    for (const auto& u : unmet_inputs(g)) std::cout << fmt::format("      (needs from outside: {})\n", u);
   }
   return 0;
 }

@@ -11,6 +11,7 @@
 
 #include "hpr/motion_opt/component.hpp"
 #include "hpr/msg/balance.hpp"
+#include "hpr/msg/graph.hpp"
 #include "hpr/msg/commands.hpp"
 #include "hpr/msg/state.hpp"
 #include "hpr/node/command_line.hpp"
@@ -69,7 +70,9 @@ int main(int argc, char** argv) {
         balance::WholebodyCommand command;
         humanoid::wholebody_command_t msg{};
         std::vector<node::Sync> sync;
-        if (wait) sync.push_back({&cam_in, 0, {}, true});  // optional: without it, the posture task only
+        // CAM_REFERENCE of the same tick, optional: without it, the posture task only.
+        const msg::Read& r = msg::read_of("motion_opt", "CAM_REFERENCE");
+        if (wait) sync.push_back({&cam_in, r.tick_offset, {}, r.optional});
         rt.on_restart(state_in, [&] { opt.reset(); });
         rt.on_tick(state_in, sync, timeout, [&](const node::TickInfo& info) {
           const bool fresh = cam_in.has_value() && cam_in.tick() >= info.tick - stale_ticks;

@@ -12,6 +12,7 @@
 #include <cmath>
 
 #include "hpr/msg/balance.hpp"
+#include "hpr/msg/graph.hpp"
 #include "hpr/msg/state.hpp"
 #include "hpr/node/command_line.hpp"
 #include "hpr/node/runtime.hpp"
@@ -96,7 +97,9 @@ int main(int argc, char** argv) {
         balance::CamReference reference;
         humanoid::cam_reference_t msg{};
         std::vector<node::Sync> sync;
-        if (wait) sync.push_back({&balance_in, -1, {}, true});  // optional: without it, the reference ramps to zero
+        // BALANCE_STATUS of the previous tick, optional: without it, the reference ramps to zero.
+        const msg::Read& b = msg::read_of("reference_gen", "BALANCE_STATUS");
+        if (wait) sync.push_back({&balance_in, b.tick_offset, {}, b.optional});
         rt.on_restart(state_in, [&] { gen.reset(); });
         rt.on_tick(state_in, sync, timeout, [&](const node::TickInfo& info) {
           gen.step({info.tick, state.time, balance_in.has_value() ? &balance_status : nullptr,

@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "hpr/common/log.hpp"
+#include "hpr/msg/graph.hpp"
 
 namespace hpr::wbc {
 
@@ -75,7 +76,9 @@ WbcNode::WbcNode(node::Runtime& rt, const model::RobotSpec& robot, WbcComponent&
   if (options_.wait_for_wholebody) {
     // Optional: with the motion optimiser gone, the wbc runs its own posture reference (the ankle
     // strategy) at full rate.
-    sync.push_back({wholebody_in_, 0, [this] { return !wbc_.damping() && (options_.use_sim_truth || state_.usable()); }, true});
+    const msg::Read& w = msg::read_of("wbc", "WHOLEBODY_COMMAND");
+    sync.push_back({wholebody_in_, w.tick_offset,
+                    [this] { return !wbc_.damping() && (options_.use_sim_truth || state_.usable()); }, w.optional});
   }
   node::InputBase& primary = options_.use_sim_truth ? static_cast<node::InputBase&>(*sensors_in_) : *state_in_;
   rt.on_restart(primary, [this] {

@@ -9,6 +9,7 @@
 
 #include "hpr/common/config.hpp"
 #include "hpr/launch/groups.hpp"
+#include "hpr/msg/graph.hpp"
 
 namespace {
 
@@ -36,6 +37,26 @@ std::vector<std::string> names(const hpr::launch::GroupSpec& g) {
   std::vector<std::string> out;
   for (const auto& p : g.processes) out.push_back(p.name);
   return out;
+}
+
+// Every group that runs a robot (a backend with the controllers, as processes or composed) gets
+// each required input of its processes from one of them (the stack's declared data flow).
+TEST(Groups, EveryRobotGroupIsAClosedDataFlow) {
+  const GroupsFile f = GroupsFile::load(std::string(HPR_SOURCE_DIR) + "/config/groups.yaml");
+  for (const char* g : {"sim", "sim-lockstep", "sim-composed", "sim-composed-lockstep", "hil", "hil-lockstep", "hardware",
+                        "hardware-composed", "sim-view"}) {
+    std::vector<std::string> commands;
+    for (const auto& p : f.group(g).processes) commands.push_back(p.command);
+    EXPECT_EQ(hpr::msg::unmet_inputs(commands), std::vector<std::string>{}) << g;
+  }
+  // The composed groups run the controllers in one process, critical and watched as the wbc is.
+  for (const char* g : {"sim-composed", "sim-composed-lockstep", "hardware-composed"}) {
+    const auto* c = f.group(g).find("controllers");
+    ASSERT_NE(c, nullptr) << g;
+    EXPECT_TRUE(c->critical);
+    EXPECT_EQ(f.group(g).find("wbc"), nullptr) << g;
+  }
+  EXPECT_EQ(hpr::msg::unmet_inputs({"estimator", "wbc", "reference_gen", "motion_opt"}).size(), 1U);
 }
 
 TEST(Groups, ShippedFileHasEveryBackendWithTheSameControlProcesses) {
