@@ -51,6 +51,7 @@
 #include "hpr/launch/process_group.hpp"
 #include "hpr/launch/supervisor.hpp"
 #include "hpr/msg/graph.hpp"
+#include "hpr/node/lifecycle.hpp"
 
 namespace fs = std::filesystem;
 using namespace hpr;
@@ -155,16 +156,17 @@ std::string render(const std::vector<Status>& hosts) {
                        launch::to_string(static_cast<GroupState>(h.state)), h.pid, h.run_dir);
     if (!h.message.empty()) out << "  last event: " << h.message << "\n";
   }
-  out << fmt::format("{:<16} {:<10} {:<9} {:>8} {:>9} {:>8} {:>9} {:>7} {:<9} {}\n", "NAME", "HOST", "STATE", "PID", "UPTIME",
-                     "RESTARTS", "RATE[Hz]", "MISSES", "HEALTH", "DETAIL");
+  out << fmt::format("{:<16} {:<10} {:<9} {:>8} {:>9} {:>8} {:>9} {:>7} {:<9} {:<9} {}\n", "NAME", "HOST", "STATE", "PID", "UPTIME",
+                     "RESTARTS", "RATE[Hz]", "MISSES", "HEALTH", "LIFECYCLE", "DETAIL");
   for (const auto& h : hosts) {
     for (int i = 0; i < h.num_processes; ++i) {
       const auto ps = static_cast<ProcessState>(h.process_state[i]);
       const bool live = ps == ProcessState::kStarting || ps == ProcessState::kReady || ps == ProcessState::kStopping;
-      out << fmt::format("{:<16} {:<10} {:<9} {:>8} {:>9} {:>8} {:>9} {:>7} {:<9} {}\n", h.name[i] + (h.critical[i] ? "*" : ""), h.host,
+      out << fmt::format("{:<16} {:<10} {:<9} {:>8} {:>9} {:>8} {:>9} {:>7} {:<9} {:<9} {}\n", h.name[i] + (h.critical[i] ? "*" : ""), h.host,
                          launch::to_string(ps), live ? std::to_string(h.process_pid[i]) : "-", live ? uptime_text(h.uptime_s[i]) : "-",
                          h.restarts[i], h.health_state[i] >= 0 ? fmt::format("{:.1f}", h.rate_hz[i]) : "-",
-                         h.health_state[i] >= 0 ? std::to_string(h.deadline_misses[i]) : "-", health_text(h.health_state[i]), h.detail[i]);
+                         h.health_state[i] >= 0 ? std::to_string(h.deadline_misses[i]) : "-", health_text(h.health_state[i]),
+                         live && h.lifecycle[i] >= 0 ? node::to_string(static_cast<node::Lifecycle>(h.lifecycle[i])) : "-", h.detail[i]);
     }
   }
   out << "(* critical: its death, or a HEALTH silence longer than its hung_after, commands OPERATOR damp)\n";
@@ -189,6 +191,7 @@ Status make_status(const launch::Supervisor& sup, std::int64_t seq, const std::s
     m.restarts.push_back(p.restarts);
     m.critical.push_back(p.critical ? 1 : 0);
     m.health_state.push_back(p.hung ? humanoid::supervisor_status_t::HEALTH_HUNG : static_cast<int8_t>(p.health_state));
+    m.lifecycle.push_back(static_cast<int8_t>(p.lifecycle));
     m.rate_hz.push_back(p.rate_hz);
     m.deadline_misses.push_back(p.deadline_misses);
     // A running process's detail is what its HEALTH reports wrong; an ended one's how it ended.
@@ -270,7 +273,7 @@ int run_supervisor(const launch::GroupSpec& group, const Options& o, const std::
   bool changed = true;
 
   Subscription<humanoid::health_t> health_sub(lcm, "HEALTH", [&](const humanoid::health_t& h) {
-    sup.on_health(h.node, h.state, h.rate_hz, h.deadline_misses, h.faults, monotonic_s());
+    sup.on_health(h.node, h.state, h.lifecycle, h.rate_hz, h.deadline_misses, h.faults, monotonic_s());
   });
 
   const std::string& me = o.host;
@@ -544,6 +547,7 @@ int cmd_status(const Options& o, const std::string& url) {
                                   {"restarts", h.restarts[i]},
                                   {"critical", h.critical[i] != 0},
                                   {"health", health_text(h.health_state[i])},
+                                  {"lifecycle", h.lifecycle[i] >= 0 ? node::to_string(static_cast<node::Lifecycle>(h.lifecycle[i])) : "-"},
                                   {"rate_hz", h.rate_hz[i]},
                                   {"deadline_misses", h.deadline_misses[i]},
                                   {"detail", h.detail[i]}});

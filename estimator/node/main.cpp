@@ -97,6 +97,7 @@ int main(int argc, char** argv) {
           }
           msg::to_message(s, names, state_msg);
           out.publish(state_msg);
+          if ((s.status & estimator::kStatusInitialising) != 0) rt.report(node::StepOutcome::kNotReady);
         });
         rt.every(sensor_timeout, [&] {
           if (!sensors.has_value()) return;

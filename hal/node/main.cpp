@@ -165,6 +165,12 @@ int run(const node::CommandLine& cl, const Config& cfg) {
       last_state = h.safety().state();
       h.clear_changed();
     }
+    // The lifecycle: drives off until enabled (starting), enabled (running), else damping.
+    switch (h.safety().state()) {
+      case hal::SafetyState::kOff: rt.report(node::StepOutcome::kNotReady); break;
+      case hal::SafetyState::kEnabled: rt.report(node::StepOutcome::kRunning); break;
+      default: rt.report(node::StepOutcome::kDamping); break;
+    }
     if (changed || now - last_status >= 0.1) {
       fill_status(h, tick, status_msg, tx_fps, rx_fps, command_in.errors());
       status_out.publish(status_msg);

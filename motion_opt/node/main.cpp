@@ -77,7 +77,10 @@ int main(int argc, char** argv) {
         rt.on_tick(state_in, sync, timeout, [&](const node::TickInfo& info) {
           const bool fresh = cam_in.has_value() && cam_in.tick() >= info.tick - stale_ticks;
           // Nothing goes out before a usable estimate started the posture (the wbc damps meanwhile).
-          if (!opt.step({&state, fresh ? &cam : nullptr}, command)) return;
+          if (!opt.step({&state, fresh ? &cam : nullptr}, command)) {
+            rt.report(node::StepOutcome::kNotReady);
+            return;
+          }
           if (!fresh) {
             rt.set_fault("reference", "CAM_REFERENCE stale: posture task only");
           } else {

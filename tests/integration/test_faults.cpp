@@ -215,8 +215,11 @@ TEST(Faults, AStoppedWbcIsHungAndTheSupervisorDampsWithin100Milliseconds) {
   std::cout << "SIGSTOP of the wbc to OPERATOR damp: " << ms << " ms\n";
   EXPECT_LT(ms, 100.0);
   EXPECT_NE(w.damp_reason.find("wbc (critical) hung"), std::string::npos) << w.damp_reason;
-  // Once running again the wbc obeys the damp: its commands damp.
+  // Once running again the wbc obeys the damp: its commands damp, and its lifecycle says so.
   EXPECT_TRUE(w.wait_for([&] { return w.command.mode == humanoid::joint_command_t::MODE_DAMP; }, 10s));
+  EXPECT_TRUE(w.wait_for([&] { return w.health["wbc"].lifecycle == humanoid::health_t::LIFECYCLE_DAMPING; }, 5s))
+      << "wbc lifecycle " << static_cast<int>(w.health["wbc"].lifecycle);
+  EXPECT_EQ(static_cast<int>(w.health["estimator"].lifecycle), int{humanoid::health_t::LIFECYCLE_RUNNING});
 }
 #endif
 

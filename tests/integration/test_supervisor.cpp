@@ -67,6 +67,8 @@ TEST(Supervisor, UpStatusCriticalDeathRecordAndDownLeaveNothingBehind) {
     rate[p["name"]] = p["rate_hz"];
     EXPECT_EQ(p["state"], "running") << p.dump();
     EXPECT_TRUE(alive(p["pid"])) << p.dump();
+    // Each node's lifecycle from its HEALTH: the standing robot's controllers act.
+    EXPECT_EQ(p["lifecycle"], "running") << p.dump();
   }
   // Ticking: the step rate of HEALTH's last 0.1 s window; a second look one second later in case a
   // scheduling stall of this shared machine fell into the first window.

@@ -135,7 +135,7 @@ class Filler {
     m.push_id = i64(); m.push_active = b(); arr(m.push_force_W); arr(m.push_impulse_W); arr(m.push_point_W); m.fallen = b(); m.sim_time = r();
   }
   void fill(humanoid::health_t& m) {
-    m.tick = i64(); m.utime = i64(); m.node = s(); m.host = s(); m.pid = i32(); m.state = i8(); m.steps = i64();
+    m.tick = i64(); m.utime = i64(); m.node = s(); m.host = s(); m.pid = i32(); m.state = i8(); m.lifecycle = i8(); m.steps = i64();
     m.rate_hz = r(); m.cycle_median_us = r(); m.cycle_p99_us = r(); m.cycle_max_us = r();
     m.deadline_misses = i64(); m.decode_errors = i64(); m.stale_inputs = i64(); m.num_faults = 2; m.faults = names(2);
   }
@@ -165,7 +165,7 @@ class Filler {
     m.num_processes = n; m.name = names(n); m.process_state = gen<int8_t>(n, [&] { return i8(); });
     m.process_pid = gen<int32_t>(n, [&] { return i32(); }); m.uptime_s = vec(n);
     m.restarts = gen<int32_t>(n, [&] { return i32(); }); m.critical = gen<int8_t>(n, [&] { return static_cast<int8_t>(b()); });
-    m.health_state = gen<int8_t>(n, [&] { return i8(); }); m.rate_hz = vec(n);
+    m.health_state = gen<int8_t>(n, [&] { return i8(); }); m.lifecycle = gen<int8_t>(n, [&] { return i8(); }); m.rate_hz = vec(n);
     m.deadline_misses = gen<int64_t>(n, [&] { return i64(); }); m.detail = names(n);
   }
   void fill(humanoid::supervisor_command_t& m) {

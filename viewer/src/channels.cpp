@@ -121,6 +121,7 @@ json to_json(const humanoid::health_t& m) {
           {"node", m.node},
           {"pid", m.pid},
           {"state", static_cast<int>(m.state)},
+          {"lifecycle", static_cast<int>(m.lifecycle)},
           {"rate_hz", num(m.rate_hz)},
           {"cycle_median_us", num(m.cycle_median_us)},
           {"deadline_misses", m.deadline_misses},

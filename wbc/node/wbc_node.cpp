@@ -90,6 +90,7 @@ WbcNode::WbcNode(node::Runtime& rt, const model::RobotSpec& robot, WbcComponent&
                if (options_.use_sim_truth) {
                  if (truth_in_->tick() != info.tick) {
                    wbc_.damp(info.tick, WbcComponent::Mode::kDampNoState, out_);
+                   rt_.report(node::StepOutcome::kNotReady);
                    publish("no SIM_TRUTH for this tick");
                    return;
                  }
@@ -129,10 +130,13 @@ void WbcNode::step(const EstimatedState& state, bool wholebody_fresh) {
   wbc_.step({&state, wholebody_fresh ? &wholebody_.command : nullptr}, out_);
   switch (out_.mode) {
     case WbcComponent::Mode::kDampNoState:
+      rt_.report(node::StepOutcome::kNotReady);
       return publish("no usable ROBOT_STATE yet (status " + std::to_string(state.status) + ")");
     case WbcComponent::Mode::kDampOperator:
+      rt_.report(node::StepOutcome::kDamping);
       return publish("operator damp");
     case WbcComponent::Mode::kDampBadState:
+      rt_.report(node::StepOutcome::kDamping);
       return publish("ROBOT_STATE flagged (status " + std::to_string(state.status) + ") for " +
                      std::to_string(wbc_.bad_state_count()) + " ticks");
     case WbcComponent::Mode::kBalance:

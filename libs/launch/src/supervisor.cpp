@@ -122,11 +122,12 @@ void Supervisor::on_remote_ready(const std::string& name, bool ready) {
   if (!ready && it != remote_ready_.end()) remote_ready_.erase(it);
 }
 
-void Supervisor::on_health(const std::string& node, int state, double rate_hz, std::int64_t deadline_misses,
+void Supervisor::on_health(const std::string& node, int state, int lifecycle, double rate_hz, std::int64_t deadline_misses,
                            const std::vector<std::string>& faults, double now) {
   for (std::size_t i = 0; i < status_.size(); ++i) {
     if (slots_[i].spec->health_node != node) continue;
     status_[i].health_state = state;
+    status_[i].lifecycle = lifecycle;
     status_[i].rate_hz = rate_hz;
     status_[i].deadline_misses = deadline_misses;
     status_[i].faults.clear();
@@ -172,6 +173,7 @@ void Supervisor::start(std::size_t i, double now) {
   }
   s.started_at = now;
   s.health_state = -1;
+  s.lifecycle = -1;
   s.rate_hz = 0;
   s.faults.clear();
   s.hung = false;
@@ -200,6 +202,7 @@ void Supervisor::handle_end(std::size_t i, const ProcessResult& r, double now) {
   launcher_.signal_group(s.pid, SIGKILL);
   s.pid = 0;
   s.health_state = -1;
+  s.lifecycle = -1;
   s.rate_hz = 0;
   s.faults.clear();
   s.hung = false;

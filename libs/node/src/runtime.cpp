@@ -205,6 +205,8 @@ void Runtime::on_follow(InputBase& in, std::int64_t old_tick, std::int64_t new_t
   for (auto& [input, reset] : restarts_) {
     if (input == &in) reset();
   }
+  const Lifecycle before = lifecycle_.state();
+  log_lifecycle(lifecycle_.on_restart(), before);
   set_fault("follow:" + in.channel(), fmt::format("{} followed a new tick stream at tick {} (was {})", in.channel(), new_tick, old_tick),
             false, options_.decode_fault_quiet_s);
 }
@@ -247,7 +249,11 @@ void Runtime::check_triggers(double now) {
       mark_absent(t, i);
     }
     t.last_tick = t.pending_tick;
+    const Lifecycle before = lifecycle_.state();
+    log_lifecycle(lifecycle_.on_input(), before);
     const double t0 = monotonic_s();
+    in_step_ = true;
+    step_outcome_ = StepOutcome::kRunning;
     try {
       t.step(info);
       clear_fault("step");
@@ -255,8 +261,26 @@ void Runtime::check_triggers(double now) {
       log::error("step of tick {} failed: {}", info.tick, e.what());
       set_fault("step", std::string("step failed: ") + e.what());
     }
+    in_step_ = false;
     record_step(info.tick, monotonic_s() - t0);
+    const Lifecycle stepped_from = lifecycle_.state();
+    log_lifecycle(lifecycle_.on_step(step_outcome_), stepped_from);
   }
+}
+
+void Runtime::report(StepOutcome outcome) {
+  if (in_step_) {
+    step_outcome_ = outcome;
+    return;
+  }
+  const Lifecycle before = lifecycle_.state();
+  log_lifecycle(lifecycle_.on_input(), before);
+  const Lifecycle stepped_from = lifecycle_.state();
+  log_lifecycle(lifecycle_.on_step(outcome), stepped_from);
+}
+
+void Runtime::log_lifecycle(bool changed, Lifecycle from) {
+  if (changed) log::info("lifecycle: {} -> {}", to_string(from), to_string(lifecycle_.state()));
 }
 
 void Runtime::record_step(std::int64_t tick, double seconds) {
@@ -379,6 +403,8 @@ void Runtime::publish_health() {
   }
   h.num_faults = static_cast<int32_t>(h.faults.size());
   if (stop_requested()) {
+    const Lifecycle before = lifecycle_.state();
+    log_lifecycle(lifecycle_.on_stop(), before);
     h.state = humanoid::health_t::STATE_STOPPING;
   } else if (fatal) {
     h.state = humanoid::health_t::STATE_FAULT;
@@ -387,6 +413,8 @@ void Runtime::publish_health() {
   } else {
     h.state = steps_ > 0 || triggers_.empty() ? humanoid::health_t::STATE_OK : humanoid::health_t::STATE_STARTING;
   }
+  if (triggers_.empty() && lifecycle_.state() == Lifecycle::kWaiting) report(StepOutcome::kRunning);  // on its own clock
+  h.lifecycle = static_cast<int8_t>(lifecycle_.state());
   h.steps = steps_;
   // The step rate over at least 0.1 s, however often HEALTH goes out.
   const double dt = now - rate_time_;

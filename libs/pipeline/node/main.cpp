@@ -36,12 +36,15 @@ void report(node::Runtime& rt, const pipeline::Controllers& c, const EstimatedSt
       rt.clear_fault("damping");
       break;
     case Mode::kDampNoState:
+      rt.report(node::StepOutcome::kNotReady);
       rt.set_fault("damping", "no usable ROBOT_STATE yet (status " + std::to_string(state.status) + ")");
       break;
     case Mode::kDampOperator:
+      rt.report(node::StepOutcome::kDamping);
       rt.set_fault("damping", "operator damp");
       break;
     case Mode::kDampBadState:
+      rt.report(node::StepOutcome::kDamping);
       rt.set_fault("damping", "ROBOT_STATE flagged (status " + std::to_string(state.status) + ") for " +
                                   std::to_string(c.wbc.bad_state_count()) + " ticks");
       break;

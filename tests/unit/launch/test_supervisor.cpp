@@ -100,20 +100,21 @@ TEST(Supervisor, StartsInDependencyOrderOnceEachIsReady) {
   EXPECT_TRUE(alive(f.st("a").pid));
   f.run_until([] { return false; }, 0.1);
   EXPECT_EQ(f.st("b").state, ProcessState::kWaiting);
-  f.sup->on_health("a", 1, 1000.0, 3, {}, hpr::monotonic_s());
+  f.sup->on_health("a", 1, 2, 1000.0, 3, {}, hpr::monotonic_s());
   ASSERT_TRUE(f.run_until([&] { return f.st("b").state == ProcessState::kStarting; }, 2.0));
   EXPECT_EQ(f.st("a").state, ProcessState::kReady);
   EXPECT_DOUBLE_EQ(f.st("a").rate_hz, 1000.0);
   EXPECT_EQ(f.st("a").deadline_misses, 3);
+  EXPECT_EQ(f.st("a").lifecycle, 2);  // as HEALTH said (running)
   EXPECT_EQ(f.sup->state(), GroupState::kStarting);
-  f.sup->on_health("b", 1, 500.0, 0, {}, hpr::monotonic_s());
+  f.sup->on_health("b", 1, 2, 500.0, 0, {}, hpr::monotonic_s());
   ASSERT_TRUE(f.run_until([&] { return f.sup->state() == GroupState::kUp; }, 2.0));
   EXPECT_EQ(f.count(Kind::kGroupUp), 1);
   // A node reporting faults makes the group degraded and says why; its recovery makes it up again.
-  f.sup->on_health("b", 2, 500.0, 0, {"sensors: ROBOT_SENSORS stale", "qp: fallback"}, hpr::monotonic_s());
+  f.sup->on_health("b", 2, 2, 500.0, 0, {"sensors: ROBOT_SENSORS stale", "qp: fallback"}, hpr::monotonic_s());
   ASSERT_TRUE(f.run_until([&] { return f.sup->state() == GroupState::kDegraded; }, 2.0));
   EXPECT_EQ(f.st("b").faults, "sensors: ROBOT_SENSORS stale; qp: fallback");
-  f.sup->on_health("b", 1, 500.0, 0, {}, hpr::monotonic_s());
+  f.sup->on_health("b", 1, 2, 500.0, 0, {}, hpr::monotonic_s());
   ASSERT_TRUE(f.run_until([&] { return f.sup->state() == GroupState::kUp; }, 2.0));
   EXPECT_EQ(f.st("b").faults, "");
   // Each start is recorded in the process's own log file.
@@ -199,7 +200,7 @@ TEST(Supervisor, AWatchedProcessWhoseHealthStopsIsHungAndACriticalOneIsReported)
     t = t0 + until;
     f.sup->step(t);
   };
-  auto health = [&](const std::string& n, double at) { f.sup->on_health(n, 1, 1000.0, 0, {}, t0 + at); };
+  auto health = [&](const std::string& n, double at) { f.sup->on_health(n, 1, 2, 1000.0, 0, {}, t0 + at); };
   for (const char* n : {"controller", "monitor", "unwatched"}) health(n, 0.01);
   advance(0.02);
   ASSERT_EQ(f.sup->state(), GroupState::kUp);

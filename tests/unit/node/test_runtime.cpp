@@ -244,3 +244,66 @@ TEST_F(TickStream, AStepSeesWhatTheCallbackOfTheMessageThatReleasedItDid) {
 }
 
 }  // namespace
+
+namespace {
+
+using hpr::node::Lifecycle;
+using hpr::node::LifecycleMachine;
+using hpr::node::StepOutcome;
+
+TEST(Lifecycle, TheMachineTakesOnlyItsTransitions) {
+  LifecycleMachine m;
+  EXPECT_EQ(m.state(), Lifecycle::kWaiting);
+  EXPECT_FALSE(m.on_restart());  // already waiting
+  EXPECT_TRUE(m.on_input());
+  EXPECT_EQ(m.state(), Lifecycle::kStarting);
+  EXPECT_FALSE(m.on_input());  // input again: no change
+  EXPECT_FALSE(m.on_step(StepOutcome::kNotReady));
+  EXPECT_TRUE(m.on_step(StepOutcome::kRunning));
+  EXPECT_EQ(m.state(), Lifecycle::kRunning);
+  EXPECT_TRUE(m.on_step(StepOutcome::kDamping));
+  EXPECT_EQ(m.state(), Lifecycle::kDamping);
+  EXPECT_TRUE(m.on_step(StepOutcome::kRunning));
+  EXPECT_TRUE(m.on_restart());
+  EXPECT_EQ(m.state(), Lifecycle::kWaiting);
+  EXPECT_TRUE(m.on_stop());
+  EXPECT_EQ(m.state(), Lifecycle::kStopped);
+  // Stopped is final.
+  EXPECT_FALSE(m.on_input());
+  EXPECT_FALSE(m.on_step(StepOutcome::kRunning));
+  EXPECT_FALSE(m.on_restart());
+  EXPECT_EQ(m.state(), Lifecycle::kStopped);
+  EXPECT_EQ(m.transitions(), 6);
+  EXPECT_STREQ(hpr::node::to_string(Lifecycle::kDamping), "damping");
+}
+
+TEST_F(TickStream, TheLifecycleFollowsTheStepsAndARestartedSource) {
+  StepOutcome next = StepOutcome::kNotReady;
+  rt.on_tick(sensors, {}, 0.0, [&](const hpr::node::TickInfo& info) {
+    stepped.push_back(info.tick);
+    if (next != StepOutcome::kRunning) rt.report(next);  // a step that reports nothing was running
+  });
+  EXPECT_EQ(rt.lifecycle(), Lifecycle::kWaiting);
+  send(1);
+  EXPECT_EQ(rt.lifecycle(), Lifecycle::kStarting) << "stepped, not ready";
+  next = StepOutcome::kRunning;
+  send(2);
+  EXPECT_EQ(rt.lifecycle(), Lifecycle::kRunning);
+  next = StepOutcome::kDamping;
+  send(3);
+  EXPECT_EQ(rt.lifecycle(), Lifecycle::kDamping);
+  next = StepOutcome::kRunning;
+  send(4);
+  EXPECT_EQ(rt.lifecycle(), Lifecycle::kRunning);
+  // The source restarts from tick 0: once followed, the node waits for its next step.
+  send(0);
+  rt.spin_until([&] { return sensors.follows() > 0; }, 1.0);
+  ASSERT_EQ(sensors.follows(), 1);
+  EXPECT_EQ(stepped.back(), 0) << "the restarted stream's tick was stepped";
+  EXPECT_EQ(rt.lifecycle(), Lifecycle::kRunning) << "followed, then stepped";
+  rt.request_stop();
+  rt.publish_health();
+  EXPECT_EQ(rt.lifecycle(), Lifecycle::kStopped);
+}
+
+}  // namespace

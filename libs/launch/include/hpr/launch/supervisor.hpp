@@ -43,6 +43,7 @@ struct ProcessStatus {
   int restarts = 0;
   bool critical = false;
   int health_state = -1;  ///< from HEALTH; -1 before the first
+  int lifecycle = -1;     ///< from HEALTH (health_t.LIFECYCLE_*); -1 before the first
   double rate_hz = 0;
   std::int64_t deadline_misses = 0;
   std::string detail;  ///< last exit, readiness or start failure
@@ -76,7 +77,7 @@ class Supervisor {
   void step(double now);
 
   /// A HEALTH message from node `node` (state per health_t.STATE_*, `faults` its current fault texts).
-  void on_health(const std::string& node, int state, double rate_hz, std::int64_t deadline_misses,
+  void on_health(const std::string& node, int state, int lifecycle, double rate_hz, std::int64_t deadline_misses,
                  const std::vector<std::string>& faults, double now);
   /// A process of this group that another host runs became ready (or stopped being ready).
   void on_remote_ready(const std::string& name, bool ready);

@@ -35,6 +35,7 @@
 #include <string>
 #include <vector>
 
+#include "hpr/node/lifecycle.hpp"
 #include "hpr/common/config.hpp"
 #include "hpr/common/log.hpp"
 #include "hpr/common/stats.hpp"
@@ -298,6 +299,12 @@ class Runtime {
   void request_stop() { stop_ = true; }
   [[nodiscard]] bool stop_requested() const;
 
+  /// What the step being run did, for the node's lifecycle (reported in HEALTH): an on_tick step
+  /// that reports nothing was running. Outside an on_tick step (a node on its own clock), it
+  /// applies at once.
+  void report(StepOutcome outcome);
+  [[nodiscard]] Lifecycle lifecycle() const { return lifecycle_.state(); }
+
   /// Records one step's compute time (on_tick steps are timed automatically).
   void record_step(std::int64_t tick, double seconds);
   /// Counts a step that ran without a fresh input.
@@ -367,6 +374,11 @@ class Runtime {
     double expires;  ///< monotonic time at which it clears by itself (inf: never)
   };
   std::map<std::string, Fault> faults_;
+  /// Applies `changed` (an event's result) to the log.
+  void log_lifecycle(bool changed, Lifecycle from);
+  LifecycleMachine lifecycle_;
+  bool in_step_ = false;
+  StepOutcome step_outcome_ = StepOutcome::kRunning;
   std::vector<std::uint8_t> health_buffer_;
   std::unique_ptr<ParameterSet> parameters_;
   bool parameters_announced_ = false;
