@@ -40,12 +40,11 @@ WbcConfig WbcConfig::load(const Config& c, const model::RobotSpec& robot) {
   const int nf = static_cast<int>(robot.free_joints.size());
   w.K_free = VectorXd::Constant(nf, 300.0);
   w.D_free = VectorXd::Constant(nf, 30.0);
-  double drive_period = 1e-3;
   if (c.has("free_joints")) {
     const Config s = c.section("free_joints");
     w.K_free.setConstant(s.real_or("stiffness", 300.0, 0, 1e5));
     w.D_free.setConstant(s.real_or("damping", 30.0, 0, 1e4));
-    drive_period = s.real_or("drive_period", drive_period, 1e-5, 0.1);
+    w.drive_period = s.real_or("drive_period", w.drive_period, 1e-5, 0.1);
     for (const char* which : {"stiffness_overrides", "damping_overrides"}) {
       if (!s.has(which)) continue;
       const Config o = s.section(which);
@@ -62,50 +61,11 @@ WbcConfig WbcConfig::load(const Config& c, const model::RobotSpec& robot) {
       }
     }
   }
-  // An explicitly evaluated spring-damper on a light link is stable only for kp ≤ 0.2 I/h², kd ≤ 0.5 I/h,
-  // with I = 1/(M⁻¹)_jj the inertia the joint torque meets.
-  {
-    model::Data data(robot.model);
-    model::crba(robot.model, data, robot.standing_configuration());
-    const Eigen::MatrixXd Minv = data.M.llt().solve(Eigen::MatrixXd::Identity(robot.model.nv, robot.model.nv));
-    for (int i = 0; i < nf; ++i) {
-      const int j = robot.free_joints[static_cast<size_t>(i)];
-      const double I = 1.0 / Minv(6 + j, 6 + j);
-      const double kmax = 0.2 * I / (drive_period * drive_period), dmax = 0.5 * I / drive_period;
-      if (w.K_free(i) > kmax || w.D_free(i) > dmax) {
-        log::debug("wbc: joint {} impedance limited to kp {:.3g}, kd {:.3g} (inertia {:.3g} kg m², drive period {} s)",
-                   robot.model.joint_name[static_cast<size_t>(j)], std::min(w.K_free(i), kmax),
-                   std::min(w.D_free(i), dmax), I, drive_period);
-      }
-      w.K_free(i) = std::min(w.K_free(i), kmax);
-      w.D_free(i) = std::min(w.D_free(i), dmax);
-    }
-  }
-  double control_period = 1e-3;
   if (c.has("swing_foot")) {
     const Config s = c.section("swing_foot");
     w.K_swing = vec6(s, "stiffness", w.K_swing, 0, 1e6);
     w.D_swing = vec6(s, "damping", w.D_swing, 0, 1e5);
-    control_period = s.real_or("control_period", control_period, 1e-5, 0.1);
-  }
-  // The swing foot impedance is evaluated by the controller every period: cap it like the joints,
-  // with the foot's apparent inertia Λ_ii = 1 / (J M⁻¹ Jᵀ)_ii along each Cartesian direction.
-  {
-    const model::Model& m = robot.model;
-    model::Data data(m);
-    const Eigen::VectorXd q = robot.standing_configuration();
-    model::crba(m, data, q);
-    const Eigen::MatrixXd Minv = data.M.llt().solve(Eigen::MatrixXd::Identity(m.nv, m.nv));
-    model::Matrix6Xd J(6, m.nv);
-    for (int k = 0; k < 2; ++k) {
-      model::frame_jacobian(m, data, robot.feet[static_cast<size_t>(k)].sole_frame, model::ReferenceFrame::kLocalWorldAligned, J);
-      const Eigen::Matrix<double, 6, 6> Linv = J * Minv * J.transpose();
-      for (int i = 0; i < 6; ++i) {
-        const double L = 1.0 / Linv(i, i);
-        w.K_swing(i) = std::min(w.K_swing(i), 0.2 * L / (control_period * control_period));
-        w.D_swing(i) = std::min(w.D_swing(i), 0.5 * L / control_period);
-      }
-    }
+    w.control_period = s.real_or("control_period", w.control_period, 1e-5, 0.1);
   }
   if (c.has("contact")) {
     const Config s = c.section("contact");
@@ -133,8 +93,53 @@ WbcConfig WbcConfig::load(const Config& c, const model::RobotSpec& robot) {
   return w;
 }
 
+WbcConfig cap_impedances(WbcConfig w, const model::RobotSpec& robot) {
+  const int nf = static_cast<int>(robot.free_joints.size());
+  if (w.K_free.size() == 0) w.K_free = VectorXd::Constant(nf, 300.0);
+  if (w.D_free.size() == 0) w.D_free = VectorXd::Constant(nf, 30.0);
+  if (w.K_free.size() != nf || w.D_free.size() != nf) {
+    throw std::invalid_argument("wbc: " + std::to_string(w.K_free.size()) + " free-joint stiffnesses and " +
+                                std::to_string(w.D_free.size()) + " dampings for " + std::to_string(nf) + " free joints");
+  }
+  const model::Model& m = robot.model;
+  model::Data data(m);
+  model::crba(m, data, robot.standing_configuration());
+  const Eigen::MatrixXd Minv = data.M.llt().solve(Eigen::MatrixXd::Identity(m.nv, m.nv));
+  // An explicitly evaluated spring-damper on a light link is stable only for kp ≤ 0.2 I/h², kd ≤ 0.5 I/h,
+  // with I = 1/(M⁻¹)_jj the inertia the joint torque meets.
+  {
+    for (int i = 0; i < nf; ++i) {
+      const int j = robot.free_joints[static_cast<size_t>(i)];
+      const double I = 1.0 / Minv(6 + j, 6 + j);
+      const double kmax = 0.2 * I / (w.drive_period * w.drive_period), dmax = 0.5 * I / w.drive_period;
+      if (w.K_free(i) > kmax || w.D_free(i) > dmax) {
+        log::debug("wbc: joint {} impedance limited to kp {:.3g}, kd {:.3g} (inertia {:.3g} kg m², drive period {} s)",
+                   robot.model.joint_name[static_cast<size_t>(j)], std::min(w.K_free(i), kmax),
+                   std::min(w.D_free(i), dmax), I, w.drive_period);
+      }
+      w.K_free(i) = std::min(w.K_free(i), kmax);
+      w.D_free(i) = std::min(w.D_free(i), dmax);
+    }
+  }
+  // The swing foot impedance is evaluated by the controller every period: cap it like the joints,
+  // with the foot's apparent inertia Λ_ii = 1 / (J M⁻¹ Jᵀ)_ii along each Cartesian direction.
+  {
+    model::Matrix6Xd J(6, m.nv);
+    for (int k = 0; k < 2; ++k) {
+      model::frame_jacobian(m, data, robot.feet[static_cast<size_t>(k)].sole_frame, model::ReferenceFrame::kLocalWorldAligned, J);
+      const Eigen::Matrix<double, 6, 6> Linv = J * Minv * J.transpose();
+      for (int i = 0; i < 6; ++i) {
+        const double L = 1.0 / Linv(i, i);
+        w.K_swing(i) = std::min(w.K_swing(i), 0.2 * L / (w.control_period * w.control_period));
+        w.D_swing(i) = std::min(w.D_swing(i), 0.5 * L / w.control_period);
+      }
+    }
+  }
+  return w;
+}
+
 WholeBodyController::WholeBodyController(const model::RobotSpec& robot, WbcConfig config)
-    : robot_(&robot), config_(std::move(config)), data_(robot.model), task_(robot), qp_(config_.contact) {
+    : robot_(&robot), config_(cap_impedances(std::move(config), robot)), data_(robot.model), task_(robot), qp_(config_.contact) {
   const int n = robot.model.nj, nbar = robot.model.nv;
   command_.resize(n);
   xdot_cmd_ = xddot_cmd_ = nu_cmd_ = nudot_cmd_ = y_ = w_task_ = jt_ = VectorXd::Zero(nbar);

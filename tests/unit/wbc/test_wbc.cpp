@@ -231,3 +231,44 @@ TEST(Wbc, CommandsStayWithinTheJointLimits) {
 }
 
 }  // namespace
+
+namespace {
+
+// The impedance caps hold for a configuration built in code as for a loaded one: the controller
+// applies them, and a capped free joint's spring-damper meets kp h² ≤ 0.2 I, kd h ≤ 0.5 I at the
+// standing posture (I = 1/(M⁻¹)_jj, from an independent CRBA here).
+TEST(Wbc, ImpedanceCapsApplyToAConfigurationBuiltInCode) {
+  using namespace hpr;
+  const auto robot = test::load_robot("toro");
+  const model::Model& m = robot.model;
+  const int nf = static_cast<int>(robot.free_joints.size());
+  wbc::WbcConfig config;  // not loaded
+  config.K_free = Eigen::VectorXd::Constant(nf, 1e5);
+  config.D_free = Eigen::VectorXd::Constant(nf, 1e4);
+  config.K_swing.setConstant(1e7);
+  config.D_swing.setConstant(1e6);
+  const wbc::WholeBodyController ctl(robot, config);
+  model::Data data(m);
+  model::crba(m, data, robot.standing_configuration());
+  const Eigen::MatrixXd Minv = data.M.inverse();
+  const double h = ctl.config().drive_period;
+  for (int i = 0; i < nf; ++i) {
+    const int j = robot.free_joints[static_cast<size_t>(i)];
+    const double I = 1.0 / Minv(6 + j, 6 + j);
+    EXPECT_LE(ctl.config().K_free(i) * h * h, 0.2 * I * (1 + 1e-12)) << m.joint_name[static_cast<size_t>(j)];
+    EXPECT_LE(ctl.config().D_free(i) * h, 0.5 * I * (1 + 1e-12)) << m.joint_name[static_cast<size_t>(j)];
+    EXPECT_LT(ctl.config().K_free(i), 1e5) << "a light joint's stiffness is capped";
+  }
+  EXPECT_LT(ctl.config().K_swing.maxCoeff(), 1e7);
+  // Loaded or built, the same numbers for the same gains.
+  const Config cfg = Config::load(test::source_dir() + "/config/toro.yaml");
+  const wbc::WbcConfig loaded = wbc::WbcConfig::load(cfg.section("wbc"), robot);
+  const wbc::WholeBodyController from_file(robot, loaded);
+  EXPECT_EQ(wbc::cap_impedances(loaded, robot).K_free, from_file.config().K_free);
+  // Sizes that do not fit the robot are refused.
+  wbc::WbcConfig wrong;
+  wrong.K_free = Eigen::VectorXd::Constant(nf + 1, 10.0);
+  EXPECT_THROW(wbc::WholeBodyController(robot, wrong), std::invalid_argument);
+}
+
+}  // namespace

@@ -38,10 +38,19 @@ struct WbcConfig {
   double joint_damping = 0.0;       ///< extra drive damping on every joint [N m s/rad]
   double tau_z_limit = 20.0;        ///< |τ_v,z| bound of the virtual stance foot [N m]
   double max_torque_fraction = 1.0; ///< torques are clamped to this fraction of the effort limits
+  double drive_period = 1e-3;       ///< [s] period at which the drives evaluate (7)
+  double control_period = 1e-3;     ///< [s] period at which the controller evaluates the swing foot impedance
 
   /// Reads the `wbc` section; free-joint gains per joint name with a default.
   static WbcConfig load(const Config& wbc_section, const model::RobotSpec& robot);
 };
+
+/// `c` with the free joints' impedance (default 300 N m/rad, 30 N m s/rad when empty) and the swing
+/// foot's capped for explicit evaluation at their periods: a spring-damper evaluated every h is
+/// stable only for kp ≤ 0.2 I/h², kd ≤ 0.5 I/h, with I the inertia the joint (1/(M⁻¹)_jj) or the
+/// foot (1/(J M⁻¹ Jᵀ)_ii) meets in the standing posture. The controller applies it to whatever
+/// configuration it is given, loaded or built in code.
+WbcConfig cap_impedances(WbcConfig c, const model::RobotSpec& robot);
 
 /// The controller's view of the robot: the model's coordinates (base pose, joint positions; base
 /// twist in the base frame, joint velocities).
@@ -66,7 +75,7 @@ class WholeBodyController {
   [[nodiscard]] const JointCommand& command() const { return command_; }
   [[nodiscard]] const WbcConfig& config() const { return config_; }
   /// The impedance gains and the extra joint damping, changeable between steps (every step reads
-  /// them afresh). The free-joint gains are not: they are capped for the drive period on load.
+  /// them afresh). The free-joint and swing-foot gains are not: they are capped for their periods at construction (cap_impedances).
   [[nodiscard]] WbcConfig& tunable_config() { return config_; }
   /// μ of the contact wrench distribution, from the next step.
   void set_contact_friction(double mu) {
