@@ -180,8 +180,8 @@ const JointCommand& WholeBodyController::step(const RobotState& state, const bal
   task_.solve(xdot_cmd_, nu_cmd_);
   task_.solve(xddot_cmd_, nudot_cmd_);
 
-  // Feedforward (20): M̄ ν̇^cmd + C̄ ν^cmd (this also refreshes the body twists in data_).
-  y_ = model::centroidal_inverse_dynamics(m, data_, q, v, nu_cmd_, nudot_cmd_);
+  // Feedforward (20): M̄ ν̇^cmd + C̄ ν^cmd, on the kinematics compute_all_terms made (once per tick).
+  y_ = model::centroidal_inverse_dynamics_from_kinematics(m, data_, v, nu_cmd_, nudot_cmd_);
   const Vector6d w_ff = y_.head<6>();
 
   // Impedances (6): CoM spring-damper; rotational spring on SO(3) from the quaternion of R_cmdᵀ R_b.

@@ -228,6 +228,11 @@ const Eigen::MatrixXd& crba(const Model& model, Data& data, const ConstVector& q
 const Eigen::VectorXd& passivity_rnea(const Model& model, Data& data, const ConstVector& q, const ConstVector& v,
                                       const ConstVector& v_r, const ConstVector& a_r, bool with_gravity) {
   forward_kinematics(model, data, q, v);
+  return passivity_rnea_from_kinematics(model, data, v_r, a_r, with_gravity);
+}
+
+const Eigen::VectorXd& passivity_rnea_from_kinematics(const Model& model, Data& data, const ConstVector& v_r,
+                                                      const ConstVector& a_r, bool with_gravity) {
   // Reference twists vr_i = J_i v_r and accelerations ar_i = J_i a_r + J̇_i v_r (J̇ from the actual motion).
   // data.acc holds ar_i; the reference twist of each body is kept in data.f until it is consumed.
   std::vector<Vector6d>& ar = data.acc;

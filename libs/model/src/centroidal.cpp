@@ -49,8 +49,13 @@ void centroidal_mass_matrix(const Model& model, const Data& data, Eigen::MatrixX
 const Eigen::VectorXd& centroidal_inverse_dynamics(const Model& model, Data& data, const ConstVector& q,
                                                    const ConstVector& v, const ConstVector& nu_r,
                                                    const ConstVector& nudot_r) {
-  const int n = model.nj;
   forward_kinematics(model, data, q, v);
+  return centroidal_inverse_dynamics_from_kinematics(model, data, v, nu_r, nudot_r);
+}
+
+const Eigen::VectorXd& centroidal_inverse_dynamics_from_kinematics(const Model& model, Data& data, const ConstVector& v,
+                                                                   const ConstVector& nu_r, const ConstVector& nudot_r) {
+  const int n = model.nj;
   // CoM, its velocity, J_cq q̇_r, J_cq q̈_r and d/dt(J_cq) q̇_r from one sweep over the bodies:
   //   m J_cq q̇ = Σ_i (I_i w_i)_lin with w_i the twist of body i for joint rates q̇ and the base fixed.
   Vector3d h = Vector3d::Zero(), p_lin = Vector3d::Zero(), P = Vector3d::Zero(), Pa = Vector3d::Zero(),
@@ -100,7 +105,7 @@ const Eigen::VectorXd& centroidal_inverse_dynamics(const Model& model, Data& dat
   data.a_r.segment<3>(3) = R.transpose() * wrd - wB.cross(R.transpose() * wr);
   data.a_r.tail(n) = nudot_r.tail(n);
 
-  const Eigen::VectorXd& tau = passivity_rnea(model, data, q, v, data.v_r, data.a_r, false);
+  const Eigen::VectorXd& tau = passivity_rnea_from_kinematics(model, data, data.v_r, data.a_r, false);
   // y = Ĵᵀ τ.
   const Vector3d f_W = R * tau.head<3>();
   data.y.head<3>() = f_W;

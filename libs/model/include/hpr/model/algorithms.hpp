@@ -46,6 +46,10 @@ const Eigen::VectorXd& generalized_gravity(const Model& model, Data& data, const
 /// With v_r = v and a_r = a it equals rnea.
 const Eigen::VectorXd& passivity_rnea(const Model& model, Data& data, const ConstVector& q, const ConstVector& v,
                                       const ConstVector& v_r, const ConstVector& a_r, bool with_gravity = false);
+/// The same on `data` whose kinematics are already those of (q, v) (forward_kinematics with v, or
+/// compute_all_terms): no second pass over the placements.
+const Eigen::VectorXd& passivity_rnea_from_kinematics(const Model& model, Data& data, const ConstVector& v_r,
+                                                      const ConstVector& a_r, bool with_gravity = false);
 /// The matrix C(q, v) of passivity_rnea, column by column (O(n^2) RNEA calls; for tests and tools).
 void coriolis_matrix(const Model& model, Data& data, const ConstVector& q, const ConstVector& v, Eigen::MatrixXd& C);
 

@@ -36,6 +36,10 @@ void centroidal_mass_matrix(const Model& model, const Data& data, Eigen::MatrixX
 const Eigen::VectorXd& centroidal_inverse_dynamics(const Model& model, Data& data, const ConstVector& q,
                                                    const ConstVector& v, const ConstVector& nu_r,
                                                    const ConstVector& nudot_r);
+/// The same on `data` whose kinematics are already those of (q, v) (compute_all_terms, as the wbc
+/// runs every tick): the kinematics once per tick instead of three times.
+const Eigen::VectorXd& centroidal_inverse_dynamics_from_kinematics(const Model& model, Data& data, const ConstVector& v,
+                                                                   const ConstVector& nu_r, const ConstVector& nudot_r);
 
 /// The task Jacobian (2) of a biped and what is derived from it: A (3), Ad, J', J⁻¹ and Ā = A J⁻¹.
 /// The same J serves double and single support (the swing foot's coordinates are its Cartesian pose).
