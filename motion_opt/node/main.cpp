@@ -7,8 +7,6 @@
 #include <humanoid/robot_state_t.hpp>
 #include <humanoid/wholebody_command_t.hpp>
 
-#include <cmath>
-
 #include "hpr/motion_opt/component.hpp"
 #include "hpr/msg/balance.hpp"
 #include "hpr/msg/graph.hpp"
@@ -16,26 +14,6 @@
 #include "hpr/msg/state.hpp"
 #include "hpr/node/command_line.hpp"
 #include "hpr/node/runtime.hpp"
-
-namespace {
-
-/// The weights and gains of (14), (16), (17); ranges as the configuration accepts them.
-void add_parameters(hpr::node::ParameterSet& params, hpr::motion_opt::MotionOptConfig& c) {
-  params.add({"weights.cam", "", 0.0, 1e6,
-              [&c] { return c.Q_l.minCoeff() == c.Q_l.maxCoeff() ? c.Q_l(0) : std::nan(""); },
-              [&c](double v) {
-                c.Q_l.setConstant(v);
-                return std::string();
-              }});
-  params.add_xyz("weights.cam", c.Q_l.data(), 0.0, 1e6, "");
-  params.add("weights.posture", c.Q_p, 1e-9, 1e6, "");
-  params.add("weights.cam_idle_fraction", c.cam_idle_fraction, 0.0, 1.0, "");
-  params.add("weights.cam_release_time", c.cam_release_time, 0.0, 10.0, "s");
-  params.add("gains.posture", c.K_p, 0.0, 1e3, "1/s");
-  params.add("gains.limits", c.K_a, 0.0, 1e4, "1/s");
-}
-
-}  // namespace
 
 int main(int argc, char** argv) {
   using namespace hpr;
@@ -65,7 +43,7 @@ int main(int argc, char** argv) {
             opt.request_support(static_cast<balance::Support>(m.support), state.time);
           }
         });
-        add_parameters(rt.parameters(), opt.optimizer().tunable_config());
+        motion_opt::add_parameters(rt.parameters(), opt.optimizer().tunable_config());
         auto out = rt.advertise<humanoid::wholebody_command_t>("WHOLEBODY_COMMAND");
         balance::WholebodyCommand command;
         humanoid::wholebody_command_t msg{};

@@ -4,7 +4,11 @@
 // conversions around it.
 #include <gtest/gtest.h>
 
+#include <LinearMath/btAlignedAllocator.h>
+
 #include <array>
+#include <atomic>
+#include <cstdlib>
 
 #include "allocation_counter.hpp"
 #include "closed_loop.hpp"
@@ -37,6 +41,42 @@ TEST(Components, NoneAllocatesDuringAPush) {
     EXPECT_EQ(steps[c], 3000) << names[c];
     EXPECT_EQ(allocations[c], 0) << names[c] << " allocated in " << steps[c] << " steps";
   }
+}
+
+std::atomic<long> g_bullet_allocations{0};
+void* counting_bullet_alloc(size_t n) {
+  ++g_bullet_allocations;
+  return std::malloc(n);
+}
+void plain_free(void* p) { std::free(p); }
+
+// The simulator's step, as a component of the graph (JOINT_COMMAND in, ROBOT_SENSORS and
+// SIM_TRUTH out): what it allocates per tick over the same push, C++ allocations and Bullet's own
+// (btAlignedAlloc, which goes to malloc) counted.
+TEST(Components, TheSimulatorsStepAllocatesNothingDuringAPush) {
+  // Bullet's allocator through a counter (malloc and free underneath, as Bullet's default: memory
+  // allocated before this frees the same way).
+  btAlignedAllocSetCustom(counting_bullet_alloc, plain_free);
+  ClosedLoop loop("toro", {}, {.cam = true, .estimator_in_loop = true});
+  ASSERT_GT(g_bullet_allocations.load(), 0) << "Bullet's allocations are not seen by the counter";
+  loop.push_base(20.0, 65.0, Eigen::Vector3d::UnitX(), 2.0);
+  loop.run(1.5);
+  long allocations = 0, bullet = 0;
+  hpr::sim::Simulator::Outputs out;
+  for (int i = 0; i < 3000; ++i) {
+    loop.control();
+    const long before = hpr::test::allocations(), bullet_before = g_bullet_allocations.load();
+    loop.sim.step({&loop.wbc_out.command}, out);
+    allocations += hpr::test::allocations() - before;
+    bullet += g_bullet_allocations.load() - bullet_before;
+    loop.estimate(loop.sensors_as_received());
+    ASSERT_TRUE(out.command_taken);
+  }
+  ASSERT_FALSE(loop.sim.truth().fallen);
+  EXPECT_EQ(out.sensors, &loop.sim.sensors());
+  EXPECT_EQ(allocations, 0) << "the simulator allocated in 3000 steps";
+  EXPECT_EQ(bullet, 0) << "Bullet allocated in 3000 steps";
+  btAlignedAllocSetCustom(nullptr, nullptr);
 }
 
 }  // namespace

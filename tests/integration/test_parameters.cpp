@@ -11,6 +11,8 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <string>
+#include <vector>
 
 #include "lcm_listener.hpp"
 #include "process_group.hpp"
@@ -125,13 +127,14 @@ TEST_F(LiveParameters, ARefusedSetChangesNothing) {
 
 namespace {
 
-// Every control node announces its parameters with the values of the configuration and accepts a set.
-TEST(LiveParametersOfEveryNode, AnnouncedWithTheConfiguredValuesAndSettable) {
+/// Starts `processes` on config/toro.yaml; every control component announces its parameters under
+/// its own name with the values of the configuration, and one OPERATOR set reaches several of them.
+void announce_and_set(const std::vector<std::string>& processes) {
   ProcessGroup group;
   LcmListener lcm(group.lcm_url());
   auto params = lcm.collect<humanoid::params_t>("PARAMS");
   const std::string cfg = hpr::test::source_dir() + "/config/toro.yaml";
-  for (const char* n : {"estimator", "wbc", "motion_opt", "reference_gen"}) group.start(n, {"--config", cfg});
+  for (const auto& n : processes) group.start(n, {"--config", cfg});
   std::map<std::string, std::map<std::string, double>> announced;
   ASSERT_TRUE(lcm.wait_for(
       [&] {
@@ -156,5 +159,13 @@ TEST(LiveParametersOfEveryNode, AnnouncedWithTheConfiguredValuesAndSettable) {
   EXPECT_NE(set.out.find("motion_opt: gains.posture 3 -> 2 1/s"), std::string::npos) << set.out;
   EXPECT_NE(set.out.find("estimator: contact_off 5 -> 8 N"), std::string::npos) << set.out;
 }
+
+// Every control node announces its parameters with the values of the configuration and accepts a set.
+TEST(LiveParametersOfEveryNode, AnnouncedWithTheConfiguredValuesAndSettable) {
+  announce_and_set({"estimator", "wbc", "motion_opt", "reference_gen"});
+}
+
+// Composed in one process, the components answer under their own names, as the four processes do.
+TEST(LiveParametersOfEveryNode, TheComposedControllersAnswerForEachComponent) { announce_and_set({"controllers"}); }
 
 }  // namespace

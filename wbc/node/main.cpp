@@ -1,6 +1,6 @@
 // wbc: the passivity-based whole-body controller process.
 #include "hpr/node/command_line.hpp"
-#include "wbc_node.hpp"
+#include "hpr/wbc/node.hpp"
 
 int main(int argc, char** argv) {
   using namespace hpr;

@@ -1,4 +1,4 @@
-#include "wbc_node.hpp"
+#include "hpr/wbc/node.hpp"
 
 #include <cmath>
 
@@ -18,23 +18,6 @@ WbcNodeOptions WbcNodeOptions::load(const Config& c) {
   return o;
 }
 
-/// The CoM and base impedance (6), the extra joint damping and μ; ranges as the configuration accepts.
-void WbcNode::add_parameters() {
-  node::ParameterSet& params = rt_.parameters();
-  WholeBodyController& wbc = wbc_.controller();
-  WbcConfig& c = wbc.tunable_config();
-  params.add_xyz("com.stiffness", c.K_com.data(), 0.0, 1e6, "N/m");
-  params.add_xyz("com.damping", c.D_com.data(), 0.0, 1e5, "N s/m");
-  params.add_xyz("base.stiffness", c.K_base.data(), 0.0, 1e5, "N m/rad");
-  params.add_xyz("base.damping", c.D_base.data(), 0.0, 1e4, "N m s/rad");
-  params.add("joint_damping", c.joint_damping, 0.0, 100.0, "N m s/rad");
-  params.add({"contact.friction", "", 0.05, 2.0, [&wbc] { return wbc.config().contact.friction; },
-              [&wbc](double mu) {
-                wbc.set_contact_friction(mu);
-                return std::string();
-              }});
-}
-
 WbcNode::WbcNode(node::Runtime& rt, const model::RobotSpec& robot, WbcComponent& wbc, WbcNodeOptions options)
     : rt_(rt), wbc_(wbc), options_(options) {
   names_.joints = robot.model.joint_name;
@@ -46,19 +29,9 @@ WbcNode::WbcNode(node::Runtime& rt, const model::RobotSpec& robot, WbcComponent&
       "WHOLEBODY_COMMAND", [this](const humanoid::wholebody_command_t& m) { return msg::from_message(m, free_names_, wholebody_); },
       [this](const humanoid::wholebody_command_t&) { have_wholebody_ = true; });
   rt.subscribe<humanoid::operator_t>("OPERATOR", msg::check_operator, [this](const humanoid::operator_t& m) {
-    if (m.command == humanoid::operator_t::COMMAND_DAMP || m.command == humanoid::operator_t::COMMAND_STOP) {
-      if (!wbc_.damping()) log::warn("OPERATOR {} from {}: damping ({})", m.command == humanoid::operator_t::COMMAND_STOP ? "stop" : "damp", m.source, m.reason);
-      wbc_.set_damping(true);
-    } else if (m.command == humanoid::operator_t::COMMAND_ENABLE) {
-      if (wbc_.damping()) log::info("OPERATOR enable from {}", m.source);
-      wbc_.set_damping(false);
-    } else if (m.command == humanoid::operator_t::COMMAND_SET_SUPPORT && m.support >= 0 && m.support <= 2) {
-      const auto s = static_cast<balance::Support>(m.support);
-      log::info("OPERATOR: support {} requested", balance::to_string(s));
-      wbc_.request_support(s, state_.time);
-    }
+    if (const auto s = apply_operator(wbc_, m)) wbc_.request_support(*s, state_.time);
   });
-  add_parameters();
+  add_parameters(rt.parameters(), wbc_.controller());
   std::vector<node::Sync> sync;
   if (options_.use_sim_truth) {
     log::warn("state from SIM_TRUTH: for tests only, a real robot has no such channel");
@@ -91,7 +64,8 @@ WbcNode::WbcNode(node::Runtime& rt, const model::RobotSpec& robot, WbcComponent&
                  if (truth_in_->tick() != info.tick) {
                    wbc_.damp(info.tick, WbcComponent::Mode::kDampNoState, out_);
                    rt_.report(node::StepOutcome::kNotReady);
-                   publish("no SIM_TRUTH for this tick");
+                   rt_.set_fault("damping", "no SIM_TRUTH for this tick");
+                   publish(false);
                    return;
                  }
                  msg::state_from_truth(truth_, sensors_, state_);
@@ -103,48 +77,73 @@ WbcNode::WbcNode(node::Runtime& rt, const model::RobotSpec& robot, WbcComponent&
              });
 }
 
-void WbcNode::publish(const std::string& damp_reason) {
+std::optional<balance::Support> apply_operator(WbcComponent& wbc, const humanoid::operator_t& m) {
+  if (m.command == humanoid::operator_t::COMMAND_DAMP || m.command == humanoid::operator_t::COMMAND_STOP) {
+    if (!wbc.damping()) {
+      log::warn("OPERATOR {} from {}: damping ({})", m.command == humanoid::operator_t::COMMAND_STOP ? "stop" : "damp", m.source,
+                m.reason);
+    }
+    wbc.set_damping(true);
+  } else if (m.command == humanoid::operator_t::COMMAND_ENABLE) {
+    if (wbc.damping()) log::info("OPERATOR enable from {}", m.source);
+    wbc.set_damping(false);
+  } else if (m.command == humanoid::operator_t::COMMAND_SET_SUPPORT && m.support >= 0 && m.support <= 2) {
+    const auto s = static_cast<balance::Support>(m.support);
+    log::info("OPERATOR: support {} requested", balance::to_string(s));
+    return s;
+  }
+  return std::nullopt;
+}
+
+bool report_step(node::Runtime& rt, const WbcComponent& wbc, WbcComponent::Mode mode, const BalanceStatus& status,
+                 const EstimatedState& state) {
+  switch (mode) {
+    case WbcComponent::Mode::kDampNoState:
+      rt.report(node::StepOutcome::kNotReady);
+      rt.set_fault("damping", "no usable ROBOT_STATE yet (status " + std::to_string(state.status) + ")");
+      return false;
+    case WbcComponent::Mode::kDampOperator:
+      rt.report(node::StepOutcome::kDamping);
+      rt.set_fault("damping", "operator damp");
+      return false;
+    case WbcComponent::Mode::kDampBadState:
+      rt.report(node::StepOutcome::kDamping);
+      rt.set_fault("damping", "ROBOT_STATE flagged (status " + std::to_string(state.status) + ") for " +
+                                  std::to_string(wbc.bad_state_count()) + " ticks");
+      return false;
+    case WbcComponent::Mode::kBalance:
+      break;
+  }
+  rt.clear_fault("damping");
+  if (status.qp_fallback) {
+    rt.set_fault("qp", "contact QP failed: last valid wrenches kept");
+  } else {
+    rt.clear_fault("qp");
+  }
+  if (status.singular) {
+    rt.set_fault("singular", "task Jacobian singular (stretched knee): last valid inverse kept");
+  } else {
+    rt.clear_fault("singular");
+  }
+  return true;
+}
+
+void WbcNode::publish(bool balanced) {
   msg::to_message(out_.command, names_, command_msg_);
   command_out_.publish(command_msg_);
-  if (!damp_reason.empty()) {
-    rt_.set_fault("damping", damp_reason);
-    return;
-  }
-  rt_.clear_fault("damping");
+  if (!balanced) return;
   msg::to_message(out_.status, names_, status_msg_);
   status_out_.publish(status_msg_);
-  const BalanceStatus& s = out_.status;
-  if (s.qp_fallback) {
-    rt_.set_fault("qp", "contact QP failed: last valid wrenches kept");
-  } else {
-    rt_.clear_fault("qp");
-  }
-  if (s.singular) {
-    rt_.set_fault("singular", "task Jacobian singular (stretched knee): last valid inverse kept");
-  } else {
-    rt_.clear_fault("singular");
-  }
 }
 
 void WbcNode::step(const EstimatedState& state, bool wholebody_fresh) {
   wbc_.step({&state, wholebody_fresh ? &wholebody_.command : nullptr}, out_);
-  switch (out_.mode) {
-    case WbcComponent::Mode::kDampNoState:
-      rt_.report(node::StepOutcome::kNotReady);
-      return publish("no usable ROBOT_STATE yet (status " + std::to_string(state.status) + ")");
-    case WbcComponent::Mode::kDampOperator:
-      rt_.report(node::StepOutcome::kDamping);
-      return publish("operator damp");
-    case WbcComponent::Mode::kDampBadState:
-      rt_.report(node::StepOutcome::kDamping);
-      return publish("ROBOT_STATE flagged (status " + std::to_string(state.status) + ") for " +
-                     std::to_string(wbc_.bad_state_count()) + " ticks");
-    case WbcComponent::Mode::kBalance:
-      break;
+  const bool balanced = report_step(rt_, wbc_, out_.mode, out_.status, state);
+  if (balanced) {
+    if (!wholebody_fresh && have_wholebody_) rt_.set_fault("wholebody", "WHOLEBODY_COMMAND stale: holding the reference posture");
+    if (wholebody_fresh) rt_.clear_fault("wholebody");
   }
-  if (!wholebody_fresh && have_wholebody_) rt_.set_fault("wholebody", "WHOLEBODY_COMMAND stale: holding the reference posture");
-  if (wholebody_fresh) rt_.clear_fault("wholebody");
-  publish("");
+  publish(balanced);
 }
 
 }  // namespace hpr::wbc

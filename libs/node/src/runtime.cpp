@@ -157,6 +157,25 @@ void Runtime::every(double period_s, std::function<void()> fn) {
   timers_.push_back(Timer{period_s, monotonic_s() + period_s, std::move(fn)});
 }
 
+void Runtime::while_silent(const InputBase& input, double timeout_s, const std::string& fault, std::function<void()> fn) {
+  every(timeout_s, [this, &input, timeout_s, fault, fn = std::move(fn), silent = false]() mutable {
+    if (!input.has_value()) return;
+    const double age = monotonic_s() - input.receive_time();
+    if (age <= timeout_s) {
+      if (silent) {
+        log::info("{} back at tick {}", input.channel(), input.tick());
+        clear_fault(fault);
+        silent = false;
+      }
+      return;
+    }
+    if (!silent) log::warn("{} stale since tick {}", input.channel(), input.tick());
+    silent = true;
+    set_fault(fault, fmt::format("no {} for {:.0f} ms", input.channel(), age * 1e3));
+    fn();
+  });
+}
+
 void Runtime::on_input(InputBase& in) {
   const double now = monotonic_s();
   for (auto& t : triggers_) {
@@ -175,6 +194,9 @@ void Runtime::on_input(InputBase& in) {
       const bool waiting = t.pending_tick > t.last_tick;
       t.deadline = waiting ? now : now + t.timeout_s;
       t.pending_tick = in.tick();
+      const double dt = now - t.arrival;
+      if (t.arrival > 0.0 && dt > 1e-5 && dt < 1.0) t.period = t.period > 0.0 ? 0.9 * t.period + 0.1 * dt : dt;
+      t.arrival = now;
     }
   }
   check_triggers(now);
@@ -291,9 +313,9 @@ void Runtime::record_step(std::int64_t tick, double seconds) {
 }
 
 void Runtime::run_timers(double now) {
-  if (parameters_ && !parameters_announced_) {
+  if (!parameters_.empty() && !parameters_announced_) {
     parameters_announced_ = true;
-    publish_parameters(nullptr);
+    for (const auto& p : parameters_) publish_parameters(*p, nullptr);
   }
   for (auto& t : timers_) {
     if (now >= t.next) {
@@ -306,6 +328,14 @@ void Runtime::run_timers(double now) {
     publish_health();
     last_health_ = now;
   }
+}
+
+double Runtime::next_arrival() const {
+  double due = 0.0;
+  for (const auto& t : triggers_) {
+    if (t.period > 0.0 && (due == 0.0 || t.arrival + t.period < due)) due = t.arrival + t.period;
+  }
+  return due;
 }
 
 double Runtime::next_wakeup(double now) const {
@@ -327,9 +357,27 @@ void Runtime::spin_once(double timeout_s) {
   follow_quiet_streams(now);
   run_timers(now);
   check_triggers(now);
-  const double wake = std::min(next_wakeup(now), now + std::max(0.0, timeout_s));
+  double wake = std::min(next_wakeup(now), now + std::max(0.0, timeout_s));
   pollfd fds[2] = {{lcm_->getFileno(), POLLIN, 0}, {g_signal_pipe[0], POLLIN, 0}};
-  const int n = poll_for(std::span<pollfd>(fds, g_signal_pipe[0] >= 0 ? 2 : 1), wake - now);
+  const std::span<pollfd> watched(fds, g_signal_pipe[0] >= 0 ? 2 : 1);
+  bool spin = false;
+  if (options_.spin_s > 0.0) {
+    const double due = next_arrival();
+    if (due > 0.0 && now >= due - options_.spin_s && now < due + options_.spin_s) {
+      spin = true;
+      wake = std::min(wake, due + options_.spin_s);
+    } else if (due > 0.0 && now < due - options_.spin_s) {
+      wake = std::min(wake, due - options_.spin_s);
+    }
+  }
+  int n = 0;
+  if (spin) {
+    do {
+      n = poll_for(watched, 0.0);
+    } while (n == 0 && !stop_requested() && monotonic_s() < wake);
+  } else {
+    n = poll_for(watched, wake - now);
+  }
   if (n > 0 && (fds[0].revents & POLLIN) != 0) {
     lcm_->handle();
     // Drain whatever else is already queued, without blocking.
@@ -437,54 +485,60 @@ void Runtime::publish_health() {
   }
 }
 
-ParameterSet& Runtime::parameters() {
-  if (parameters_) return *parameters_;
-  parameters_ = std::make_unique<ParameterSet>(name_);
+ParameterSet& Runtime::parameters(const std::string& node) {
+  for (auto& p : parameters_) {
+    if (p->node() == node) return *p;
+  }
+  const bool first = parameters_.empty();
+  parameters_.push_back(std::make_unique<ParameterSet>(node));
+  if (!first) return *parameters_.back();
   subscribe<humanoid::operator_t>("OPERATOR", msg::check_operator, [this](const humanoid::operator_t& m) {
     const bool set = m.command == humanoid::operator_t::COMMAND_SET_PARAMS;
     if (!set && m.command != humanoid::operator_t::COMMAND_GET_PARAMS) return;
     // Senders repeat a request (UDP may drop one); each is handled once.
     const std::string id = m.source + "@" + std::to_string(m.utime);
     if (id == last_request_) return;
-    ParameterRequest request;
-    request.utime = m.utime;
-    request.source = m.source;
-    if (set) {
-      const ParameterSetResult r = parameters_->apply(m.param_name, m.param_value);
-      if (!r.addressed) return;
-      last_request_ = id;
-      request.accepted = r.applied;
-      request.result = r.text;
-      if (r.applied) {
-        log::info("parameters set by {}: {}", m.source, r.text);
+    bool handled = false;
+    for (auto& params : parameters_) {
+      ParameterRequest request;
+      request.utime = m.utime;
+      request.source = m.source;
+      if (set) {
+        const ParameterSetResult r = params->apply(m.param_name, m.param_value);
+        if (!r.addressed) continue;
+        request.accepted = r.applied;
+        request.result = r.text;
+        if (r.applied) {
+          log::info("{} parameters set by {}: {}", params->node(), m.source, r.text);
+        } else {
+          log::warn("{} parameters from {} refused, {}", params->node(), m.source, r.text);
+        }
       } else {
-        log::warn("parameters from {} refused, {}", m.source, r.text);
+        const bool mine = m.param_name.empty() ||
+                          std::find(m.param_name.begin(), m.param_name.end(), params->node()) != m.param_name.end();
+        if (!mine) continue;
+        request.accepted = true;
+        request.result = "current values";
       }
-    } else {
-      const bool mine = m.param_name.empty() ||
-                        std::find(m.param_name.begin(), m.param_name.end(), name_) != m.param_name.end();
-      if (!mine) return;
-      last_request_ = id;
-      request.accepted = true;
-      request.result = "current values";
+      handled = true;
+      publish_parameters(*params, &request);
     }
-    publish_parameters(&request);
+    if (handled) last_request_ = id;
   });
-  return *parameters_;
+  return *parameters_.back();
 }
 
-void Runtime::publish_parameters(const ParameterRequest* request) {
-  if (!parameters_) return;
+void Runtime::publish_parameters(const ParameterSet& set, const ParameterRequest* request) {
   humanoid::params_t p;
   p.tick = last_tick_;
   p.utime = wall_us();
-  p.node = name_;
-  p.version = parameters_->version();
+  p.node = set.node();
+  p.version = set.version();
   p.request_utime = request != nullptr ? request->utime : 0;
   p.request_source = request != nullptr ? request->source : "";
   p.accepted = request == nullptr || request->accepted;
   p.result = request != nullptr ? request->result : "started";
-  for (const auto& q : parameters_->parameters()) {
+  for (const auto& q : set.parameters()) {
     p.name.push_back(q.key);
     p.value.push_back(q.get());
     p.min_value.push_back(q.min_value);
@@ -506,6 +560,7 @@ RuntimeOptions runtime_options(const Config& cfg, double deadline_s) {
     o.decode_fault_quiet_s = l.real_or("decode_fault_quiet_s", o.decode_fault_quiet_s, 0.0, 3600.0);
     o.tick_window = l.integer_or("tick_window", o.tick_window, 1, 1'000'000'000);
     o.source_quiet_s = l.real_or("source_quiet_s", o.source_quiet_s, 1e-3, 3600.0);
+    o.spin_s = l.real_or("spin_s", o.spin_s, 0.0, 0.1);
   }
   return o;
 }

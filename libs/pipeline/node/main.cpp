@@ -10,55 +10,37 @@
 #include <humanoid/operator_t.hpp>
 #include <humanoid/robot_sensors_t.hpp>
 
-#include "hpr/common/log.hpp"
-#include "hpr/common/time.hpp"
+#include "hpr/estimator/node.hpp"
 #include "hpr/msg/commands.hpp"
 #include "hpr/msg/robot_io.hpp"
 #include "hpr/node/command_line.hpp"
 #include "hpr/node/runtime.hpp"
 #include "hpr/pipeline/controllers.hpp"
+#include "hpr/wbc/node.hpp"
 
 namespace {
 
 using namespace hpr;
 
-/// HEALTH faults of the tick, as the four processes would report them.
-void report(node::Runtime& rt, const pipeline::Controllers& c, const EstimatedState& state) {
-  using Mode = wbc::WbcComponent::Mode;
-  const std::string& implausible = c.estimator->implausible_reason();
-  if (implausible.empty()) {
-    rt.clear_fault("implausible");
-  } else {
-    rt.set_fault("implausible", implausible);
-  }
-  switch (c.wbc_out.mode) {
-    case Mode::kBalance:
-      rt.clear_fault("damping");
-      break;
-    case Mode::kDampNoState:
-      rt.report(node::StepOutcome::kNotReady);
-      rt.set_fault("damping", "no usable ROBOT_STATE yet (status " + std::to_string(state.status) + ")");
-      break;
-    case Mode::kDampOperator:
-      rt.report(node::StepOutcome::kDamping);
-      rt.set_fault("damping", "operator damp");
-      break;
-    case Mode::kDampBadState:
-      rt.report(node::StepOutcome::kDamping);
-      rt.set_fault("damping", "ROBOT_STATE flagged (status " + std::to_string(state.status) + ") for " +
-                                  std::to_string(c.wbc.bad_state_count()) + " ticks");
-      break;
-  }
+/// HEALTH faults of the tick, as the four processes report them (the estimator's and the wbc's
+/// reporting themselves, and motion_opt's QP fault).
+void report(node::Runtime& rt, pipeline::Controllers& c, estimator::TickReport& estimator_report) {
+  estimator_report(rt, *c.estimator, c.state(), c.state().tick);
+  wbc::report_step(rt, c.wbc, c.wbc_out.mode, c.wbc_out.status, c.state());
   if (c.have_wholebody && c.wholebody.qp_failed) {
     rt.set_fault("motion_qp", "motion QP failed: posture task within the limits");
   } else {
     rt.clear_fault("motion_qp");
   }
-  if (c.wbc_out.mode == Mode::kBalance && c.wbc_out.status.qp_fallback) {
-    rt.set_fault("contact_qp", "contact QP failed: last valid wrenches kept");
-  } else {
-    rt.clear_fault("contact_qp");
-  }
+}
+
+/// Each component's live parameters, answered under its process's name ("wbc.com.stiffness.z"), as
+/// the four processes answer them.
+void add_parameters(node::Runtime& rt, pipeline::Controllers& c) {
+  estimator::add_parameters(rt.parameters("estimator"), c.estimator->tunable_config());
+  if (c.generator) reference_gen::add_parameters(rt.parameters("reference_gen"), *c.generator);
+  if (c.optimizer) motion_opt::add_parameters(rt.parameters("motion_opt"), c.optimizer->optimizer().tunable_config());
+  wbc::add_parameters(rt.parameters("wbc"), c.wbc.controller());
 }
 
 /// The options of the four processes that concern their exchange over LCM (waits, timeouts,
@@ -98,16 +80,10 @@ int main(int argc, char** argv) {
         auto& sensors = rt.subscribe<humanoid::robot_sensors_t>(
             "ROBOT_SENSORS", [&](const humanoid::robot_sensors_t& m) { return msg::from_message(m, c.names(), sample); });
         rt.subscribe<humanoid::operator_t>("OPERATOR", msg::check_operator, [&](const humanoid::operator_t& m) {
-          if (m.command == humanoid::operator_t::COMMAND_DAMP || m.command == humanoid::operator_t::COMMAND_STOP) {
-            if (!c.wbc.damping()) log::warn("OPERATOR {} from {}: damping ({})", m.command == humanoid::operator_t::COMMAND_STOP ? "stop" : "damp", m.source, m.reason);
-            c.wbc.set_damping(true);
-          } else if (m.command == humanoid::operator_t::COMMAND_ENABLE) {
-            if (c.wbc.damping()) log::info("OPERATOR enable from {}", m.source);
-            c.wbc.set_damping(false);
-          } else if (m.command == humanoid::operator_t::COMMAND_SET_SUPPORT && m.support >= 0 && m.support <= 2) {
-            c.request_support(static_cast<balance::Support>(m.support), c.state().time);
-          }
+          if (const auto s = wbc::apply_operator(c.wbc, m)) c.request_support(*s, c.state().time);
         });
+        add_parameters(rt, c);
+        estimator::TickReport estimator_report;
         auto state_out = rt.advertise<humanoid::robot_state_t>("ROBOT_STATE");
         auto cam_out = rt.advertise<humanoid::cam_reference_t>("CAM_REFERENCE");
         auto wholebody_out = rt.advertise<humanoid::wholebody_command_t>("WHOLEBODY_COMMAND");
@@ -122,29 +98,17 @@ int main(int argc, char** argv) {
           if (c.have_wholebody) wholebody_out.publish(c.wholebody_msg);
           if (c.wbc_out.mode == wbc::WbcComponent::Mode::kBalance) balance_out.publish(c.balance_msg);
         };
-        bool stale = false;
         rt.on_restart(sensors, [&] { c.reset(); });
         rt.on_tick(sensors, {}, 0.0, [&](const node::TickInfo&) {
-          if (stale) {
-            log::info("ROBOT_SENSORS back at tick {}", sample.tick);
-            stale = false;
-            rt.clear_fault("sensors");
-          }
           c.estimate(sample);
           c.control();
           publish();
-          report(rt, c, c.state());
+          report(rt, c, estimator_report);
         });
-        rt.every(sensor_timeout, [&] {
-          if (!sensors.has_value()) return;
-          const double age = monotonic_s() - sensors.receive_time();
-          if (age <= sensor_timeout) return;
-          if (!stale) log::warn("ROBOT_SENSORS stale since tick {}", sensors.tick());
-          stale = true;
-          rt.set_fault("sensors", fmt::format("no ROBOT_SENSORS for {:.0f} ms", age * 1e3));
+        rt.while_silent(sensors, sensor_timeout, "sensors", [&] {
           c.control(EstimatedState::kSensorStale);
           publish();
-          report(rt, c, c.state());
+          report(rt, c, estimator_report);
         });
         return rt.run();
       });

@@ -42,8 +42,8 @@ void ClosedLoop::step() {
     truth_.v = sim.truth().v;
     control(truth_);
   }
-  sim.set_command(wbc_out.command);
-  sim.step();
+  sim::Simulator::Outputs plant;
+  sim.step({&wbc_out.command}, plant);
   if (estimator) estimate(sensors_as_received());
 }
 

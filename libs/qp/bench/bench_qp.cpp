@@ -19,7 +19,7 @@
 
 #include "hpr/common/stats.hpp"
 #include "hpr/qp/qp_solver.hpp"
-#include "qp_problems.hpp"
+#include "hpr/qp/problems.hpp"
 
 namespace {
 

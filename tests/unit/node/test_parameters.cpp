@@ -7,12 +7,12 @@
 #include <limits>
 #include <stdexcept>
 
-#include "hpr/node/parameters.hpp"
+#include "hpr/common/parameters.hpp"
 
 namespace {
 
-using hpr::node::Parameter;
-using hpr::node::ParameterSet;
+using hpr::Parameter;
+using hpr::ParameterSet;
 
 struct Gains {
   double kp = 100.0, kd = 10.0;

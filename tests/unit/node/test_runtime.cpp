@@ -5,6 +5,8 @@
 
 #include <humanoid/balance_status_t.hpp>
 #include <humanoid/robot_sensors_t.hpp>
+#include <chrono>
+#include <thread>
 #include <vector>
 
 #include "hpr/node/runtime.hpp"
@@ -304,6 +306,39 @@ TEST_F(TickStream, TheLifecycleFollowsTheStepsAndARestartedSource) {
   rt.request_stop();
   rt.publish_health();
   EXPECT_EQ(rt.lifecycle(), Lifecycle::kStopped);
+}
+
+}  // namespace
+
+namespace {
+
+// With a busy-poll window the runtime still steps every tick in order, and centres the window on
+// the next tick's arrival estimated from the intervals (1 ms here, give or take the machine).
+TEST(BusyPoll, EveryTickIsSteppedAndTheNextArrivalIsEstimated) {
+  RuntimeOptions o;
+  o.health_period_s = 10.0;
+  o.spin_s = 2e-4;
+  Runtime rt{"test", "memq://", o};
+  auto& sensors = rt.subscribe<humanoid::robot_sensors_t>("SENSORS");
+  std::vector<std::int64_t> stepped;
+  rt.on_tick(sensors, {}, 0.0, [&](const hpr::node::TickInfo& info) { stepped.push_back(info.tick); });
+  EXPECT_EQ(rt.next_arrival(), 0.0) << "no estimate before two arrivals";
+  for (int k = 1; k <= 50; ++k) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    humanoid::robot_sensors_t m{};
+    m.tick = k;
+    rt.lcm().publish("SENSORS", &m);
+    rt.spin_once(0.0);
+  }
+  ASSERT_EQ(stepped.size(), 50U);
+  for (int k = 1; k <= 50; ++k) EXPECT_EQ(stepped[static_cast<std::size_t>(k - 1)], k);
+  const double ahead = rt.next_arrival() - sensors.receive_time();
+  EXPECT_GT(ahead, 0.2e-3);
+  EXPECT_LT(ahead, 20e-3);
+  // Inside the window with nothing arriving, the loop polls until the window ends, then sleeps
+  // again: spin_once returns (it does not wait for its whole timeout of 1 s in the window).
+  rt.spin_once(1.0);
+  EXPECT_EQ(stepped.size(), 50U);
 }
 
 }  // namespace

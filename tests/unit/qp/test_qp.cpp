@@ -12,7 +12,7 @@
 
 #include "hpr/qp/qp_solver.hpp"
 #include "process_group.hpp"
-#include "qp_problems.hpp"
+#include "hpr/qp/problems.hpp"
 
 #include "allocation_counter.hpp"
 

@@ -34,6 +34,7 @@
 #include <string>
 
 #include "hpr/common/config.hpp"
+#include "hpr/common/parameters.hpp"
 #include "hpr/common/robot_io.hpp"
 #include "hpr/model/algorithms.hpp"
 #include "hpr/model/robot.hpp"
@@ -182,5 +183,10 @@ class Estimator {
   // Momentum observer.
   Eigen::Vector3d l_hat_ = Eigen::Vector3d::Zero();
 };
+
+/// Registers the live-tunable parameters (the contact hysteresis (contact_on, contact_off) and cop_edge_margin) under the keys of the
+/// configuration section, with the ranges its loader accepts; the process that runs the component
+/// (its own node, or the composed controllers) answers OPERATOR sets with them.
+void add_parameters(ParameterSet& params, EstimatorConfig& c);
 
 }  // namespace hpr::estimator

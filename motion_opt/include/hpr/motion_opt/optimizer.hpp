@@ -26,6 +26,7 @@
 #include "hpr/balance/ports.hpp"
 #include "hpr/balance/task_reference.hpp"
 #include "hpr/common/config.hpp"
+#include "hpr/common/parameters.hpp"
 #include "hpr/model/centroidal.hpp"
 #include "hpr/qp/qp_solver.hpp"
 
@@ -135,5 +136,10 @@ class MotionOptimizer {
   Eigen::MatrixXd H_, A_;
   Eigen::VectorXd g_, lb_, ub_, lbA_, ubA_;
 };
+
+/// Registers the live-tunable parameters (weights.cam (all axes, or .x/.y/.z), weights.posture, weights.cam_idle_fraction, weights.cam_release_time, gains.posture, gains.limits) under the keys of the
+/// configuration section, with the ranges its loader accepts; the process that runs the component
+/// (its own node, or the composed controllers) answers OPERATOR sets with them.
+void add_parameters(ParameterSet& params, MotionOptConfig& c);
 
 }  // namespace hpr::motion_opt

@@ -20,6 +20,7 @@
 
 #include "hpr/balance/ports.hpp"
 #include "hpr/common/config.hpp"
+#include "hpr/common/parameters.hpp"
 
 namespace hpr::reference_gen {
 
@@ -125,5 +126,10 @@ class ReferenceGenerator {
   CamReference out_;
   bool ramping_ = false;
 };
+
+/// Registers the live-tunable parameters (alpha and beta (all axes, or x./y./z. each) and posture_tolerance) under the keys of the
+/// configuration section, with the ranges its loader accepts; the process that runs the component
+/// (its own node, or the composed controllers) answers OPERATOR sets with them.
+void add_parameters(ParameterSet& params, ReferenceGenerator& gen);
 
 }  // namespace hpr::reference_gen

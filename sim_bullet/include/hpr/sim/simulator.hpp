@@ -136,6 +136,24 @@ class Simulator {
   /// Advances one control period.
   void step();
 
+  /// The simulator as a component of the control graph (the robot's side of tick k → k+1).
+  struct Inputs {
+    const JointCommand* command = nullptr;  ///< JOINT_COMMAND answering tick k; null keeps the last one
+  };
+  struct Outputs {
+    const SensorData* sensors = nullptr;  ///< ROBOT_SENSORS of tick k+1 (points into the simulator)
+    const TruthData* truth = nullptr;     ///< SIM_TRUTH of tick k+1
+    bool command_taken = true;            ///< false: the command was refused (counted), the last valid one acted
+  };
+  /// Takes `in.command` as set_command() does, advances one control period and points `out` at the
+  /// new sensors and truth.
+  void step(const Inputs& in, Outputs& out) {
+    out.command_taken = in.command == nullptr || set_command(*in.command);
+    step();
+    out.sensors = &sensors_;
+    out.truth = &truth_;
+  }
+
   [[nodiscard]] const SensorData& sensors() const { return sensors_; }
   [[nodiscard]] const TruthData& truth() const { return truth_; }
   [[nodiscard]] double time() const { return time_; }

@@ -19,6 +19,7 @@
 #include "hpr/balance/ports.hpp"
 #include "hpr/balance/task_reference.hpp"
 #include "hpr/common/config.hpp"
+#include "hpr/common/parameters.hpp"
 #include "hpr/common/robot_io.hpp"
 #include "hpr/model/centroidal.hpp"
 #include "hpr/wbc/contact_qp.hpp"
@@ -111,5 +112,10 @@ class WholeBodyController {
   std::array<Vector6d, 2> w_feet_{}, last_valid_grf_{};
   bool have_valid_grf_ = false;
 };
+
+/// Registers the live-tunable parameters (com.stiffness, com.damping, base.stiffness, base.damping (.x/.y/.z), joint_damping, contact.friction) under the keys of the
+/// configuration section, with the ranges its loader accepts; the process that runs the component
+/// (its own node, or the composed controllers) answers OPERATOR sets with them.
+void add_parameters(ParameterSet& params, WholeBodyController& wbc);
 
 }  // namespace hpr::wbc

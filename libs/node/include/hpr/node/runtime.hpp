@@ -23,7 +23,10 @@
 ///    tick, step-time median/p99/max, deadline misses, decode errors, stale inputs and the current
 ///    faults.
 ///  - A node with live parameters (parameters()) applies OPERATOR sets addressed to it between two
-///    steps and answers each set, and each OPERATOR get, on PARAMS.
+///    steps and answers each set, and each OPERATOR get, on PARAMS. A process that runs several
+///    components (the composed controllers) keeps one set per component under the component's
+///    process name (parameters("wbc")), so an OPERATOR set addressed to "wbc.com.stiffness.z"
+///    reaches the wbc wherever it runs, and PARAMS answers in that name.
 
 #include <lcm/lcm-cpp.hpp>
 
@@ -40,7 +43,7 @@
 #include "hpr/common/log.hpp"
 #include "hpr/common/stats.hpp"
 #include "hpr/common/time.hpp"
-#include "hpr/node/parameters.hpp"
+#include "hpr/common/parameters.hpp"
 
 namespace hpr::node {
 
@@ -235,6 +238,11 @@ struct RuntimeOptions {
   /// [s] How long a tick stream must be quiet before its input follows a new one (a restarted
   /// source, or ticks that jumped beyond the window).
   double source_quiet_s = 0.1;
+  /// [s] Busy-poll window: from this long before the next message of a stepping input is due (its
+  /// period estimated from the arrivals) until this long after, the loop polls LCM without
+  /// sleeping, so the step starts without the core's wake-up (tens of microseconds on a virtual
+  /// machine). 0 (the default) always sleeps. Costs about 2 × spin_s / period of a core.
+  double spin_s = 0.0;
   /// The node's configuration: when the loop first runs (the node has read all of it), a key it
   /// did not read in a section it entered, or an override it did not read, stops it with a
   /// ConfigError (Config::check_all_read).
@@ -288,6 +296,11 @@ class Runtime {
   void on_restart(InputBase& primary, std::function<void()> reset);
   /// Calls `fn` every `period_s` of wall-clock time (monotonic) from the loop.
   void every(double period_s, std::function<void()> fn);
+  /// A dropout is never silently held: while `input` (once heard) has been silent for more than
+  /// `timeout_s` of wall-clock time, calls `fn` every `timeout_s` (a node republishes its last
+  /// output flagged stale), holds fault `fault` ("no ROBOT_SENSORS for 35 ms") and logs once when
+  /// the input went silent and once when it is back.
+  void while_silent(const InputBase& input, double timeout_s, const std::string& fault, std::function<void()> fn);
 
   /// Processes messages until stop is requested. Returns the process exit code (0).
   int run();
@@ -319,11 +332,17 @@ class Runtime {
 
   /// The node's live parameters. The first call subscribes to OPERATOR (sets and gets addressed to
   /// this node) and advertises PARAMS, published once the loop runs and in answer to each request.
-  ParameterSet& parameters();
-  /// Publishes PARAMS: the current values, and the answer to the request `request` (may be null).
-  void publish_parameters(const ParameterRequest* request);
+  ParameterSet& parameters() { return parameters(name_); }
+  /// The live parameters answered under the name `node` (a component this process runs).
+  ParameterSet& parameters(const std::string& node);
+  /// Publishes PARAMS of `set`: the current values, and the answer to the request `request` (may be null).
+  void publish_parameters(const ParameterSet& set, const ParameterRequest* request);
 
   [[nodiscard]] std::int64_t decode_errors() const;
+  /// When the next message of a stepping input is due on the monotonic clock: its last arrival plus
+  /// the moving average of its arrival intervals (0 before two have arrived). The busy-poll window
+  /// (RuntimeOptions::spin_s) is centred on it.
+  [[nodiscard]] double next_arrival() const;
   [[nodiscard]] const RollingStats& cycle_stats() const { return cycle_; }
   [[nodiscard]] std::int64_t deadline_misses() const { return deadline_misses_; }
 
@@ -338,6 +357,8 @@ class Runtime {
     std::int64_t pending_tick = -1;
     double deadline = 0.0;
     std::vector<char> absent;  ///< per synced input: optional and not waited for
+    double arrival = 0.0;      ///< when the newest primary tick arrived
+    double period = 0.0;       ///< moving average of the primary's arrival intervals (0: unknown)
   };
   struct Timer {
     double period, next;
@@ -380,7 +401,7 @@ class Runtime {
   bool in_step_ = false;
   StepOutcome step_outcome_ = StepOutcome::kRunning;
   std::vector<std::uint8_t> health_buffer_;
-  std::unique_ptr<ParameterSet> parameters_;
+  std::vector<std::unique_ptr<ParameterSet>> parameters_;  ///< one per name answered
   bool parameters_announced_ = false;
   std::string last_request_;  // source and utime of the last OPERATOR request handled (copies repeat it)
 };

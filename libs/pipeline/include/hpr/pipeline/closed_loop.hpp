@@ -57,11 +57,12 @@ struct ClosedLoop : SimulatedRobot, Controllers {
   /// `impulse` [N s] (duration T = π I / (2 F)), starting at simulated time `start` [s].
   void push_base(double impulse, double peak, const Eigen::Vector3d& direction, double start);
 
+  /// The estimator's input: the simulator's sensors as the estimator node decodes ROBOT_SENSORS.
+  const SensorSample& sensors_as_received();
+
   ClosedLoopOptions opt;
 
  private:
-  /// The estimator's input: the simulator's sensors as the estimator node decodes ROBOT_SENSORS.
-  const SensorSample& sensors_as_received();
 
   humanoid::robot_sensors_t sensors_msg_{};
   SensorSample sample_;

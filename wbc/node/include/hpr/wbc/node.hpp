@@ -1,5 +1,6 @@
 #pragma once
-/// \file The wbc process: WholeBodyController behind LCM.
+/// \file The wbc process: WholeBodyController behind LCM (library hpr::wbc_node, shared with the
+/// composed controllers for the OPERATOR requests and the HEALTH faults of a step).
 ///
 /// Steps on every ROBOT_STATE (or, in tests only, on SIM_TRUTH + ROBOT_SENSORS), towards the
 /// WHOLEBODY_COMMAND of the same tick when motion_opt runs (waiting for it up to a timeout), else
@@ -20,6 +21,8 @@
 #include "hpr/msg/sim_truth.hpp"
 #include "hpr/wbc/component.hpp"
 
+#include <optional>
+
 namespace hpr::wbc {
 
 struct WbcNodeOptions {
@@ -32,14 +35,24 @@ struct WbcNodeOptions {
   static WbcNodeOptions load(const Config& wbc_section);
 };
 
+/// What an OPERATOR message asks of the wbc: damp and stop damp it, enable ends the damping (each
+/// logged when it changes something). Returns the support mode a COMMAND_SET_SUPPORT requests (the
+/// caller passes it on to whichever components plan the support), nothing otherwise.
+std::optional<balance::Support> apply_operator(WbcComponent& wbc, const humanoid::operator_t& m);
+
+/// The HEALTH faults and lifecycle outcome of a wbc step that ended in `mode` on `state` ("damping"
+/// with its reason, "qp" and "singular" while balancing), as the wbc process reports them. Returns
+/// whether the wbc balanced (BALANCE_STATUS goes out only then).
+bool report_step(node::Runtime& rt, const WbcComponent& wbc, WbcComponent::Mode mode, const BalanceStatus& status,
+                 const EstimatedState& state);
+
 class WbcNode {
  public:
   WbcNode(node::Runtime& rt, const model::RobotSpec& robot, WbcComponent& wbc, WbcNodeOptions options);
 
  private:
   void step(const EstimatedState& state, bool wholebody_fresh);
-  void publish(const std::string& damp_reason);
-  void add_parameters();
+  void publish(bool balanced);
 
   node::Runtime& rt_;
   WbcComponent& wbc_;

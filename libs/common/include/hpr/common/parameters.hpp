@@ -17,7 +17,7 @@
 #include <string>
 #include <vector>
 
-namespace hpr::node {
+namespace hpr {
 
 /// One live-tunable scalar.
 struct Parameter {
@@ -68,4 +68,4 @@ class ParameterSet {
   std::int64_t version_ = 0;
 };
 
-}  // namespace hpr::node
+}  // namespace hpr

@@ -1,4 +1,4 @@
-#include "hpr/node/parameters.hpp"
+#include "hpr/common/parameters.hpp"
 
 #include <fmt/format.h>
 
@@ -6,7 +6,7 @@
 #include <cmath>
 #include <stdexcept>
 
-namespace hpr::node {
+namespace hpr {
 
 void ParameterSet::add(Parameter p) {
   if (!p.get || !p.set) throw std::logic_error("parameter " + node_ + "." + p.key + " needs a getter and a setter");
@@ -108,4 +108,4 @@ ParameterSetResult ParameterSet::apply(const std::vector<std::string>& names, co
   return r;
 }
 
-}  // namespace hpr::node
+}  // namespace hpr
