@@ -1,0 +1,178 @@
+#include "hpr/balance/stepping.hpp"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "hpr/model/robot.hpp"
+
+namespace hpr::balance {
+
+using Eigen::Vector2d;
+
+double lip_omega(double z_c, double g) { return std::sqrt(g / z_c); }
+
+Vector2d capture_point(const Vector2d& c, const Vector2d& cd, double omega) { return c + cd / omega; }
+
+Vector2d dcm_after(const Vector2d& xi0, const Vector2d& p, double omega, double t) {
+  return p + (xi0 - p) * std::exp(omega * t);
+}
+
+Vector2d Sole::to_local(const Vector2d& x) const { return Eigen::Rotation2Dd(-yaw) * (x - centre); }
+
+Vector2d Sole::to_world(const Vector2d& local) const { return centre + Eigen::Rotation2Dd(yaw) * local; }
+
+namespace {
+
+double cross(const Vector2d& o, const Vector2d& a, const Vector2d& b) {
+  return (a.x() - o.x()) * (b.y() - o.y()) - (a.y() - o.y()) * (b.x() - o.x());
+}
+
+/// Distance from x to the segment [a, b].
+double segment_distance(const Vector2d& x, const Vector2d& a, const Vector2d& b) {
+  const Vector2d d = b - a;
+  const double len2 = d.squaredNorm();
+  const double s = len2 > 0 ? std::clamp((x - a).dot(d) / len2, 0.0, 1.0) : 0.0;
+  return (a + s * d - x).norm();
+}
+
+}  // namespace
+
+double support_distance(const std::array<Sole, 2>& soles, const std::array<bool, 2>& contact, const Vector2d& x) {
+  // The corners of the soles in contact, then their convex hull (Andrew's monotone chain),
+  // counter-clockwise; at most 8 points, on the stack.
+  std::array<Vector2d, 8> pts;
+  int n = 0;
+  for (int k = 0; k < 2; ++k) {
+    if (!contact[static_cast<size_t>(k)]) continue;
+    const Sole& s = soles[static_cast<size_t>(k)];
+    for (const double sx : {-1.0, 1.0}) {
+      for (const double sy : {-1.0, 1.0}) pts[static_cast<size_t>(n++)] = s.to_world({sx * s.half_length, sy * s.half_width});
+    }
+  }
+  if (n == 0) return std::numeric_limits<double>::infinity();
+  // Insertion sort by (x, y): at most 8 points.
+  for (int i = 1; i < n; ++i) {
+    const Vector2d key = pts[static_cast<size_t>(i)];
+    int j = i - 1;
+    while (j >= 0 && (pts[static_cast<size_t>(j)].x() > key.x() ||
+                      (pts[static_cast<size_t>(j)].x() == key.x() && pts[static_cast<size_t>(j)].y() > key.y()))) {
+      pts[static_cast<size_t>(j + 1)] = pts[static_cast<size_t>(j)];
+      --j;
+    }
+    pts[static_cast<size_t>(j + 1)] = key;
+  }
+  std::array<Vector2d, 16> hull;
+  int h = 0;
+  for (int i = 0; i < n; ++i) {
+    while (h >= 2 && cross(hull[static_cast<size_t>(h - 2)], hull[static_cast<size_t>(h - 1)], pts[static_cast<size_t>(i)]) <= 0) --h;
+    hull[static_cast<size_t>(h++)] = pts[static_cast<size_t>(i)];
+  }
+  for (int i = n - 2, lower = h + 1; i >= 0; --i) {
+    while (h >= lower && cross(hull[static_cast<size_t>(h - 2)], hull[static_cast<size_t>(h - 1)], pts[static_cast<size_t>(i)]) <= 0) --h;
+    hull[static_cast<size_t>(h++)] = pts[static_cast<size_t>(i)];
+  }
+  --h;  // the last point repeats the first
+  bool inside = h >= 3;
+  double d = std::numeric_limits<double>::infinity();
+  for (int i = 0; i < h; ++i) {
+    const Vector2d& a = hull[static_cast<size_t>(i)];
+    const Vector2d& b = hull[static_cast<size_t>((i + 1) % h)];
+    if (cross(a, b, x) < 0) inside = false;
+    d = std::min(d, segment_distance(x, a, b));
+  }
+  return inside ? -d : d;
+}
+
+SteppingConfig SteppingConfig::load(const Config& c) {
+  SteppingConfig s;
+  s.enabled = c.boolean_or("enabled", s.enabled);
+  s.margin = c.real_or("margin", s.margin, -0.1, 0.2);
+  s.cmp_reach = c.real_or("cmp_reach", s.cmp_reach, 0.0, 0.5);
+  s.t_min = c.real_or("t_min", s.t_min, 0.05, 2.0);
+  s.t_max = c.real_or("t_max", s.t_max, s.t_min, 3.0);
+  s.t_nominal = c.real_or("t_nominal", s.t_nominal, s.t_min, s.t_max);
+  s.dcm_offset = c.real_or("dcm_offset", s.dcm_offset, -0.2, 0.2);
+  s.reach_forward = c.real_or("reach_forward", s.reach_forward, 0.0, 2.0);
+  s.reach_backward = c.real_or("reach_backward", s.reach_backward, 0.0, 2.0);
+  s.min_width = c.real_or("min_width", s.min_width, 0.0, 2.0);
+  s.max_width = c.real_or("max_width", s.max_width, s.min_width, 2.0);
+  s.weight_position = c.real_or("weight_position", s.weight_position, 0.0, 1e6);
+  s.weight_offset = c.real_or("weight_offset", s.weight_offset, 1e-6, 1e6);
+  s.weight_time = c.real_or("weight_time", s.weight_time, 0.0, 1e6);
+  s.time_samples = static_cast<int>(c.integer_or("time_samples", s.time_samples, 1, 1000));
+  return s;
+}
+
+double StepPlanner::excess(const std::array<Sole, 2>& soles, const std::array<bool, 2>& contact, const Vector2d& xi) const {
+  return support_distance(soles, contact, xi) - config_.cmp_reach + config_.margin;
+}
+
+bool StepPlanner::step_needed(const std::array<Sole, 2>& soles, const std::array<bool, 2>& contact, const Vector2d& xi) const {
+  return config_.enabled && excess(soles, contact, xi) > 0.0;
+}
+
+int StepPlanner::choose_swing(const std::array<Sole, 2>& soles, const Vector2d& xi, const std::array<double, 2>& load) const {
+  const Sole& r = soles[model::kRight];
+  const Sole& l = soles[model::kLeft];
+  const Vector2d across = l.centre - r.centre;  // towards the left foot
+  const double half = 0.5 * across.norm();
+  if (half > 0) {
+    const double lateral = (xi - 0.5 * (l.centre + r.centre)).dot(across) / (2.0 * half);
+    if (lateral > half) return model::kLeft;
+    if (lateral < -half) return model::kRight;
+  }
+  return load[model::kLeft] < load[model::kRight] ? model::kLeft : model::kRight;
+}
+
+StepPlan StepPlanner::plan(const std::array<Sole, 2>& soles, int swing, const Vector2d& xi, double omega, double elapsed) const {
+  const SteppingConfig& c = config_;
+  const Sole& stance = soles[static_cast<size_t>(1 - swing)];
+  const Sole& moving = soles[static_cast<size_t>(swing)];
+  // The swing side in the stance frame: +y when the left foot swings (it lies to the stance's left).
+  const double side = swing == model::kLeft ? 1.0 : -1.0;
+  // The CMP during the swing: the stance sole's point nearest the DCM (the ankle strategy at its edge).
+  Vector2d p_local = stance.to_local(xi);
+  p_local.x() = std::clamp(p_local.x(), -stance.half_length, stance.half_length);
+  p_local.y() = std::clamp(p_local.y(), -stance.half_width, stance.half_width);
+  const Vector2d p_st = stance.to_world(p_local);
+  // The nominal landing: where the swing foot stands now, relative to the stance foot, at least
+  // min_width to the side.
+  Vector2d nominal_local = stance.to_local(moving.centre);
+  nominal_local.y() = side * std::clamp(side * nominal_local.y(), c.min_width, c.max_width);
+  nominal_local.x() = std::clamp(nominal_local.x(), -c.reach_backward, c.reach_forward);
+
+  const double t_lo = std::max(c.t_min - elapsed, 1e-3), t_hi = std::max(c.t_max - elapsed, t_lo);
+  const double t_nom = std::clamp(c.t_nominal - elapsed, t_lo, t_hi);
+  StepPlan best;
+  best.cost = std::numeric_limits<double>::infinity();
+  const int samples = t_hi > t_lo ? std::max(c.time_samples, 2) : 1;
+  for (int i = 0; i < samples; ++i) {
+    const double T = samples == 1 ? t_lo : t_lo + (t_hi - t_lo) * i / (samples - 1);
+    const Vector2d xi_T = dcm_after(xi, p_st, omega, T);
+    const Vector2d away = xi_T - p_st;
+    const Vector2d b = away.norm() > 1e-9 ? Vector2d(c.dcm_offset * away.normalized()) : Vector2d::Zero();
+    // min w_p ‖u − u_nom‖² + w_b ‖ξ_T − b − u‖² over the reach box: the box is axis-aligned in the
+    // stance frame and the cost isotropic, so the clamped free minimiser is the constrained one.
+    const Vector2d want_local = stance.to_local(xi_T - b);
+    const Vector2d free_local = (c.weight_position * nominal_local + c.weight_offset * want_local) / (c.weight_position + c.weight_offset);
+    Vector2d u_local = free_local;
+    u_local.x() = std::clamp(u_local.x(), -c.reach_backward, c.reach_forward);
+    u_local.y() = side * std::clamp(side * u_local.y(), c.min_width, c.max_width);
+    const double cost = c.weight_position * (u_local - nominal_local).squaredNorm() +
+                        c.weight_offset * (want_local - u_local).squaredNorm() + c.weight_time * (T - t_nom) * (T - t_nom);
+    if (cost < best.cost) {
+      best.cost = cost;
+      best.swing = swing;
+      best.duration = T;
+      best.target = stance.to_world(u_local);
+      best.yaw = stance.yaw;
+      best.xi_touchdown = xi_T;
+      best.reachable = (u_local - free_local).norm() < 1e-9;
+    }
+  }
+  return best;
+}
+
+}  // namespace hpr::balance

@@ -1,0 +1,196 @@
+// Stepping's capture point, decision and step planner against the linear inverted pendulum: the
+// closed forms are checked against a numerical integration of c̈ = ω² (c − p), and a planned step
+// is checked by integrating the pendulum through the swing and after the touchdown.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "hpr/balance/stepping.hpp"
+#include "hpr/common/config.hpp"
+#include "hpr/model/robot.hpp"
+
+namespace {
+
+using Eigen::Vector2d;
+using hpr::balance::Sole;
+using hpr::balance::StepPlanner;
+using hpr::balance::SteppingConfig;
+using hpr::model::kLeft;
+using hpr::model::kRight;
+
+struct Lip {
+  Vector2d c, cd;
+};
+
+/// RK4 of the LIP c̈ = ω² (c − p) over `t` with the CMP held at `p` (steps of 0.1 ms).
+Lip integrate(Lip s, const Vector2d& p, double omega, double t) {
+  const int n = std::max(1, static_cast<int>(std::ceil(t / 1e-4)));
+  const double h = t / n;
+  const double w2 = omega * omega;
+  for (int i = 0; i < n; ++i) {
+    const Vector2d k1c = s.cd, k1v = w2 * (s.c - p);
+    const Vector2d k2c = s.cd + 0.5 * h * k1v, k2v = w2 * (s.c + 0.5 * h * k1c - p);
+    const Vector2d k3c = s.cd + 0.5 * h * k2v, k3v = w2 * (s.c + 0.5 * h * k2c - p);
+    const Vector2d k4c = s.cd + h * k3v, k4v = w2 * (s.c + h * k3c - p);
+    s.c += h / 6 * (k1c + 2 * k2c + 2 * k3c + k4c);
+    s.cd += h / 6 * (k1v + 2 * k2v + 2 * k3v + k4v);
+  }
+  return s;
+}
+
+/// Two 0.2 × 0.1 m soles, 0.2 m apart (right at y = −0.1), facing +x.
+std::array<Sole, 2> standing() {
+  std::array<Sole, 2> s;
+  s[kRight] = {Vector2d(0, -0.1), 0.0, 0.1, 0.05};
+  s[kLeft] = {Vector2d(0, 0.1), 0.0, 0.1, 0.05};
+  return s;
+}
+
+constexpr double kOmega = 3.5;  // z_c ≈ 0.8 m
+
+TEST(Lip, TheDcmClosedFormMatchesTheIntegratedPendulum) {
+  EXPECT_NEAR(hpr::balance::lip_omega(0.8), std::sqrt(9.81 / 0.8), 1e-15);
+  const Lip s0{Vector2d(0.02, -0.01), Vector2d(0.4, 0.15)};
+  const Vector2d p(0.05, 0.02);
+  for (const double t : {0.1, 0.3, 0.6}) {
+    const Lip s = integrate(s0, p, kOmega, t);
+    const Vector2d xi = hpr::balance::capture_point(s.c, s.cd, kOmega);
+    const Vector2d expected = hpr::balance::dcm_after(hpr::balance::capture_point(s0.c, s0.cd, kOmega), p, kOmega, t);
+    EXPECT_LT((xi - expected).norm(), 1e-9) << "t = " << t;
+  }
+}
+
+TEST(Lip, WithTheCmpAtTheCapturePointThePendulumComesToRestThere) {
+  const Lip s0{Vector2d(0.0, 0.0), Vector2d(0.5, -0.2)};
+  const Vector2d xi = hpr::balance::capture_point(s0.c, s0.cd, kOmega);
+  const Lip s = integrate(s0, xi, kOmega, 6.0);
+  EXPECT_LT((s.c - xi).norm(), 1e-6);
+  EXPECT_LT(s.cd.norm(), 1e-5);
+}
+
+TEST(SupportDistance, InsideIsNegativeOutsideIsTheDistanceToTheHull) {
+  const auto soles = standing();
+  const std::array<bool, 2> both{true, true};
+  // The hull of both soles is the rectangle [−0.1, 0.1] × [−0.15, 0.15].
+  EXPECT_NEAR(hpr::balance::support_distance(soles, both, Vector2d(0, 0)), -0.1, 1e-12);
+  EXPECT_NEAR(hpr::balance::support_distance(soles, both, Vector2d(0.13, 0)), 0.03, 1e-12);
+  EXPECT_NEAR(hpr::balance::support_distance(soles, both, Vector2d(0, -0.2)), 0.05, 1e-12);
+  EXPECT_NEAR(hpr::balance::support_distance(soles, both, Vector2d(0.13, 0.19)), 0.05, 1e-12);  // corner: 3-4-5
+  // On the right foot alone the middle is outside, 5 cm from its inner edge.
+  EXPECT_NEAR(hpr::balance::support_distance(soles, {true, false}, Vector2d(0, 0)), 0.05, 1e-12);
+  // A rotated sole: 45° yaw, the point 0.1 m along its x axis from the centre is on its edge.
+  std::array<Sole, 2> turned = soles;
+  turned[kRight].yaw = M_PI / 4;
+  const Vector2d edge = turned[kRight].to_world({0.1, 0.0});
+  EXPECT_NEAR(hpr::balance::support_distance(turned, {true, false}, edge), 0.0, 1e-12);
+}
+
+TEST(StepDecision, NoStepWhileTheAnkleAndHipStrategiesSufficeAndAStepBeyond) {
+  SteppingConfig c;
+  c.enabled = true;
+  c.margin = 0.01;
+  c.cmp_reach = 0.04;
+  StepPlanner planner(c);
+  const auto soles = standing();
+  const std::array<bool, 2> both{true, true};
+  EXPECT_FALSE(planner.step_needed(soles, both, Vector2d(0.0, 0.0)));
+  EXPECT_FALSE(planner.step_needed(soles, both, Vector2d(0.12, 0.0))) << "2 cm out: the hip strategy holds it";
+  EXPECT_FALSE(planner.step_needed(soles, both, Vector2d(0.129, 0.0)));
+  EXPECT_TRUE(planner.step_needed(soles, both, Vector2d(0.131, 0.0))) << "beyond the CMP reach less the margin";
+  EXPECT_NEAR(planner.excess(soles, both, Vector2d(0.2, 0.0)), 0.1 - 0.04 + 0.01, 1e-12);
+  c.enabled = false;
+  EXPECT_FALSE(StepPlanner(c).step_needed(soles, both, Vector2d(1.0, 0.0))) << "disabled: never";
+}
+
+TEST(StepDecision, TheFootOnTheSideTheDcmRunsToSwingsElseTheLessLoadedOne) {
+  const StepPlanner planner(SteppingConfig{});
+  const auto soles = standing();
+  EXPECT_EQ(planner.choose_swing(soles, Vector2d(0.05, 0.3), {0.5, 0.5}), kLeft);
+  EXPECT_EQ(planner.choose_swing(soles, Vector2d(0.05, -0.3), {0.5, 0.5}), kRight);
+  EXPECT_EQ(planner.choose_swing(soles, Vector2d(0.3, 0.02), {0.7, 0.3}), kLeft);
+  EXPECT_EQ(planner.choose_swing(soles, Vector2d(0.3, 0.02), {0.3, 0.7}), kRight);
+}
+
+/// A configuration with a reach that never binds and the position cost off: the landing is the
+/// LIP's own answer u = ξ_T − b.
+SteppingConfig unconstrained() {
+  SteppingConfig c;
+  c.enabled = true;
+  c.reach_forward = c.reach_backward = 5.0;
+  c.min_width = 0.0;
+  c.max_width = 5.0;
+  c.weight_position = 0.0;
+  c.weight_time = 1.0;
+  return c;
+}
+
+TEST(StepPlanner, ThePendulumLandsWithItsDcmAtTheOffsetAndComesToRestOverTheNewFoot) {
+  for (const double b : {0.0, 0.03}) {
+    SteppingConfig c = unconstrained();
+    c.dcm_offset = b;
+    const StepPlanner planner(c);
+    const auto soles = standing();
+    // A push from behind: the CoM over the middle moving forward at 0.6 m/s.
+    const Lip s0{Vector2d(0.0, 0.0), Vector2d(0.6, 0.0)};
+    const Vector2d xi0 = hpr::balance::capture_point(s0.c, s0.cd, kOmega);
+    const auto plan = planner.plan(soles, kLeft, xi0, kOmega);
+    ASSERT_EQ(plan.swing, kLeft);
+    EXPECT_TRUE(plan.reachable);
+    EXPECT_NEAR(plan.duration, c.t_nominal, 0.5 * (c.t_max - c.t_min) / (c.time_samples - 1) + 1e-12);
+    // Through the swing on the right foot, the CMP at its sole point nearest the DCM: (0.1, −0.05).
+    const Lip at_touchdown = integrate(s0, Vector2d(0.1, -0.05), kOmega, plan.duration);
+    const Vector2d xi_T = hpr::balance::capture_point(at_touchdown.c, at_touchdown.cd, kOmega);
+    EXPECT_LT((xi_T - plan.xi_touchdown).norm(), 1e-9);
+    EXPECT_NEAR((xi_T - plan.target).norm(), b, 1e-9) << "ξ_T − u = b";
+    if (b == 0.0) {
+      // The CMP at the new sole centre: the pendulum comes to rest over it.
+      const Lip after = integrate(at_touchdown, plan.target, kOmega, 4.0);
+      // (the pendulum's unstable mode amplifies the integration error by e^{ωt} ≈ 10⁶ here)
+      EXPECT_LT((after.c - plan.target).norm(), 1e-4);
+      EXPECT_LT(after.cd.norm(), 1e-4);
+    }
+  }
+}
+
+TEST(StepPlanner, TheReachBoxBindsTheLandingNeverCrossesAndAStrongPushStepsSooner) {
+  SteppingConfig c;
+  c.enabled = true;
+  const StepPlanner planner(c);
+  const auto soles = standing();
+  // Mild push: the nominal step fits, away from the stance foot.
+  const auto mild = planner.plan(soles, kLeft, Vector2d(0.16, 0.0), kOmega);
+  const Vector2d local = soles[kRight].to_local(mild.target);
+  EXPECT_GE(local.y(), c.min_width - 1e-12);
+  EXPECT_LE(local.x(), c.reach_forward + 1e-12);
+  // A push across the stance foot (DCM to the right while the left foot swings): the left foot
+  // still lands at least min_width to the left of the right foot.
+  const auto across = planner.plan(soles, kLeft, Vector2d(0.05, -0.4), kOmega);
+  EXPECT_GE(soles[kRight].to_local(across.target).y(), c.min_width - 1e-12);
+  // Strong push: the landing is at the forward reach, out of reach of the LIP's answer, and the
+  // swing is as short as allowed (a later touchdown only lets the DCM run further).
+  const auto strong = planner.plan(soles, kRight, Vector2d(0.6, 0.0), kOmega);
+  EXPECT_FALSE(strong.reachable);
+  EXPECT_NEAR(soles[kLeft].to_local(strong.target).x(), c.reach_forward, 1e-12);
+  EXPECT_NEAR(strong.duration, c.t_min, 1e-12);
+  // Replanning half-way through the swing searches only the time that is left.
+  const auto replanned = planner.plan(soles, kLeft, Vector2d(0.16, 0.0), kOmega, 0.2);
+  EXPECT_LE(replanned.duration, c.t_max - 0.2 + 1e-12);
+  EXPECT_GE(replanned.duration, c.t_min - 0.2 - 1e-12);
+}
+
+TEST(SteppingConfig, LoadsAndRefusesOutOfRangeValuesNamingTheKey) {
+  const auto cfg = hpr::Config::parse("stepping: {enabled: true, t_min: 0.2, t_max: 0.5, t_nominal: 0.3, cmp_reach: 0.03}", "test.yaml");
+  const SteppingConfig c = SteppingConfig::load(cfg.section("stepping"));
+  EXPECT_TRUE(c.enabled);
+  EXPECT_EQ(c.t_min, 0.2);
+  EXPECT_EQ(c.cmp_reach, 0.03);
+  const auto bad = hpr::Config::parse("stepping: {t_min: 0.4, t_max: 0.3}", "test.yaml");
+  try {
+    (void)SteppingConfig::load(bad.section("stepping"));
+    FAIL() << "t_max below t_min accepted";
+  } catch (const hpr::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("t_max"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
