@@ -105,6 +105,13 @@ SteppingConfig SteppingConfig::load(const Config& c) {
   return s;
 }
 
+Vector2d stance_cmp(const Sole& stance, const Vector2d& xi) {
+  Vector2d p = stance.to_local(xi);
+  p.x() = std::clamp(p.x(), -stance.half_length, stance.half_length);
+  p.y() = std::clamp(p.y(), -stance.half_width, stance.half_width);
+  return stance.to_world(p);
+}
+
 double StepPlanner::excess(const std::array<Sole, 2>& soles, const std::array<bool, 2>& contact, const Vector2d& xi) const {
   return support_distance(soles, contact, xi) - config_.cmp_reach + config_.margin;
 }
@@ -128,21 +135,6 @@ int StepPlanner::choose_swing(const std::array<Sole, 2>& soles, const Vector2d& 
 
 StepPlan StepPlanner::plan(const std::array<Sole, 2>& soles, int swing, const Vector2d& xi, double omega, double elapsed) const {
   const SteppingConfig& c = config_;
-  const Sole& stance = soles[static_cast<size_t>(1 - swing)];
-  const Sole& moving = soles[static_cast<size_t>(swing)];
-  // The swing side in the stance frame: +y when the left foot swings (it lies to the stance's left).
-  const double side = swing == model::kLeft ? 1.0 : -1.0;
-  // The CMP during the swing: the stance sole's point nearest the DCM (the ankle strategy at its edge).
-  Vector2d p_local = stance.to_local(xi);
-  p_local.x() = std::clamp(p_local.x(), -stance.half_length, stance.half_length);
-  p_local.y() = std::clamp(p_local.y(), -stance.half_width, stance.half_width);
-  const Vector2d p_st = stance.to_world(p_local);
-  // The nominal landing: where the swing foot stands now, relative to the stance foot, at least
-  // min_width to the side.
-  Vector2d nominal_local = stance.to_local(moving.centre);
-  nominal_local.y() = side * std::clamp(side * nominal_local.y(), c.min_width, c.max_width);
-  nominal_local.x() = std::clamp(nominal_local.x(), -c.reach_backward, c.reach_forward);
-
   const double t_lo = std::max(c.t_min - elapsed, 1e-3), t_hi = std::max(c.t_max - elapsed, t_lo);
   const double t_nom = std::clamp(c.t_nominal - elapsed, t_lo, t_hi);
   StepPlan best;
@@ -150,29 +142,51 @@ StepPlan StepPlanner::plan(const std::array<Sole, 2>& soles, int swing, const Ve
   const int samples = t_hi > t_lo ? std::max(c.time_samples, 2) : 1;
   for (int i = 0; i < samples; ++i) {
     const double T = samples == 1 ? t_lo : t_lo + (t_hi - t_lo) * i / (samples - 1);
-    const Vector2d xi_T = dcm_after(xi, p_st, omega, T);
-    const Vector2d away = xi_T - p_st;
-    const Vector2d b = away.norm() > 1e-9 ? Vector2d(c.dcm_offset * away.normalized()) : Vector2d::Zero();
-    // min w_p ‖u − u_nom‖² + w_b ‖ξ_T − b − u‖² over the reach box: the box is axis-aligned in the
-    // stance frame and the cost isotropic, so the clamped free minimiser is the constrained one.
-    const Vector2d want_local = stance.to_local(xi_T - b);
-    const Vector2d free_local = (c.weight_position * nominal_local + c.weight_offset * want_local) / (c.weight_position + c.weight_offset);
-    Vector2d u_local = free_local;
-    u_local.x() = std::clamp(u_local.x(), -c.reach_backward, c.reach_forward);
-    u_local.y() = side * std::clamp(side * u_local.y(), c.min_width, c.max_width);
-    const double cost = c.weight_position * (u_local - nominal_local).squaredNorm() +
-                        c.weight_offset * (want_local - u_local).squaredNorm() + c.weight_time * (T - t_nom) * (T - t_nom);
-    if (cost < best.cost) {
-      best.cost = cost;
-      best.swing = swing;
-      best.duration = T;
-      best.target = stance.to_world(u_local);
-      best.yaw = stance.yaw;
-      best.xi_touchdown = xi_T;
-      best.reachable = (u_local - free_local).norm() < 1e-9;
-    }
+    const StepPlan p = evaluate(soles, swing, xi, omega, T, t_nom);
+    if (p.cost < best.cost) best = p;
   }
   return best;
+}
+
+StepPlan StepPlanner::plan_landing(const std::array<Sole, 2>& soles, int swing, const Vector2d& xi, double omega,
+                                   double remaining) const {
+  return evaluate(soles, swing, xi, omega, std::max(remaining, 0.0), std::max(remaining, 0.0));
+}
+
+StepPlan StepPlanner::evaluate(const std::array<Sole, 2>& soles, int swing, const Vector2d& xi, double omega, double T,
+                               double t_nom) const {
+  const SteppingConfig& c = config_;
+  const Sole& stance = soles[static_cast<size_t>(1 - swing)];
+  const Sole& moving = soles[static_cast<size_t>(swing)];
+  // The swing side in the stance frame: +y when the left foot swings (it lies to the stance's left).
+  const double side = swing == model::kLeft ? 1.0 : -1.0;
+  // The CMP during the swing: the stance sole's point nearest the DCM (the ankle strategy at its edge).
+  const Vector2d p_st = stance_cmp(stance, xi);
+  // The nominal landing: where the swing foot stands now, relative to the stance foot, at least
+  // min_width to the side.
+  Vector2d nominal_local = stance.to_local(moving.centre);
+  nominal_local.y() = side * std::clamp(side * nominal_local.y(), c.min_width, c.max_width);
+  nominal_local.x() = std::clamp(nominal_local.x(), -c.reach_backward, c.reach_forward);
+  const Vector2d xi_T = dcm_after(xi, p_st, omega, T);
+  const Vector2d away = xi_T - p_st;
+  const Vector2d b = away.norm() > 1e-9 ? Vector2d(c.dcm_offset * away.normalized()) : Vector2d::Zero();
+  // min w_p ‖u − u_nom‖² + w_b ‖ξ_T − b − u‖² over the reach box: the box is axis-aligned in the
+  // stance frame and the cost isotropic, so the clamped free minimiser is the constrained one.
+  const Vector2d want_local = stance.to_local(xi_T - b);
+  const Vector2d free_local = (c.weight_position * nominal_local + c.weight_offset * want_local) / (c.weight_position + c.weight_offset);
+  Vector2d u_local = free_local;
+  u_local.x() = std::clamp(u_local.x(), -c.reach_backward, c.reach_forward);
+  u_local.y() = side * std::clamp(side * u_local.y(), c.min_width, c.max_width);
+  StepPlan p;
+  p.swing = swing;
+  p.duration = T;
+  p.target = stance.to_world(u_local);
+  p.yaw = stance.yaw;
+  p.xi_touchdown = xi_T;
+  p.reachable = (u_local - free_local).norm() < 1e-9;
+  p.cost = c.weight_position * (u_local - nominal_local).squaredNorm() + c.weight_offset * (want_local - u_local).squaredNorm() +
+           c.weight_time * (T - t_nom) * (T - t_nom);
+  return p;
 }
 
 }  // namespace hpr::balance

@@ -172,6 +172,15 @@ TEST(StepPlanner, TheReachBoxBindsTheLandingNeverCrossesAndAStrongPushStepsSoone
   EXPECT_FALSE(strong.reachable);
   EXPECT_NEAR(soles[kLeft].to_local(strong.target).x(), c.reach_forward, 1e-12);
   EXPECT_NEAR(strong.duration, c.t_min, 1e-12);
+  // Replanning with the touchdown time kept: the landing for exactly the time left, the same as
+  // the search finds when that is the only duration it may choose.
+  SteppingConfig fixed = c;
+  fixed.t_min = fixed.t_max = fixed.t_nominal = 0.3;
+  const auto searched = StepPlanner(fixed).plan(soles, kLeft, Vector2d(0.2, 0.02), kOmega);
+  const auto kept = planner.plan_landing(soles, kLeft, Vector2d(0.2, 0.02), kOmega, 0.3);
+  EXPECT_EQ(kept.duration, 0.3);
+  EXPECT_LT((kept.target - searched.target).norm(), 1e-12);
+  EXPECT_LT((kept.xi_touchdown - hpr::balance::dcm_after(Vector2d(0.2, 0.02), hpr::balance::stance_cmp(soles[kRight], Vector2d(0.2, 0.02)), kOmega, 0.3)).norm(), 1e-12);
   // Replanning half-way through the swing searches only the time that is left.
   const auto replanned = planner.plan(soles, kLeft, Vector2d(0.16, 0.0), kOmega, 0.2);
   EXPECT_LE(replanned.duration, c.t_max - 0.2 + 1e-12);

@@ -53,6 +53,10 @@ struct Sole {
 /// negative inside (minus the distance to the nearest edge), positive outside.
 double support_distance(const std::array<Sole, 2>& soles, const std::array<bool, 2>& contact, const Eigen::Vector2d& x);
 
+/// The CMP a stance sole can hold nearest to the capture point `xi`: ξ clamped into the sole (the
+/// ankle strategy at the edge the robot falls over).
+Eigen::Vector2d stance_cmp(const Sole& stance, const Eigen::Vector2d& xi);
+
 struct SteppingConfig {
   bool enabled = false;        ///< take steps (else the ankle and hip strategies only, as the paper)
   double margin = 0.01;        ///< [m] ξ may come this close to the grown support edge before a step
@@ -103,10 +107,18 @@ class StepPlanner {
   /// remaining time is searched).
   [[nodiscard]] StepPlan plan(const std::array<Sole, 2>& soles, int swing, const Eigen::Vector2d& xi, double omega,
                               double elapsed = 0.0) const;
+  /// The landing of `swing` for a touchdown exactly `remaining` seconds from now (the replanning
+  /// during a swing whose timing is kept).
+  [[nodiscard]] StepPlan plan_landing(const std::array<Sole, 2>& soles, int swing, const Eigen::Vector2d& xi, double omega,
+                                      double remaining) const;
 
   [[nodiscard]] const SteppingConfig& config() const { return config_; }
 
  private:
+  /// The step of `swing` landing after T: its landing and cost.
+  [[nodiscard]] StepPlan evaluate(const std::array<Sole, 2>& soles, int swing, const Eigen::Vector2d& xi, double omega,
+                                  double T, double t_nominal) const;
+
   SteppingConfig config_;
 };
 
