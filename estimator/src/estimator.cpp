@@ -30,7 +30,7 @@ EstimatorConfig EstimatorConfig::load(const Config& c) {
   c.reject_unknown({"sensor_timeout", "joint_accel_noise", "encoder_noise", "filter_joints", "gyro_noise", "gyro_bias_walk",
                     "gyro_bias_initial", "angular_accel_noise", "kinematic_orientation_noise", "kinematic_rate_noise",
                     "accel_orientation_noise", "level_ground", "accel_noise", "foot_contact_noise", "foot_swing_noise",
-                    "kinematic_position_noise", "kinematic_velocity_noise", "contact_on", "contact_off", "cop_edge_margin",
+                    "kinematic_position_noise", "kinematic_velocity_noise", "contact_on", "contact_off", "cop_edge_margin", "anchor_max_rate", "anchor_velocity_gate", "contact_max_height",
                     "cam_observer_gain", "initialisation_time", "max_position_std", "max_accel", "max_gyro",
                     "max_ft_force", "joint_limit_margin"});
   EstimatorConfig e;
@@ -56,6 +56,9 @@ EstimatorConfig EstimatorConfig::load(const Config& c) {
     c.fail("contact_off", fmt::format("must not exceed contact_on ({} N)", e.contact_on));
   }
   e.cop_edge_margin = c.real_or("cop_edge_margin", e.cop_edge_margin, 0.0, 0.5);
+  e.anchor_max_rate = c.real_or("anchor_max_rate", e.anchor_max_rate, 0.0, 100.0);
+  e.anchor_velocity_gate = c.real_or("anchor_velocity_gate", e.anchor_velocity_gate, 0.0, 100.0);
+  e.contact_max_height = c.real_or("contact_max_height", e.contact_max_height, 0.0, 1.0);
   e.cam_observer_gain = c.real_or("cam_observer_gain", e.cam_observer_gain, 0.1, 1e4);
   e.initialisation_time = c.real_or("initialisation_time", e.initialisation_time, 0.0, 60.0);
   e.max_position_std = c.real_or("max_position_std", e.max_position_std, 1e-4, 100.0);
@@ -255,6 +258,8 @@ void Estimator::leg_kinematics() {
   }
 }
 
+constexpr double kTouchdownSettle = 0.03;  // [s]
+
 void Estimator::update_contacts(const SensorSample& s) {
   const Vector3d g = robot_->model.gravity;
   for (int k = 0; k < 2; ++k) {
@@ -275,6 +280,12 @@ void Estimator::update_contacts(const SensorSample& s) {
     fz_[ku] = f_ground.z();
     const bool was = contact_[ku];
     contact_[ku] = was ? fz_[ku] > config_.contact_off : fz_[ku] > config_.contact_on;
+    // On level ground a sole well above the other one is in the air, whatever its sensor reads (a
+    // swinging foot's own inertia loads it).
+    if (config_.level_ground && config_.contact_max_height > 0.0) {
+      const double dz = (R_ * (X_BS_[ku].p - X_BS_[1 - ku].p)).z();
+      if (dz > config_.contact_max_height) contact_[ku] = false;
+    }
     // Centre of pressure in the sole frame: near an edge the sole may be rotating about it.
     const Matrix3d R_WSole = R_ * X_BS_[ku].R;
     const Vector3d f_S = R_WSole.transpose() * f_ground, tau_S = R_WSole.transpose() * wrench_W_[ku].tail<3>();
@@ -284,6 +295,13 @@ void Estimator::update_contacts(const SensorSample& s) {
       const double cx = -tau_S.y() / f_S.z(), cy = tau_S.x() / f_S.z();
       flat = 0.5 * foot.length - std::abs(cx) > config_.cop_edge_margin && 0.5 * foot.width - std::abs(cy) > config_.cop_edge_margin;
     }
+    // A sole that turns (base rate plus the leg's, from the last tick) rolls about an edge or has
+    // not settled: its centre is not at rest.
+    if (flat && config_.anchor_max_rate > 0.0 && (w_ + w_BS_[ku]).norm() > config_.anchor_max_rate) flat = false;
+    if (contact_[ku] && !was && initialised_) touchdown_time_[ku] = s.time;  // (standing at the start is no touchdown)
+    // Right after a touchdown the sole settles and the leg's joint rates, filtered, still carry the
+    // swing: its kinematics correct nothing yet.
+    if (s.time - touchdown_time_[ku] < kTouchdownSettle) flat = false;
     anchor_[ku] = flat;
     if (contact_[ku] && !was) {
       // Touchdown: hold the sole's heading (and, on uneven ground, its tilt) from now on, and start
@@ -468,6 +486,13 @@ void Estimator::position(const SensorSample& s, double dt) {
   }
   // Corrections from each sole in contact: its position relative to the IMU point, and the IMU
   // point's velocity with the sole at rest: v_I = −R (ω × d + ḋ), d = p_BS − p_BI.
+  // A sole that reads as loaded while it moves (a swing foot's own inertia on its sensor, a sliding
+  // sole) is no anchor either: an anchor whose velocity measurement disagrees with the estimate by
+  // more than anchor_velocity_gate is left out, as long as another anchor agrees (when none does,
+  // the estimate is what is wrong, and every anchor corrects it).
+  std::array<Vector3d, 2> v_meas{};
+  std::array<bool, 2> use{};
+  bool any_agrees = false;
   for (int k = 0; k < 2; ++k) {
     const auto ku = static_cast<size_t>(k);
     const int i = 6 + 3 * k;
@@ -477,10 +502,20 @@ void Estimator::position(const SensorSample& s, double dt) {
       continue;
     }
     if (!anchor_[ku]) continue;  // rotating about an edge: its centre moves, no correction
+    v_meas[ku] = -R_ * (w_.cross(d) + v_BS_[ku] - v_BI_);
+    use[ku] = true;
+    any_agrees = any_agrees || config_.anchor_velocity_gate <= 0.0 ||
+                 (v_meas[ku] - x_.segment<3>(3)).norm() <= config_.anchor_velocity_gate;
+  }
+  for (int k = 0; k < 2; ++k) {
+    const auto ku = static_cast<size_t>(k);
+    if (!use[ku]) continue;
+    if (any_agrees && config_.anchor_velocity_gate > 0.0 && (v_meas[ku] - x_.segment<3>(3)).norm() > config_.anchor_velocity_gate) continue;
+    const int i = 6 + 3 * k;
+    const Vector3d d = X_BS_[ku].p - p_BI_;
     const Vector3d r_pos = R_ * d - (x_.segment<3>(i) - x_.head<3>());
     position_correct(i, r_pos, config_.kinematic_position_noise, false);
-    const Vector3d v_meas = -R_ * (w_.cross(d) + v_BS_[ku] - v_BI_);
-    position_correct(3, v_meas - x_.segment<3>(3), config_.kinematic_velocity_noise, true);
+    position_correct(3, v_meas[ku] - x_.segment<3>(3), config_.kinematic_velocity_noise, true);
   }
 }
 

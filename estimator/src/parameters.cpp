@@ -19,6 +19,8 @@ void add_parameters(ParameterSet& params, EstimatorConfig& c) {
                 return std::string();
               }});
   params.add("cop_edge_margin", c.cop_edge_margin, 0.0, 0.5, "m");
+  params.add("anchor_max_rate", c.anchor_max_rate, 0.0, 100.0, "rad/s");
+  params.add("anchor_velocity_gate", c.anchor_velocity_gate, 0.0, 100.0, "m/s");
 }
 
 }  // namespace hpr::estimator

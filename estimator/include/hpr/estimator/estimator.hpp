@@ -66,6 +66,11 @@ struct EstimatorConfig {
   double contact_off = 5.0;              ///< [N] to release it
   double cop_edge_margin = 0.01;          ///< [m] a sole whose CoP is closer than this to its edge may be
                                           ///< rotating about it: its kinematics do not correct the filters
+  double anchor_max_rate = 1.0;           ///< [rad/s] a sole in contact turning faster than this is not at rest
+                                          ///< either (0: no such check)
+  double contact_max_height = 0.025;      ///< [m] on level ground a sole this far above the other is in the air (0: no check)
+  double anchor_velocity_gate = 0.3;      ///< [m/s] a sole whose kinematic velocity measurement differs from the
+                                          ///< estimate by more than this corrects nothing (0: no gate)
   // Momentum observer.
   double cam_observer_gain = 20.0;        ///< K_l [1/s]
   // Health.
@@ -164,6 +169,7 @@ class Estimator {
 
   // Contact, and whether a sole in contact is a reliable anchor (flat: CoP inside the sole).
   std::array<bool, 2> contact_{}, anchor_{};
+  std::array<double, 2> touchdown_time_{-1e9, -1e9};  ///< when each sole last came into contact
   std::array<Eigen::Matrix<double, 6, 1>, 2> wrench_W_{};  // ground on foot, world axes, at the sole centre
   std::array<double, 2> fz_{};
 
@@ -184,7 +190,7 @@ class Estimator {
   Eigen::Vector3d l_hat_ = Eigen::Vector3d::Zero();
 };
 
-/// Registers the live-tunable parameters (the contact hysteresis (contact_on, contact_off) and cop_edge_margin) under the keys of the
+/// Registers the live-tunable parameters (the contact hysteresis (contact_on, contact_off), cop_edge_margin and anchor_max_rate) under the keys of the
 /// configuration section, with the ranges its loader accepts; the process that runs the component
 /// (its own node, or the composed controllers) answers OPERATOR sets with them.
 void add_parameters(ParameterSet& params, EstimatorConfig& c);
