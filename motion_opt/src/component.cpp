@@ -22,7 +22,7 @@ bool MotionOptComponent::step(const Inputs& in, Outputs& out) {
     if (!s.usable()) return false;
     reference_.start(s.q, s.time);
   }
-  const balance::TaskReference& ref = reference_.update(s.time);
+  const balance::TaskReference& ref = reference_.update(s.time, s.usable() ? &s : nullptr);
   const bool fresh = in.cam != nullptr;
   const Eigen::Vector3d l_ref = fresh ? in.cam->l_ref_W : Eigen::Vector3d::Zero();
   const bool generating = fresh && in.cam->generating();

@@ -232,6 +232,10 @@ void MotionOptimizer::build_qp(const balance::TaskReference& ref, const Vector3d
   for (int c : set_) xu_(coords_[static_cast<size_t>(c)].task) = 0.0;
   const Vector3d l_u = Abar * xu_;
   out_.l_ref = lref;
+  // The CAM task asks for l_c^ref on top of the CAM the reference motion itself carries, Ā ẋ^ref:
+  // zero while the reference rests (the paper's balancing, where (14a) is Ā ẋ = l_c^ref), the
+  // swinging leg's during a step (which the upper body should not cancel).
+  const Vector3d l_target = lref + Abar * xdot_ref_;
 
   // QP (13) over ẋ_a.
   for (int a = 0; a < k; ++a) {
@@ -276,7 +280,7 @@ void MotionOptimizer::build_qp(const balance::TaskReference& ref, const Vector3d
   out_.cam_weight_scale = cam_scale_;
   const Eigen::Matrix3d Ql = (cam_scale_ * config_.Q_l).asDiagonal();
   H_.noalias() += Aa_.transpose() * Ql * Aa_;
-  g_.noalias() += Aa_.transpose() * Ql * (l_u - lref);
+  g_.noalias() += Aa_.transpose() * Ql * (l_u - l_target);
 }
 
 void MotionOptimizer::solve_qp() {
@@ -343,7 +347,16 @@ void MotionOptimizer::compose_command(const balance::TaskReference& ref, double 
 
   // Commanded CAM Ā ẋ^cmd, its rate, and the share of each segment.
   out_.l_cmd = Abar * xdot_cmd_;
-  out_.ldot_cmd = first_ ? Vector3d::Zero() : Vector3d((out_.l_cmd - l_cmd_prev_) / dt);
+  // The rate by differences, except across a change of contacts: a foot's reference twist (the
+  // swing at touchdown, say) jumps to zero in one tick there, and its difference quotient is an
+  // impulse no CoM wrench should follow; the rate of the tick before is kept.
+  const std::array<bool, 2> contact{ref.feet[0].contact, ref.feet[1].contact};
+  if (first_) {
+    out_.ldot_cmd.setZero();
+  } else if (contact == contact_prev_) {
+    out_.ldot_cmd = (out_.l_cmd - l_cmd_prev_) / dt;
+  }
+  contact_prev_ = contact;
   l_cmd_prev_ = out_.l_cmd;
   for (size_t s = 0; s < segment_coords_.size(); ++s) {
     Vector3d l = Vector3d::Zero();
@@ -359,6 +372,7 @@ void MotionOptimizer::reset() {
   delta_dot_prev_.setZero();
   delta_acc_.setZero();
   l_cmd_prev_.setZero();
+  contact_prev_ = {true, true};
   last_set_.clear();
 }
 

@@ -32,7 +32,7 @@ void WbcComponent::step(const Inputs& in, Outputs& out) {
     if (!s.usable()) return damp(s.tick, Mode::kDampNoState, out);
     reference_.start(s.q, s.time);
   }
-  const balance::TaskReference& own = reference_.update(s.time);
+  const balance::TaskReference& own = reference_.update(s.time, s.usable() ? &s : nullptr);
   if (damping_) return damp(s.tick, Mode::kDampOperator, out);
   bad_state_count_ = s.usable() ? 0 : bad_state_count_ + 1;
   if (bad_state_count_ >= bad_state_ticks_) return damp(s.tick, Mode::kDampBadState, out);

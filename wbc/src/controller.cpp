@@ -327,9 +327,12 @@ void WholeBodyController::virtual_stance_foot(const balance::TaskReference& cmd,
   }
   const Matrix3d R_v = Eigen::AngleAxisd(yaw, Vector3d::UnitZ()).toRotationMatrix();
   const Vector3d r_vc = data_.com - p_v;
-  // (18), (19): torques about the virtual stance foot of the CoM wrench parts.
-  const Vector3d hip = w_ff.tail<3>() + r_vc.cross(w_ff.head<3>());
-  const Vector3d ankle = w_rest.tail<3>() + r_vc.cross(w_rest.head<3>());
+  // (18), (19): torques about the virtual stance foot of the CoM wrench parts. The hip torque is
+  // taken as (21), the feedforward torque τ_b^ff alone: the paper's balancing has a resting CoM
+  // reference (f_c^ff = 0) and there (19) and (21) agree; a CoM reference that moves by design (a
+  // step's inverted pendulum) asks for its feedforward force from the CoP, the ankle strategy.
+  const Vector3d hip = w_ff.tail<3>();
+  const Vector3d ankle = w_rest.tail<3>() + r_vc.cross(w_rest.head<3>() + w_ff.head<3>());
   status_.p_WV = p_v;
   status_.yaw_WV = yaw;
   status_.tau_hip_V = R_v.transpose() * hip;

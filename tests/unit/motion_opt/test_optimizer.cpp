@@ -227,6 +227,56 @@ TEST_F(MotionOptTest, ChangingTheAdjustedSetDoesNotMakeTheCommandJump) {
   EXPECT_EQ(set_changes, 2) << "the swing foot joins and leaves x_a";
 }
 
+TEST_F(MotionOptTest, TheCamTaskKeepsTheMomentumOfAMovingReference) {
+  // A swinging foot carries CAM of its own (Ā ẋ^ref); the CAM task asks for l_c^ref on top of it,
+  // so that the upper body does not cancel a step's swing leg. Without posture weight the commanded
+  // CAM is l_c^ref + Ā ẋ^ref, that momentum taken from the model independently of the optimiser.
+  motion_opt::MotionOptConfig c = config();
+  c.Q_p = 1e-12;
+  c.Q_p_overrides.clear();
+  motion_opt::MotionOptimizer opt(robot, c);
+  balance::TaskReference r = ref;
+  r.support = balance::Support::kRight;
+  r.settled = false;  // a step's swing: the swing foot is no adjusted coordinate
+  r.feet[1].contact = false;
+  r.feet[1].twist << 0.8, 0.1, -0.2, 0.0, 0.0, 0.0;
+  balance::TaskReference at_rest = r;
+  at_rest.feet[1].twist.setZero();
+  const Vector3d l_ref(0.3, -0.8, 0.2);
+  const auto& out = opt.step(q, v, r, l_ref, true, kDt);
+  ASSERT_FALSE(out.qp_failed);
+  balance::TaskReference reference_motion = r;  // ẋ^ref alone: the reference with no offsets
+  const Vector3d l_swing = cam_of_command(robot, q, reference_motion) - cam_of_command(robot, q, at_rest);
+  ASSERT_GT(l_swing.norm(), 0.5) << "the swinging leg carries momentum worth testing";
+  EXPECT_LT((out.l_cmd - (l_ref + l_swing)).norm(), 1e-6);
+}
+
+TEST_F(MotionOptTest, ATouchdownDoesNotMakeTheCamRateJump) {
+  // At touchdown the swing foot's reference twist drops to zero in one tick. The commanded CAM
+  // jumps by the swing leg's momentum there; its difference quotient would be an impulse of
+  // hundreds of N m that no CoM wrench should follow: the rate of the tick before is kept.
+  motion_opt::MotionOptimizer opt(robot, config());
+  balance::TaskReference r = ref;
+  r.support = balance::Support::kRight;
+  r.settled = false;
+  r.feet[1].contact = false;
+  r.feet[1].twist << 0.0, 0.0, -0.3, 0.0, 0.0, 0.0;
+  Vector3d l_before = Vector3d::Zero(), ldot_before = Vector3d::Zero();
+  for (int s = 0; s < 200; ++s) {
+    const auto& out = opt.step(q, v, r, Vector3d::Zero(), false, kDt);
+    l_before = out.l_cmd;
+    ldot_before = out.ldot_cmd;
+  }
+  r.support = balance::Support::kDouble;
+  r.feet[1].contact = true;
+  r.feet[1].twist.setZero();
+  const auto& out = opt.step(q, v, r, Vector3d::Zero(), false, kDt);
+  ASSERT_GT((out.l_cmd - l_before).norm() / kDt, 50.0) << "the commanded CAM does jump at the touchdown";
+  EXPECT_LT((out.ldot_cmd - ldot_before).norm(), 1e-9) << "its rate does not";
+  const auto& next = opt.step(q, v, r, Vector3d::Zero(), false, kDt);
+  EXPECT_LT(next.ldot_cmd.norm(), 50.0) << "differences resume after the touchdown";
+}
+
 TEST_F(MotionOptTest, StaleReferenceMeansPostureOnly) {
   motion_opt::MotionOptimizer opt(robot, config());
   const auto& out = opt.step(q, v, ref, Vector3d(50, 50, 50), false, kDt);

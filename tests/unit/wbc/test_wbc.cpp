@@ -202,6 +202,48 @@ TEST(Wbc, TorquesReproduceTheDesiredClosedLoop) {
   }
 }
 
+TEST(Wbc, TheHipTorqueIsTheFeedforwardTorqueAndAMovingCoMReferenceLoadsTheAnkles) {
+  // (19) split τ_v between the feedforward (hip) and gravity plus impedance (ankle) for a resting
+  // CoM reference, where the feedforward force is zero; (21) names the hip torque τ_b^ff. With a
+  // CoM reference that accelerates (a step's pendulum) the feedforward force m c̈^ref is the CoP's
+  // work: it counts to the ankle, the hip keeps τ_b^ff, and the sum is τ_v of the desired wrench.
+  const auto robot = test::load_robot("toro");
+  const model::Model& m = robot.model;
+  const Config cfg = Config::load(test::source_dir() + "/config/toro.yaml");
+  wbc::WholeBodyController ctl(robot, wbc::WbcConfig::load(cfg.section("wbc"), robot));
+  const VectorXd q = robot.standing_configuration();
+  wbc::RobotState st;
+  st.q = q;
+  st.v = VectorXd::Zero(m.nv);
+  balance::PostureReference pref(robot, {});
+  pref.start(q, 0.0);
+  balance::TaskReference cmd = pref.update(3.0);
+  model::Data d(m);
+  const Vector3d com = model::center_of_mass(m, d, q);
+  for (const Vector3d& a_com : {Vector3d(0, 0, 0), Vector3d(0.8, -0.5, 0.0)}) {
+    cmd.a_com = a_com;
+    ctl.step(st, cmd);
+    const balance::BalanceStatus s = ctl.status();  // a copy: the controller steps again below
+    const Vector6d w_ff = ctl.feedforward().head<6>();
+    EXPECT_LT((w_ff.head<3>() - m.mass * a_com).norm(), 1e-6 * (1.0 + m.mass * a_com.norm())) << "f_ff = m c̈^ref";
+    const Eigen::Matrix3d R_v = Eigen::AngleAxisd(s.yaw_WV, Vector3d::UnitZ()).toRotationMatrix();
+    const Vector3d r = com - s.p_WV;
+    EXPECT_LT((s.tau_hip_V - R_v.transpose() * w_ff.tail<3>()).norm(), 1e-9);
+    const Vector3d tau_v = R_v.transpose() * (s.w_des.tail<3>() + r.cross(s.w_des.head<3>()));
+    EXPECT_LT((s.tau_V - tau_v).norm(), 1e-6 * (1.0 + tau_v.norm()));
+    EXPECT_LT((s.tau_ankle_V + s.tau_hip_V - s.tau_V).norm(), 1e-9);
+    if (a_com.isZero()) {
+      // At rest (the paper's case) the old split (19) gives the same hip torque.
+      EXPECT_LT((s.tau_hip_V - R_v.transpose() * (w_ff.tail<3>() + r.cross(w_ff.head<3>()))).norm(), 1e-6);
+    } else {
+      // The CoM's own acceleration shows in the ankle torque: m r × c̈ of it.
+      ctl.step(st, [&] { balance::TaskReference c = cmd; c.a_com.setZero(); return c; }());
+      const Vector3d ankle_rest = ctl.status().tau_ankle_V;
+      EXPECT_LT((s.tau_ankle_V - ankle_rest - R_v.transpose() * r.cross(m.mass * a_com)).norm(), 1e-3 * m.mass * a_com.norm());
+    }
+  }
+}
+
 TEST(Wbc, CommandsStayWithinTheJointLimits) {
   // A commanded motion far beyond what the joints can follow (J⁻¹ turns 4 m/s of CoM into leg
   // rates above their limits): the drives get targets inside their ranges, and the step says so.

@@ -130,6 +130,7 @@ class MotionOptimizer {
   Eigen::VectorXd xu_, xd_, xa_;     ///< ẋ_u (task order), ẋ_a^d (16), ẋ_a^opt
   Eigen::Matrix<double, 3, Eigen::Dynamic> Aa_;  ///< Ā_a
   Eigen::Vector3d l_cmd_prev_ = Eigen::Vector3d::Zero();
+  std::array<bool, 2> contact_prev_{true, true};  ///< the feet's contacts of the last step
   bool first_ = true;
   double cam_scale_ = 1.0, release_progress_ = 1.0;
   MotionOptOutput out_;
