@@ -39,19 +39,24 @@ double segment_distance(const Vector2d& x, const Vector2d& a, const Vector2d& b)
 
 }  // namespace
 
-double support_distance(const std::array<Sole, 2>& soles, const std::array<bool, 2>& contact, const Vector2d& x) {
-  // The corners of the soles in contact, then their convex hull (Andrew's monotone chain),
-  // counter-clockwise; at most 8 points, on the stack.
+namespace {
+
+/// The convex hull of the corners of the soles in contact, each shrunk by `inset` on every side
+/// (Andrew's monotone chain), counter-clockwise into `hull`; returns the number of vertices (at
+/// most 8, on the stack).
+int support_hull(const std::array<Sole, 2>& soles, const std::array<bool, 2>& contact, double inset,
+                 std::array<Vector2d, 16>& hull) {
   std::array<Vector2d, 8> pts;
   int n = 0;
   for (int k = 0; k < 2; ++k) {
     if (!contact[static_cast<size_t>(k)]) continue;
     const Sole& s = soles[static_cast<size_t>(k)];
+    const double hl = std::max(s.half_length - inset, 0.0), hw = std::max(s.half_width - inset, 0.0);
     for (const double sx : {-1.0, 1.0}) {
-      for (const double sy : {-1.0, 1.0}) pts[static_cast<size_t>(n++)] = s.to_world({sx * s.half_length, sy * s.half_width});
+      for (const double sy : {-1.0, 1.0}) pts[static_cast<size_t>(n++)] = s.to_world({sx * hl, sy * hw});
     }
   }
-  if (n == 0) return std::numeric_limits<double>::infinity();
+  if (n == 0) return 0;
   // Insertion sort by (x, y): at most 8 points.
   for (int i = 1; i < n; ++i) {
     const Vector2d key = pts[static_cast<size_t>(i)];
@@ -63,7 +68,6 @@ double support_distance(const std::array<Sole, 2>& soles, const std::array<bool,
     }
     pts[static_cast<size_t>(j + 1)] = key;
   }
-  std::array<Vector2d, 16> hull;
   int h = 0;
   for (int i = 0; i < n; ++i) {
     while (h >= 2 && cross(hull[static_cast<size_t>(h - 2)], hull[static_cast<size_t>(h - 1)], pts[static_cast<size_t>(i)]) <= 0) --h;
@@ -73,7 +77,15 @@ double support_distance(const std::array<Sole, 2>& soles, const std::array<bool,
     while (h >= lower && cross(hull[static_cast<size_t>(h - 2)], hull[static_cast<size_t>(h - 1)], pts[static_cast<size_t>(i)]) <= 0) --h;
     hull[static_cast<size_t>(h++)] = pts[static_cast<size_t>(i)];
   }
-  --h;  // the last point repeats the first
+  return std::max(h - 1, 1);  // the last point repeats the first
+}
+
+}  // namespace
+
+double support_distance(const std::array<Sole, 2>& soles, const std::array<bool, 2>& contact, const Vector2d& x) {
+  std::array<Vector2d, 16> hull;
+  const int h = support_hull(soles, contact, 0.0, hull);
+  if (h == 0) return std::numeric_limits<double>::infinity();
   bool inside = h >= 3;
   double d = std::numeric_limits<double>::infinity();
   for (int i = 0; i < h; ++i) {
@@ -85,11 +97,39 @@ double support_distance(const std::array<Sole, 2>& soles, const std::array<bool,
   return inside ? -d : d;
 }
 
+Vector2d support_point(const std::array<Sole, 2>& soles, const std::array<bool, 2>& contact, const Vector2d& x,
+                       double inset) {
+  std::array<Vector2d, 16> hull;
+  const int h = support_hull(soles, contact, inset, hull);
+  if (h == 0) return x;
+  if (h == 1) return hull[0];
+  bool inside = h >= 3;
+  double best = std::numeric_limits<double>::infinity();
+  Vector2d nearest = x;
+  for (int i = 0; i < h; ++i) {
+    const Vector2d& a = hull[static_cast<size_t>(i)];
+    const Vector2d& b = hull[static_cast<size_t>((i + 1) % h)];
+    if (cross(a, b, x) < 0) inside = false;
+    const Vector2d d = b - a;
+    const double len2 = d.squaredNorm();
+    const double s = len2 > 0 ? std::clamp((x - a).dot(d) / len2, 0.0, 1.0) : 0.0;
+    const Vector2d q = a + s * d;
+    if ((q - x).squaredNorm() < best) {
+      best = (q - x).squaredNorm();
+      nearest = q;
+    }
+  }
+  return inside ? x : nearest;
+}
+
 SteppingConfig SteppingConfig::load(const Config& c) {
   SteppingConfig s;
   s.enabled = c.boolean_or("enabled", s.enabled);
   s.margin = c.real_or("margin", s.margin, -0.1, 0.2);
   s.cmp_reach = c.real_or("cmp_reach", s.cmp_reach, 0.0, 0.5);
+  s.absorbable_impulse = c.real_or("absorbable_impulse", s.absorbable_impulse, 0.0, 1e4);
+  s.push_force = c.real_or("push_force", s.push_force, 0.0, 1e5);
+  s.impulse_memory = c.real_or("impulse_memory", s.impulse_memory, 1e-3, 100.0);
   s.t_min = c.real_or("t_min", s.t_min, 0.05, 2.0);
   s.t_max = c.real_or("t_max", s.t_max, s.t_min, 3.0);
   s.t_nominal = c.real_or("t_nominal", s.t_nominal, s.t_min, s.t_max);

@@ -49,11 +49,45 @@ PostureReferenceConfig PostureReferenceConfig::load(const Config& c) {
   p.lift_height = c.real_or("lift_height", p.lift_height, 0.0, 0.5);
   p.unloaded_fraction = c.real_or("unloaded_fraction", p.unloaded_fraction, 0.0, 0.5);
   p.support = support_from_string(c.choice_or("support", "double", {"double", "left", "right"}));
+  if (c.has("stepping")) {
+    const Config st = c.section("stepping");
+    p.stepping = SteppingConfig::load(st);
+    auto& e = p.step;
+    e.unload_time = st.real_or("unload_time", e.unload_time, 0.0, 0.5 * p.stepping.t_min);
+    e.swing_height = st.real_or("swing_height", e.swing_height, 0.0, 0.3);
+    e.replan_fraction = st.real_or("replan_fraction", e.replan_fraction, 0.0, 1.0);
+    e.target_rate = st.real_or("target_rate", e.target_rate, 0.0, 100.0);
+    e.replan_min_time = st.real_or("replan_min_time", e.replan_min_time, 0.0, 1.0);
+    e.touchdown_depth = st.real_or("touchdown_depth", e.touchdown_depth, 0.0, 0.1);
+    e.follow_load = st.real_or("follow_load", e.follow_load, 0.0, 0.5);
+    e.com_drop = st.real_or("com_drop", e.com_drop, 0.0, 0.3);
+    e.drop_time = st.real_or("drop_time", e.drop_time, 0.01, 5.0);
+    e.touchdown_height = st.real_or("touchdown_height", e.touchdown_height, 0.0, 0.2);
+    e.transfer_time = st.real_or("transfer_time", e.transfer_time, 0.0, 2.0);
+    e.follow_delay = st.real_or("follow_delay", e.follow_delay, 0.0, 2.0);
+    e.force_filter = st.real_or("force_filter", e.force_filter, 0.001, 1.0);
+    e.cop_margin = st.real_or("cop_margin", e.cop_margin, 0.0, 0.1);
+    e.settle_gain = st.real_or("settle_gain", e.settle_gain, 0.0, 100.0);
+    e.settle_time = st.real_or("settle_time", e.settle_time, 0.0, 10.0);
+    e.recover_time = st.real_or("recover_time", e.recover_time, 0.05, 10.0);
+    e.landing_load_time = st.real_or("landing_load_time", e.landing_load_time, 0.0, 1.0);
+  }
   return p;
 }
 
+Eigen::Vector3d quintic_to_rest(double p0, double v0, double a0, double p1, double T, double t) {
+  if (T <= 0.0 || t >= T) return {p1, 0.0, 0.0};
+  const double d = p1 - p0, T2 = T * T, T3 = T2 * T;
+  const double c3 = (20 * d - 12 * v0 * T - 3 * a0 * T2) / (2 * T3);
+  const double c4 = (-30 * d + 16 * v0 * T + 3 * a0 * T2) / (2 * T3 * T);
+  const double c5 = (12 * d - 6 * v0 * T - a0 * T2) / (2 * T3 * T2);
+  const double t2 = t * t, t3 = t2 * t;
+  return {p0 + v0 * t + 0.5 * a0 * t2 + c3 * t3 + c4 * t3 * t + c5 * t3 * t2,
+          v0 + a0 * t + 3 * c3 * t2 + 4 * c4 * t3 + 5 * c5 * t3 * t, a0 + 6 * c3 * t + 12 * c4 * t2 + 20 * c5 * t3};
+}
+
 PostureReference::PostureReference(const model::RobotSpec& robot, PostureReferenceConfig config)
-    : robot_(&robot), config_(config) {
+    : robot_(&robot), config_(config), planner_(config.stepping), fk_(std::in_place, robot.model) {
   const int nf = static_cast<int>(robot.free_joints.size());
   ref_.q_free = ref_.qd_free = ref_.qdd_free = Eigen::VectorXd::Zero(nf);
   qf0_ = qf1_ = Eigen::VectorXd::Zero(nf);
@@ -119,6 +153,15 @@ void PostureReference::start(const Eigen::VectorXd& q, double t) {
   current_ = Support::kDouble;
   target_ = config_.support;
   started_ = true;
+  omega_ = lip_omega(com_height_);
+  step_ = StepPlan{};
+  steps_taken_ = 0;
+  last_t_ = t;
+  t_prev_state_ = -1.0;
+  f_ext_.setZero();
+  momentum_integral_.setZero();
+  last_swing_ = -1;
+  stepped_ = false;
   begin_stage(Stage::kInit, t);
   update(t);
 }
@@ -146,8 +189,254 @@ void PostureReference::begin_stage(Stage s, double t) {
   }
 }
 
-const TaskReference& PostureReference::update(double t) {
+std::array<Sole, 2> PostureReference::soles() const {
+  std::array<Sole, 2> s;
+  for (size_t k = 0; k < 2; ++k) {
+    const model::SE3& X = ground_soles_[k];
+    s[k] = {X.p.head<2>(), std::atan2(X.R(1, 0), X.R(0, 0)), 0.5 * robot_->feet[k].length, 0.5 * robot_->feet[k].width};
+  }
+  return s;
+}
+
+void PostureReference::check_step(double t, const EstimatedState& state) {
+  const auto sole = soles();
+  const std::array<bool, 2> both{true, true};
+  // After a step the trailing foot follows when it stays nearly unloaded (the DCM came to rest
+  // over the landed foot): a sole that carries almost nothing cannot hold the leg's torques.
+  bool follow = false;
+  if (stage_ != Stage::kHold && last_swing_ >= 0) {
+    const auto trailing = static_cast<size_t>(1 - last_swing_);
+    const double fz = state.foot_force_z[0] + state.foot_force_z[1];
+    const double share = fz > 0 ? state.foot_force_z[trailing] / fz : 0.0;
+    if (share >= config_.step.follow_load) {
+      unloaded_since_ = -1.0;
+    } else if (unloaded_since_ < 0.0) {
+      unloaded_since_ = t;
+    }
+    follow = unloaded_since_ >= 0.0 && t - unloaded_since_ >= config_.step.follow_delay;
+  }
+  // The first step of a series also waits until the push has delivered more momentum than the
+  // ankle and hip strategies absorb (the envelope without steps): before that, ξ beyond the feet is
+  // what the hip strategy is there for.
+  const bool beyond_envelope = stepped_ || push_impulse_.norm() > config_.stepping.absorbable_impulse;
+  if (!follow && !(beyond_envelope && planner_.step_needed(sole, both, xi_))) return;
+  int swing = -1;
+  if (stage_ == Stage::kHold || last_swing_ < 0) {
+    const double fz = state.foot_force_z[0] + state.foot_force_z[1];
+    const std::array<double, 2> load = fz > 0 ? std::array<double, 2>{state.foot_force_z[0] / fz, state.foot_force_z[1] / fz}
+                                              : std::array<double, 2>{0.5, 0.5};
+    swing = planner_.choose_swing(sole, xi_, load);
+  } else {
+    swing = 1 - last_swing_;  // still settling from a step: the trailing foot follows
+  }
+  step_ = planner_.plan(sole, swing, xi_, omega_);
+  replan_ = true;
+  begin_step(t);
+}
+
+void PostureReference::begin_step(double t) {
+  if (!stepped_ && stage_ == Stage::kHold) {
+    drop_start_ = t;
+    drop_z0_ = ref_.p_com.z();
+  }
+  moving_foot_ = step_.swing;
+  last_swing_ = step_.swing;
+  step_start_ = t;
+  swing_time_ = std::max(step_.duration - config_.step.unload_time, 0.05);
+  ++steps_taken_;
+  begin_stage(Stage::kStepUnload, t);
+}
+
+bool PostureReference::request_step(int swing, const Eigen::Vector2d& target, double duration, double t) {
+  if (!started_ || stage_ != Stage::kHold || current_ != Support::kDouble || (swing != model::kRight && swing != model::kLeft)) {
+    return false;
+  }
+  step_ = StepPlan{};
+  step_.swing = swing;
+  step_.target = target;
+  step_.duration = duration;
+  step_.yaw = std::atan2(ground_soles_[static_cast<size_t>(1 - swing)].R(1, 0), ground_soles_[static_cast<size_t>(1 - swing)].R(0, 0));
+  replan_ = false;
+  begin_step(t);
+  return true;
+}
+
+void PostureReference::follow_lip(const EstimatedState& state, const Eigen::Vector2d& p) {
+  p_hold_ = p;
+  // The measured CoM as the reference (no spring pulls it back), accelerating as the LIP does with
+  // the CMP at p: the wbc's CoM wrench then puts the CoP there. The height is held.
+  ref_.p_com.head<2>() = state.p_com.head<2>();
+  ref_.v_com.head<2>() = state.v_com.head<2>();
+  ref_.a_com.head<2>() = omega_ * omega_ * (state.p_com.head<2>() - p);
+  // The height sinks by com_drop over drop_time from the first step on: bent knees reach further.
+  const double z1 = com_target(Support::kDouble).z() - config_.step.com_drop;
+  const double T = std::max(config_.step.drop_time, 1e-3);
+  const Vector3d sz = quintic((state.time - drop_start_) / T);
+  ref_.p_com.z() = drop_z0_ + sz(0) * (z1 - drop_z0_);
+  ref_.v_com.z() = sz(1) / T * (z1 - drop_z0_);
+  ref_.a_com.z() = sz(2) / (T * T) * (z1 - drop_z0_);
+}
+
+bool PostureReference::settle_dcm(const EstimatedState& state) {
+  // DCM regulation: ξ̇ = ω (ξ − p) and p = ξ + (k/ω)(ξ − ξ_d) give ξ̇ = −k (ξ − ξ_d); p kept
+  // cop_margin inside the support.
+  const Eigen::Vector2d c = state.p_com.head<2>(), cd = state.v_com.head<2>();
+  const Eigen::Vector2d xi = balance::capture_point(c, cd, omega_);
+  const Eigen::Vector2d xi_d = com1_.head<2>();
+  const Eigen::Vector2d p_want = xi + config_.step.settle_gain / omega_ * (xi - xi_d);
+  Eigen::Vector2d p = support_point(soles(), {true, true}, p_want, config_.step.cop_margin);
+  // The load moves from the stance foot to the landed one over transfer_time: the CMP starts where
+  // the swing held it.
+  const double T = config_.step.transfer_time;
+  if (T > 0.0 && state.time - land_time_ < T) {
+    const double sb = quintic((state.time - land_time_) / T)(0);
+    p = p_hold_ + sb * (p - p_hold_);
+  }
+  follow_lip(state, p);
+  return (xi - xi_d).norm() < 0.01 && cd.norm() < 0.03;
+}
+
+void PostureReference::begin_recover(double t, const EstimatedState* state) {
+  com0_ = ref_.p_com;
+  com_v0_ = ref_.v_com;
+  if (state != nullptr) {
+    com0_.head<2>() = state->p_com.head<2>();
+    com_v0_.head<2>() = state->v_com.head<2>();
+  }
+  com_v0_.z() = 0.0;
+  stage_ = Stage::kStepRecover;
+  stage_start_ = t;
+}
+
+void PostureReference::ramp_landing_load(double since_touchdown) {
+  const double Tl = config_.step.landing_load_time;
+  for (auto& f : ref_.feet) {
+    f.load_limit = Tl > 0 ? std::max(f.load_limit, std::min(1.0, config_.unloaded_fraction + since_touchdown / Tl)) : 1.0;
+  }
+}
+
+double PostureReference::sole_height(const EstimatedState& state, int foot) {
+  if (state.q.size() != robot_->model.nq) return 0.0;
+  model::forward_kinematics(robot_->model, *fk_, state.q);
+  const auto fu = static_cast<size_t>(foot);
+  return model::update_frame_placement(robot_->model, *fk_, robot_->feet[fu].sole_frame).p.z() - ground_soles_[fu].p.z();
+}
+
+void PostureReference::update_swing(double t, const EstimatedState* state) {
+  const auto mu = static_cast<size_t>(moving_foot_);
+  const double tau_s = (t - swing_start_) / swing_time_;
+  const double remaining = swing_start_ + swing_time_ - t;
+  const double dt = std::max(t - last_t_, 0.0);
+  if (replan_ && state != nullptr && tau_s < config_.step.replan_fraction && remaining > config_.step.replan_min_time) {
+    // The landing follows the capture point, at most target_rate fast (the estimate is noisy).
+    const StepPlan p = planner_.plan_landing(soles(), moving_foot_, xi_, omega_, remaining);
+    const Eigen::Vector2d d = p.target - step_.target;
+    const double max_d = config_.step.target_rate * dt;
+    step_.target += d.norm() > max_d ? Eigen::Vector2d(d * (max_d / d.norm())) : d;
+    step_.xi_touchdown = p.xi_touchdown;
+    step_.reachable = p.reachable;
+  }
+  // Horizontal: a quintic from the reference's own motion to the landing, re-drawn each tick.
+  for (int i = 0; i < 2; ++i) {
+    const Vector3d s = quintic_to_rest(swing_p_(i), swing_v_(i), swing_a_(i), step_.target(i), remaining + dt, dt);
+    swing_p_(i) = s(0);
+    swing_v_(i) = s(1);
+    swing_a_(i) = s(2);
+  }
+  // Vertical: 64 τ³ (1 − τ)³ of the swing height, zero velocity and acceleration at lift-off and
+  // at the planned touchdown, aimed touchdown_depth below the ground (the impedance's lag would
+  // otherwise hold the sole above it); past the planned touchdown (the sole not yet loaded) the
+  // reference goes on down at kProbeSpeed until the foot's sensor reports the ground.
+  constexpr double kProbeSpeed = 0.3;  // [m/s]
+  const double h = config_.step.swing_height, T = swing_time_, depth = config_.step.touchdown_depth;
+  const double tc = std::clamp(tau_s, 0.0, 1.0), u = 1.0 - tc;
+  const Vector3d sink = quintic(tc);  // from the lift-off height to touchdown_depth below the ground
+  const double dz = swing_z0_ + depth;
+  swing_p_(2) = ground_soles_[mu].p.z() + 64 * h * tc * tc * tc * u * u * u + swing_z0_ - dz * sink(0);
+  swing_v_(2) = 64 * h * 3 * tc * tc * u * u * (u - tc) / T - dz * sink(1) / T;
+  swing_a_(2) = 64 * h * 6 * tc * u * (u * u - 3 * tc * u + tc * tc) / (T * T) - dz * sink(2) / (T * T);
+  if (tau_s > 1.0) {
+    swing_p_(2) = ground_soles_[mu].p.z() - depth - kProbeSpeed * (tau_s - 1.0) * T;
+    swing_v_(2) = -kProbeSpeed;
+    swing_a_(2) = 0.0;
+  }
+  // Orientation: from the sole's at lift-off to the ground's, a quintic blend on SO(3).
+  const Vector3d phi = model::log3(swing_R0_.transpose() * ground_soles_[mu].R);
+  const Vector3d so = quintic(std::min(tc, 1.0));
+  FootReference& f = ref_.feet[mu];
+  f.contact = false;
+  f.X_WS.R = swing_R0_ * model::exp3(so(0) * phi);
+  f.X_WS.p = swing_p_;
+  f.twist.setZero();
+  f.accel.setZero();
+  f.twist.head<3>() = swing_v_;
+  f.accel.head<3>() = swing_a_;
+  f.twist.tail<3>() = swing_R0_ * phi * (so(1) / T);
+  f.accel.tail<3>() = swing_R0_ * phi * (so(2) / (T * T));
+}
+
+void PostureReference::land(double t, const EstimatedState* state) {
+  const auto mu = static_cast<size_t>(moving_foot_);
+  ground_soles_[mu].p.head<2>() = swing_p_.head<2>();
+  FootReference& f = ref_.feet[mu];
+  f.contact = true;
+  f.load_limit = config_.unloaded_fraction;
+  f.X_WS = ground_soles_[mu];
+  f.twist.setZero();
+  f.accel.setZero();
+  com1_ = com_target(Support::kDouble);
+  current_ = Support::kDouble;
+  ref_.support = Support::kDouble;
+  step_.swing = -1;
+  land_time_ = t;
+  stepped_ = true;
+  unloaded_since_ = -1.0;
+  if (state != nullptr) {
+    stage_ = Stage::kStepSettle;
+    stage_start_ = t;
+  } else {
+    begin_recover(t, state);
+  }
+}
+
+const TaskReference& PostureReference::update(double t, const EstimatedState* state) {
   ref_.time = t;
+  if (state != nullptr && omega_ > 0.0) {
+    // The horizontal external force by a momentum observer (no differentiation):
+    // F̂ = K (m ċ − m ċ_0 − ∫ (Σ f_ground + F̂) dt), a first-order estimate of m c̈ − Σ f_ground
+    // with time constant 1/K.
+    const Eigen::Vector2d v = state->v_com.head<2>();
+    const double m = robot_->model.mass;
+    const Eigen::Vector2d f_ground = state->foot_wrench_W[0].head<2>() + state->foot_wrench_W[1].head<2>();
+    const double dt = t - t_prev_state_;
+    if (t_prev_state_ >= 0.0 && dt > 0.0 && dt < 0.1) {
+      momentum_integral_ += (f_ground + f_ext_) * dt;
+      f_ext_ = (m * (v - v_prev_) - momentum_integral_) / config_.step.force_filter;
+      // The push's impulse so far: F̂ integrated while it stands out of the noise, forgotten with
+      // time constant impulse_memory once it is gone.
+      if (f_ext_.norm() > config_.stepping.push_force) {
+        push_impulse_ += f_ext_ * dt;
+      } else {
+        push_impulse_ *= std::max(0.0, 1.0 - dt / config_.stepping.impulse_memory);
+      }
+    } else {
+      v_prev_ = v;  // the observer's start
+      momentum_integral_.setZero();
+      f_ext_.setZero();
+      push_impulse_.setZero();
+    }
+    t_prev_state_ = t;
+    // The external force counts until the first touchdown of a series of steps: after it, the
+    // impacts of the landing feet and their sensors' transients are no push.
+    xi_ = balance::capture_point(state->p_com.head<2>(), v, omega_);
+    if (!stepped_) xi_ += f_ext_ / (m * omega_ * omega_);
+    excess_ = planner_.excess(soles(), {true, true}, xi_);
+  }
+  if (state != nullptr && config_.stepping.enabled && target_ == Support::kDouble && current_ == Support::kDouble &&
+      (stage_ == Stage::kHold || ((stage_ == Stage::kStepSettle || stage_ == Stage::kStepRecover) &&
+                                  t - stage_start_ > 2 * config_.step.landing_load_time))) {
+    check_step(t, *state);
+  }
   const double elapsed = t - stage_start_;
   auto blend_com = [&](double duration) {
     const Vector3d s = quintic(elapsed / duration);
@@ -245,7 +534,84 @@ const TaskReference& PostureReference::update(double t) {
       }
       break;
     }
+    case Stage::kStepUnload: {
+      // Both feet still on the ground; the swing foot's load limit falls to the unloaded fraction.
+      const auto mu = static_cast<size_t>(moving_foot_);
+      const double T = std::max(config_.step.unload_time, 1e-9);
+      ref_.feet[mu].load_limit = 1.0 - std::min(elapsed / T, 1.0) * (1.0 - config_.unloaded_fraction);
+      if (state != nullptr) {
+        const std::array<bool, 2> stance{moving_foot_ != model::kRight, moving_foot_ != model::kLeft};
+        follow_lip(*state, support_point(soles(), stance, xi_, config_.step.cop_margin));
+      }
+      ref_.support = Support::kDouble;
+      ref_.settled = false;
+      if (elapsed >= config_.step.unload_time) {
+        stage_ = Stage::kStepSwing;
+        stage_start_ = t;
+        swing_start_ = t;
+        // The swing starts from the sole as it is (a trailing sole may have rolled onto its toe).
+        swing_R0_ = ground_soles_[mu].R;
+        swing_p_ = ground_soles_[mu].p;
+        if (state != nullptr && state->q.size() == robot_->model.nq) {
+          model::forward_kinematics(robot_->model, *fk_, state->q);
+          const model::SE3& X = model::update_frame_placement(robot_->model, *fk_, robot_->feet[mu].sole_frame);
+          swing_R0_ = X.R;
+          swing_p_ = X.p;
+        }
+        swing_z0_ = swing_p_.z() - ground_soles_[mu].p.z();
+        swing_v_.setZero();
+        swing_a_.setZero();
+        ref_.support = moving_foot_ == model::kRight ? Support::kLeft : Support::kRight;
+        update_swing(t, state);
+      }
+      break;
+    }
+    case Stage::kStepSwing: {
+      ref_.support = moving_foot_ == model::kRight ? Support::kLeft : Support::kRight;
+      ref_.settled = false;
+      if (state != nullptr) {
+        // The CMP on the stance sole nearest the capture point: the ankle strategy slows ξ as much
+        // as the sole allows.
+        const std::array<bool, 2> stance{moving_foot_ != model::kRight, moving_foot_ != model::kLeft};
+        follow_lip(*state, support_point(soles(), stance, xi_, config_.step.cop_margin));
+      }
+      update_swing(t, state);
+      // Touchdown: once the swing is mostly done and the foot's sensor reports the ground; without
+      // a state, at the planned time; at the latest 0.15 s after it.
+      const double tau_s = (t - swing_start_) / swing_time_;
+      const bool touched = state != nullptr && state->contact[static_cast<size_t>(moving_foot_)] && tau_s > 0.6 &&
+                           sole_height(*state, moving_foot_) < config_.step.touchdown_height;
+      if (touched || (state == nullptr && tau_s >= 1.0) || t - swing_start_ >= swing_time_ + 0.15) land(t, state);
+      break;
+    }
+    case Stage::kStepSettle: {
+      ramp_landing_load(t - land_time_);
+      ref_.support = Support::kDouble;
+      ref_.settled = false;
+      const bool settled = state == nullptr || settle_dcm(*state);
+      if (settled || elapsed >= config_.step.settle_time) begin_recover(t, state);
+      break;
+    }
+    case Stage::kStepRecover: {
+      const double T = config_.step.recover_time;
+      for (int i = 0; i < 3; ++i) {
+        const Vector3d s = quintic_to_rest(com0_(i), com_v0_(i), 0.0, com1_(i), T, std::min(elapsed, T));
+        ref_.p_com(i) = s(0);
+        ref_.v_com(i) = s(1);
+        ref_.a_com(i) = s(2);
+      }
+      ramp_landing_load(t - land_time_);
+      ref_.support = Support::kDouble;
+      ref_.settled = false;
+      if (elapsed >= T) {
+        stage_ = Stage::kHold;
+        stage_start_ = t;
+        stepped_ = false;
+      }
+      break;
+    }
   }
+  last_t_ = t;
   if (stage_ == Stage::kHold && target_ != current_) {
     begin_stage(current_ == Support::kDouble ? Stage::kShift : Stage::kLower, t);
   }

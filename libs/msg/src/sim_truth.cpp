@@ -105,6 +105,17 @@ void state_from_truth(const SimTruth& truth, const SensorSample& sensors, Estima
   s.v.head<3>() = Rt * truth.v_WB;
   s.v.segment<3>(3) = Rt * truth.omega_WB;
   s.v.tail(n) = sensors.qd;
+  contacts_from_truth(truth, s);
+}
+
+void contacts_from_truth(const SimTruth& truth, EstimatedState& s) {
+  s.p_com = truth.p_WCom;
+  s.v_com = truth.v_WCom;
+  for (size_t k = 0; k < 2; ++k) {
+    s.contact[k] = truth.foot_contact[k];
+    s.foot_wrench_W[k] = truth.contact_wrench_W[k];
+    s.foot_force_z[k] = truth.contact_wrench_W[k](2);
+  }
 }
 
 }  // namespace hpr::msg

@@ -6,6 +6,7 @@
 #include <cstdio>
 
 #include "hpr/common/args.hpp"
+#include "hpr/msg/sim_truth.hpp"
 
 namespace hpr::pipeline {
 
@@ -40,6 +41,7 @@ void ClosedLoop::step() {
     truth_.time = sim.time();
     truth_.q = sim.truth().q;
     truth_.v = sim.truth().v;
+    msg::contacts_from_truth(sim.truth(), truth_);
     control(truth_);
   }
   sim::Simulator::Outputs plant;

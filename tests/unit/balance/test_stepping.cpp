@@ -3,6 +3,9 @@
 // is checked by integrating the pendulum through the swing and after the touchdown.
 #include <gtest/gtest.h>
 
+#include <random>
+#include <vector>
+
 #include <cmath>
 
 #include "hpr/balance/stepping.hpp"
@@ -83,6 +86,59 @@ TEST(SupportDistance, InsideIsNegativeOutsideIsTheDistanceToTheHull) {
   turned[kRight].yaw = M_PI / 4;
   const Vector2d edge = turned[kRight].to_world({0.1, 0.0});
   EXPECT_NEAR(hpr::balance::support_distance(turned, {true, false}, edge), 0.0, 1e-12);
+}
+
+TEST(SupportPoint, InsideItIsThePointItselfOutsideTheNearestPointOfTheShrunkHull) {
+  // Against a brute force: the nearest of 4 000 points on the boundary of each shrunk sole and of
+  // the segments joining their corners (the hull's boundary lies on them), for points around a
+  // step's support (the left sole moved forward and turned).
+  std::array<Sole, 2> soles = standing();
+  soles[kLeft] = {Vector2d(0.18, 0.16), 0.3, 0.1, 0.05};
+  const double inset = 0.02;
+  std::vector<Vector2d> corners;
+  for (const Sole& sole : soles) {
+    for (const double sx : {-1.0, 1.0}) {
+      for (const double sy : {-1.0, 1.0}) corners.push_back(sole.to_world({sx * (sole.half_length - inset), sy * (sole.half_width - inset)}));
+    }
+  }
+  std::vector<Vector2d> boundary;
+  for (size_t i = 0; i < corners.size(); ++i) {
+    for (size_t j = i + 1; j < corners.size(); ++j) {
+      for (int k = 0; k <= 400; ++k) boundary.push_back(corners[i] + (corners[j] - corners[i]) * (k / 400.0));
+    }
+  }
+  const std::array<bool, 2> both{true, true};
+  std::mt19937 gen(5);
+  std::uniform_real_distribution<double> ux(-0.3, 0.5), uy(-0.4, 0.5);
+  int outside = 0;
+  for (int s = 0; s < 300; ++s) {
+    const Vector2d x(ux(gen), uy(gen));
+    const Vector2d p = hpr::balance::support_point(soles, both, x, inset);
+    // Is x inside the hull of the shrunk soles? Then p is x.
+    std::array<Sole, 2> shrunk = soles;
+    for (Sole& sole : shrunk) {
+      sole.half_length -= inset;
+      sole.half_width -= inset;
+    }
+    if (hpr::balance::support_distance(shrunk, both, x) <= 0.0) {
+      EXPECT_LT((p - x).norm(), 1e-12);
+      continue;
+    }
+    ++outside;
+    double best = 1e9;
+    for (const Vector2d& b : boundary) {
+      // Only boundary points of the hull qualify: those on its edge (distance 0 from outside).
+      if (std::abs(hpr::balance::support_distance(shrunk, both, b)) > 1e-9) continue;
+      best = std::min(best, (b - x).norm());
+    }
+    EXPECT_NEAR((p - x).norm(), best, 2e-3) << "x " << x.transpose();
+    EXPECT_NEAR(hpr::balance::support_distance(shrunk, both, p), 0.0, 1e-9) << "p lies on the hull's boundary";
+  }
+  EXPECT_GT(outside, 100);
+  // One sole: the nearest point of that sole, shrunk.
+  const Vector2d p = hpr::balance::support_point(soles, {true, false}, Vector2d(0.5, -0.1), inset);
+  EXPECT_NEAR(p.x(), 0.08, 1e-12);
+  EXPECT_NEAR(p.y(), -0.1, 1e-12);
 }
 
 TEST(StepDecision, NoStepWhileTheAnkleAndHipStrategiesSufficeAndAStepBeyond) {

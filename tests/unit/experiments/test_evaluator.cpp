@@ -80,4 +80,38 @@ TEST(TrialEvaluator, AFallOrATiltDecidesAShortRun) {
   EXPECT_NE(tilted.failure.find("sole tilt 3.0 deg"), std::string::npos) << tilted.failure;
 }
 
+TEST(TrialEvaluator, WithStepsASoleThatLiftsAndLandsElsewhereIsAStepNotASlip) {
+  // The left sole in the air from 1.3 to 1.6 s, then down 0.2 m further forward; a 10 ms loss of
+  // contact at 2 s is chatter, no step. Judged with steps allowed the run is recovered with one
+  // step; judged as a standing trial the same run is a sole slip.
+  static const auto robot = hpr::test::load_robot("toro");
+  const double weight = robot.model.mass * robot.model.gravity.norm();
+  TrialEvaluator with_steps(robot, "double", kPushStart, kPushEnd), standing_only(robot, "double", kPushStart, kPushEnd);
+  with_steps.allow_steps(true);
+  for (int k = 500; k <= static_cast<int>(std::lround((kPushEnd + 5.01) * 1e3)); ++k) {
+    const double t = k * 1e-3;
+    auto m = standing(t, weight);
+    m.foot_contact = {true, true};
+    if (t >= 1.3 && t < 1.6) {
+      m.foot_contact[1] = false;
+      m.contact_wrench_W[1] = {0, 0, 0, 0, 0, 0};
+      m.p_WF[1][2] = 0.05;
+    }
+    if (t >= 1.6) m.p_WF[1][0] = 0.2;
+    if (t >= 2.0 && t < 2.01) m.foot_contact[1] = false;
+    with_steps.on_truth(m);
+    standing_only.on_truth(m);
+  }
+  const TrialResult r = with_steps.result();
+  EXPECT_TRUE(r.recovered) << r.failure;
+  EXPECT_EQ(r.steps, 1);
+  EXPECT_GT(r.max_slip, 0.19);
+  const TrialResult s = standing_only.result();
+  EXPECT_FALSE(s.recovered);
+  EXPECT_NE(s.failure.find("sole slip"), std::string::npos) << s.failure;
+  EXPECT_EQ(s.steps, 0) << "steps are counted only when they are allowed";
+  EXPECT_TRUE(hpr::experiments::steps_enabled({"a.b=1", "balance.stepping.enabled=true"}));
+  EXPECT_FALSE(hpr::experiments::steps_enabled({"balance.stepping.enabled=true", "balance.stepping.enabled=false"}));
+}
+
 }  // namespace

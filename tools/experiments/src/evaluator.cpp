@@ -88,6 +88,15 @@ void TrialEvaluator::on_truth(const humanoid::sim_truth_t& t) {
   const double weight = robot_->model.mass * robot_->model.gravity.norm();
   for (int k : stance_) {
     const auto ku = static_cast<size_t>(k);
+    final_tilt_deg_[ku] = t.foot_tilt[ku] * 180.0 / M_PI;
+    if (steps_allowed_) {
+      // A step: the sole leaves the ground, then lands again after a real flight.
+      if (!t.foot_contact[ku] && lift_time_[ku] < 0.0) lift_time_[ku] = time;
+      if (t.foot_contact[ku] && lift_time_[ku] >= 0.0) {
+        if (time - lift_time_[ku] >= kMinFlightTime) ++r_.steps;
+        lift_time_[ku] = -1.0;
+      }
+    }
     r_.max_tilt_deg = std::max(r_.max_tilt_deg, t.foot_tilt[ku] * 180.0 / M_PI);
     const Vector3d p(t.p_WF[ku][0], t.p_WF[ku][1], t.p_WF[ku][2]);
     r_.max_slip = std::max(r_.max_slip, (p - sole0_[ku]).head<2>().norm());
@@ -120,7 +129,17 @@ void TrialEvaluator::on_truth(const humanoid::sim_truth_t& t) {
   r_.final_com_deviation = dev;
   r_.final_base_angle_deg = angle;
   r_.final_joint_deg = joints;
-  const bool in_band = dev < kPostureDistance && angle < kPostureAngleDeg && joints < kPostureAngleDeg;
+  bool in_band = dev < kPostureDistance && angle < kPostureAngleDeg && joints < kPostureAngleDeg;
+  if (steps_allowed_) {
+    // After steps the CoM rests over the new support: at rest, soles flat and down, posture back.
+    const double speed = Vector3d(t.v_WCom[0], t.v_WCom[1], t.v_WCom[2]).norm();
+    bool flat = true;
+    for (int k : stance_) {
+      const auto ku = static_cast<size_t>(k);
+      flat = flat && t.foot_contact[ku] && final_tilt_deg_[ku] < kTiltLimitDeg;
+    }
+    in_band = speed < kRestSpeed && flat && angle < kStepBaseAngleDeg;
+  }
   if (!in_band) last_out_of_posture_ = time;
   evaluated_after_push_ = true;
 }
@@ -136,12 +155,15 @@ TrialResult TrialEvaluator::result() const {
   }
   std::vector<std::string> why;
   if (r.fallen) why.emplace_back("fell");
-  const bool decided = r.fallen || r.max_tilt_deg >= kTiltLimitDeg || r.max_slip >= kSlipLimit;
+  const bool decided = failed();
   r.inconclusive = !r.completed && !decided;
   if (r.inconclusive) why.emplace_back(fmt::format("run ended at t = {:.2f} s, before 5 s after the push", last_time_));
-  if (r.max_tilt_deg >= kTiltLimitDeg) why.emplace_back(fmt::format("sole tilt {:.1f} deg", r.max_tilt_deg));
-  if (r.max_slip >= kSlipLimit) why.emplace_back(fmt::format("sole slip {:.1f} mm", r.max_slip * 1e3));
-  if (!decided && (!r.return_time || *r.return_time > kSettleTime)) why.emplace_back("posture not back within 1 cm and 1 deg");
+  if (!steps_allowed_ && r.max_tilt_deg >= kTiltLimitDeg) why.emplace_back(fmt::format("sole tilt {:.1f} deg", r.max_tilt_deg));
+  if (!steps_allowed_ && r.max_slip >= kSlipLimit) why.emplace_back(fmt::format("sole slip {:.1f} mm", r.max_slip * 1e3));
+  if (!decided && (!r.return_time || *r.return_time > kSettleTime)) {
+    why.emplace_back(steps_allowed_ ? "not at rest on flat soles with the base within 5 deg"
+                                    : "posture not back within 1 cm and 1 deg");
+  }
   r.recovered = why.empty();
   for (size_t i = 0; i < why.size(); ++i) r.failure += (i > 0 ? "; " : "") + why[i];
   return r;
@@ -164,6 +186,7 @@ std::string TrialResult::to_json(const TrialSpec& spec) const {
   j["applied_impulse_W_Ns"] = {impulse_W.x(), impulse_W.y(), impulse_W.z()};
   j["max_foot_tilt_deg"] = max_tilt_deg;
   j["max_sole_slip_m"] = max_slip;
+  j["steps"] = steps;
   j["peak_cam_Nms"] = {peak_cam.x(), peak_cam.y(), peak_cam.z()};
   j["peak_cam_commanded_Nms"] = {peak_cam_cmd.x(), peak_cam_cmd.y(), peak_cam_cmd.z()};
   j["min_cop_margin_m"] = min_cop_margin;

@@ -25,6 +25,7 @@ TrialResult run_trial_in_process(const TrialSpec& spec, const std::function<void
   loop.sim.add_push(plan.push);
   const double t_push = plan.push.start, t_end = t_push + plan.push.duration;
   TrialEvaluator eval(loop.spec, spec.support, t_push, t_end);
+  eval.allow_steps(steps_enabled(spec.overrides));
 
   // The messages the evaluator reads, as sim_bullet and motion_opt would publish them.
   msg::RobotNames names;

@@ -26,6 +26,14 @@ namespace hpr::experiments {
 namespace fs = std::filesystem;
 using namespace std::chrono_literals;
 
+bool steps_enabled(const std::vector<std::string>& overrides) {
+  bool on = false;
+  for (const std::string& o : overrides) {
+    if (o.rfind("balance.stepping.enabled=", 0) == 0) on = o.substr(o.find('=') + 1) == "true";
+  }
+  return on;
+}
+
 std::string find_in_config_dirs(const std::string& relative) {
   std::vector<fs::path> dirs;
   if (const char* env = std::getenv("HPR_CONFIG_DIR")) dirs.emplace_back(env);
@@ -223,6 +231,7 @@ TrialResult run_trial(const TrialSpec& spec, const std::function<void(const std:
   const std::unique_ptr<lcm::LCM> lcm_handle = node::open_lcm(group.lcm_url());
   lcm::LCM& lcm = *lcm_handle;
   TrialEvaluator eval(robot, spec.support, t_push, t_end);
+  eval.allow_steps(steps_enabled(spec.overrides));
   Listener listener(lcm, eval);
   if (!spec.log_file.empty()) {
     fs::create_directories(fs::absolute(spec.log_file).parent_path());

@@ -53,6 +53,12 @@ struct Sole {
 /// negative inside (minus the distance to the nearest edge), positive outside.
 double support_distance(const std::array<Sole, 2>& soles, const std::array<bool, 2>& contact, const Eigen::Vector2d& x);
 
+/// The point of the support (the convex hull of the soles in contact, each shrunk by `inset` on
+/// every side) nearest to `x`: x itself inside, else its projection on the hull's boundary. The
+/// CMP that comes closest to a wanted one while the CoP stays `inset` inside the soles.
+Eigen::Vector2d support_point(const std::array<Sole, 2>& soles, const std::array<bool, 2>& contact, const Eigen::Vector2d& x,
+                              double inset = 0.0);
+
 /// The CMP a stance sole can hold nearest to the capture point `xi`: ξ clamped into the sole (the
 /// ankle strategy at the edge the robot falls over).
 Eigen::Vector2d stance_cmp(const Sole& stance, const Eigen::Vector2d& xi);
@@ -60,6 +66,9 @@ Eigen::Vector2d stance_cmp(const Sole& stance, const Eigen::Vector2d& xi);
 struct SteppingConfig {
   bool enabled = false;        ///< take steps (else the ankle and hip strategies only, as the paper)
   double margin = 0.01;        ///< [m] ξ may come this close to the grown support edge before a step
+  double absorbable_impulse = 0.0;  ///< [N s] a first step waits until the push delivered more than this
+  double push_force = 20.0;    ///< [N] an external force above this counts as a push
+  double impulse_memory = 0.5; ///< [s] the push's impulse is forgotten with this time constant once it ends
   double cmp_reach = 0.0;      ///< [m] how far beyond the CoP the hip strategy can hold the CMP
                                ///<     (τ_max / (m g) of the reference generator's bounds)
   double t_min = 0.25, t_max = 0.6, t_nominal = 0.35;  ///< [s] swing duration bounds and nominal

@@ -9,8 +9,11 @@
 #include <Eigen/Core>
 #include <array>
 #include <cstdint>
+#include <optional>
 
+#include "hpr/balance/stepping.hpp"
 #include "hpr/common/config.hpp"
+#include "hpr/common/robot_io.hpp"
 #include "hpr/model/robot.hpp"
 
 namespace hpr::balance {
@@ -48,6 +51,32 @@ struct PostureReferenceConfig {
   double lift_height = 0.05;        ///< [m]
   double unloaded_fraction = 0.02;  ///< load limit of a foot about to lift
   Support support = Support::kDouble;  ///< support to reach after the start
+  SteppingConfig stepping;          ///< section `stepping`: the third strategy, off unless enabled
+  /// How a step is carried out (section `stepping` too).
+  struct StepExecution {
+    double unload_time = 0.05;        ///< [s] of the step's duration spent unloading the swing foot before lift-off
+    double swing_height = 0.05;       ///< [m] the swing sole's highest point above the ground
+    double replan_fraction = 0.8;     ///< the landing is replanned each tick until this fraction of the swing
+    double replan_min_time = 0.15;    ///< [s] and while at least this much of the swing remains (a landing moved
+                                      ///< late asks the swing foot for accelerations it cannot make)
+    double touchdown_depth = 0.02;    ///< [m] the swing reference ends this far below the ground
+    double touchdown_height = 0.015;  ///< [m] a swing sole reported loaded is down once its kinematics put it this
+                                      ///< close to the ground (a sensor also reads the swing's own inertia)
+    double transfer_time = 0.15;      ///< [s] after touchdown the CMP moves from the stance foot to where
+                                      ///< the DCM regulation wants it
+    double com_drop = 0.04;           ///< [m] the CoM sinks this much while stepping (the legs reach further)
+    double drop_time = 0.3;           ///< [s] over this time from the first step
+    double follow_load = 0.1;         ///< after a step, the trailing foot steps too when its share of the
+                                      ///< weight stays below this
+    double follow_delay = 0.08;       ///< [s] for this long
+    double target_rate = 2.0;         ///< [m/s] fastest change of the landing while it is replanned
+    double force_filter = 0.04;       ///< [s] time constant of the external-force estimate
+    double cop_margin = 0.02;         ///< [m] the CMP of a step stays this far inside the soles
+    double settle_gain = 3.0;         ///< [1/s] after touchdown, the rate at which ξ is driven to the support's centre
+    double settle_time = 1.5;         ///< [s] longest DCM settling after touchdown
+    double recover_time = 0.8;        ///< [s] then the CoM blends to rest at the support's centre
+    double landing_load_time = 0.03;  ///< [s] the landed foot's load limit ramps to full
+  } step;
   static PostureReferenceConfig load(const Config& balance_section);
 };
 
@@ -62,15 +91,51 @@ class PostureReference {
   [[nodiscard]] bool started() const { return started_; }
   /// Requests a support mode from time t on (a transition follows).
   void request_support(Support s, double t);
-  /// The reference at time t (t never decreasing).
-  const TaskReference& update(double t);
+  /// A step of foot `swing` (model::kRight or kLeft) to `target` (its sole centre on the ground,
+  /// world), touching down `duration` after t: taken at once when standing in double support
+  /// (false otherwise). The landing is kept as asked (no replanning).
+  bool request_step(int swing, const Eigen::Vector2d& target, double duration, double t);
+  /// The reference at time t (t never decreasing). With the estimated `state` (its CoM, velocity
+  /// and contacts) and stepping enabled, standing in double support, it steps when the capture
+  /// point leaves what the ankle and hip strategies can hold (StepPlanner), and keeps stepping until
+  /// it is back inside.
+  const TaskReference& update(double t, const EstimatedState* state = nullptr);
   [[nodiscard]] const TaskReference& reference() const { return ref_; }
   [[nodiscard]] Support target_support() const { return target_; }
+  /// Steps taken since start().
+  [[nodiscard]] int steps_taken() const { return steps_taken_; }
+  /// The step under way (swing < 0 when none), and the capture point of the last update with a state.
+  [[nodiscard]] const StepPlan& step() const { return step_; }
+  /// The capture point the stepping decision uses: ξ = c + ċ/ω, standing shifted by the external
+  /// force the robot is resisting, F_ext / (m ω²) (the CMP that would hold it; F_ext = m c̈ −
+  /// Σ f_ground, horizontal, from a momentum observer), after a step's touchdown without it.
+  [[nodiscard]] const Eigen::Vector2d& capture_point() const { return xi_; }
+  [[nodiscard]] const Eigen::Vector2d& external_force() const { return f_ext_; }
+  /// How far capture_point() lies beyond the double support grown by the hip strategy's CMP reach
+  /// (StepPlanner::excess; positive: a step is due), at the last update with a state.
+  [[nodiscard]] double capture_excess() const { return excess_; }
 
  private:
-  enum class Stage { kInit, kHold, kShift, kLift, kLower, kShiftBack };
+  enum class Stage { kInit, kHold, kShift, kLift, kLower, kShiftBack, kStepUnload, kStepSwing, kStepSettle, kStepRecover };
   void begin_stage(Stage s, double t);
   Eigen::Vector3d com_target(Support s) const;
+  std::array<Sole, 2> soles() const;
+  /// Starts a step from the estimated state when the capture point asks for one.
+  void check_step(double t, const EstimatedState& state);
+  void begin_step(double t);
+  /// The CoM reference of a step: the measured CoM moving as the LIP does with the CMP at p.
+  void follow_lip(const EstimatedState& state, const Eigen::Vector2d& p);
+  /// After touchdown: the CMP that drives the measured DCM to the support's centre at settle_gain,
+  /// within the support; true once the DCM is there and the CoM at rest.
+  bool settle_dcm(const EstimatedState& state);
+  /// The CoM blends from where it is, at its velocity, to rest at the support's centre.
+  void begin_recover(double t, const EstimatedState* state);
+  /// The load limits of both feet ramp to full over landing_load_time after a touchdown.
+  void ramp_landing_load(double since_touchdown);
+  void update_swing(double t, const EstimatedState* state);
+  /// Height of a sole above its ground [m], by the kinematics of the estimated state.
+  double sole_height(const EstimatedState& state, int foot);
+  void land(double t, const EstimatedState* state);
 
   const model::RobotSpec* robot_;
   PostureReferenceConfig config_;
@@ -86,7 +151,33 @@ class PostureReference {
   Eigen::VectorXd qf0_, qf1_;
   std::array<model::SE3, 2> ground_soles_;  ///< sole poses on the ground
   double com_height_ = 0.0;
+  // Stepping.
+  StepPlanner planner_;
+  StepPlan step_;
+  Eigen::Vector2d xi_ = Eigen::Vector2d::Zero(), f_ext_ = Eigen::Vector2d::Zero();
+  Eigen::Vector2d v_prev_ = Eigen::Vector2d::Zero();  ///< the observer's initial CoM velocity
+  Eigen::Vector2d momentum_integral_ = Eigen::Vector2d::Zero();  ///< ∫ (Σ f_ground + F̂) dt [N s]
+  Eigen::Vector2d push_impulse_ = Eigen::Vector2d::Zero();  ///< ∫ F̂ dt of the push under way [N s]
+  double t_prev_state_ = -1.0, excess_ = -1.0;
+  Eigen::Vector2d p_hold_ = Eigen::Vector2d::Zero();  ///< the CMP the CoM reference last followed
+  int last_swing_ = -1;     ///< the foot that stepped last (the next step is the other's)
+  bool stepped_ = false;    ///< a step landed and the robot has not come to rest since
+  double land_time_ = 0.0;  ///< the last touchdown
+  double drop_start_ = 0.0, drop_z0_ = 0.0;  ///< when the CoM started to sink, from which height
+  double unloaded_since_ = -1.0;  ///< since when the trailing foot carries less than follow_load (−1: it does not)
+  double omega_ = 0.0, step_start_ = 0.0, swing_start_ = 0.0, swing_time_ = 0.0, last_t_ = 0.0;
+  Eigen::Vector3d swing_p_ = Eigen::Vector3d::Zero(), swing_v_ = Eigen::Vector3d::Zero(), swing_a_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d com_v0_ = Eigen::Vector3d::Zero();  ///< CoM velocity the recovery blend starts from
+  model::Matrix3d swing_R0_ = model::Matrix3d::Identity();  ///< the swing sole's orientation at lift-off
+  double swing_z0_ = 0.0;  ///< its height above the ground then [m]
+  std::optional<model::Data> fk_;  ///< kinematics workspace (the sole at lift-off)
+  int steps_taken_ = 0;
+  bool replan_ = false;  ///< the step under way came from the planner (its landing follows the capture point)
 };
+
+/// One axis of a quintic from (p0, v0, a0) to (p1, 0, 0) over T, at time t ∈ [0, T]; returns
+/// (p, v, a) at t.
+Eigen::Vector3d quintic_to_rest(double p0, double v0, double a0, double p1, double T, double t);
 
 /// Quintic blend s(τ) from 0 to 1 over [0, 1] with zero velocity and acceleration at both ends;
 /// returns (s, ds/dτ, d²s/dτ²).

@@ -16,7 +16,10 @@ void to_message(const SimTruth& t, const std::array<std::string, 2>& feet, human
 std::string from_message(const humanoid::sim_truth_t& m, SimTruth& t);
 
 /// The state a controller would get from a perfect estimator: the root link's pose and twist from
-/// `truth`, the joints from `sensors` (of the same tick), with tick and time of the sensors.
+/// `truth`, the joints from `sensors` (of the same tick), with tick and time of the sensors; the
+/// CoM and the feet as contacts_from_truth.
 void state_from_truth(const SimTruth& truth, const SensorSample& sensors, EstimatedState& s);
+/// The CoM position and velocity, the feet's contact flags and ground wrenches of `truth` into `s`.
+void contacts_from_truth(const SimTruth& truth, EstimatedState& s);
 
 }  // namespace hpr::msg

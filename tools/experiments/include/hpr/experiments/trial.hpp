@@ -37,6 +37,9 @@ Strategy strategy_from_string(const std::string& s);
 /// tree next to the build and the installed share directory. Throws std::runtime_error with the
 /// places searched when not found.
 std::string find_config(const std::string& robot_or_path);
+/// Whether the spec's overrides turn stepping on (balance.stepping.enabled=true).
+bool steps_enabled(const std::vector<std::string>& overrides);
+
 /// A file of the configuration folder ($HPR_CONFIG_DIR, the source tree next to the build, the
 /// installed share directory), e.g. "templates/robot.yaml". Throws std::runtime_error naming the
 /// places searched.
@@ -87,6 +90,9 @@ struct TrialResult {
   double final_joint_deg = 0.0;        ///< largest free-joint deviation
   std::string final_joint;             ///< and its joint
   double push_start = 0.0, push_end = 0.0, sim_time = 0.0, wall_time = 0.0;
+  /// With stepping on (balance.stepping.enabled): touchdowns of a sole after at least 20 ms in the
+  /// air, from the push on.
+  int steps = 0;
   std::string log_file;
 
   /// One JSON object (the fields above, units in the names).
@@ -106,11 +112,16 @@ class TrialEvaluator {
   [[nodiscard]] bool fallen() const { return r_.fallen; }
   /// True once the run can no longer count as recovered (fallen, a sole tilted or slid too far).
   [[nodiscard]] bool failed() const {
-    return r_.fallen || r_.max_tilt_deg >= kTiltLimitDeg || r_.max_slip >= kSlipLimit;
+    return r_.fallen || (!steps_allowed_ && (r_.max_tilt_deg >= kTiltLimitDeg || r_.max_slip >= kSlipLimit));
   }
+  /// The robot may step (the third strategy): a sole that lifts, tilts or moves is no failure, and
+  /// the robot counts as recovered once its CoM is at rest (wherever the steps took it) with both
+  /// soles flat on the ground and the base within 5° of its orientation before the push.
+  void allow_steps(bool allowed) { steps_allowed_ = allowed; }
 
   static constexpr double kTiltLimitDeg = 2.0, kSlipLimit = 0.01, kPostureDistance = 0.01, kPostureAngleDeg = 1.0,
-                          kSettleTime = 5.0;
+                          kSettleTime = 5.0, kRestSpeed = 0.01, kMinFlightTime = 0.02,
+                          kStepBaseAngleDeg = 5.0;
 
  private:
   const model::RobotSpec* robot_;
@@ -127,6 +138,9 @@ class TrialEvaluator {
   std::array<Eigen::Vector3d, 2> sole0_{};
   bool have_sole0_ = false;
   double last_out_of_posture_ = -1.0;  ///< last time (after the push start) the posture was outside the band
+  bool steps_allowed_ = false;
+  std::array<double, 2> lift_time_{-1.0, -1.0};  ///< when each sole left the ground (−1: on it)
+  std::array<double, 2> final_tilt_deg_{};
   bool evaluated_after_push_ = false;
 };
 
