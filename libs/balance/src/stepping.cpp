@@ -127,9 +127,6 @@ SteppingConfig SteppingConfig::load(const Config& c) {
   s.enabled = c.boolean_or("enabled", s.enabled);
   s.margin = c.real_or("margin", s.margin, -0.1, 0.2);
   s.cmp_reach = c.real_or("cmp_reach", s.cmp_reach, 0.0, 0.5);
-  s.absorbable_impulse = c.real_or("absorbable_impulse", s.absorbable_impulse, 0.0, 1e4);
-  s.push_force = c.real_or("push_force", s.push_force, 0.0, 1e5);
-  s.impulse_memory = c.real_or("impulse_memory", s.impulse_memory, 1e-3, 100.0);
   s.t_min = c.real_or("t_min", s.t_min, 0.05, 2.0);
   s.t_max = c.real_or("t_max", s.t_max, s.t_min, 3.0);
   s.t_nominal = c.real_or("t_nominal", s.t_nominal, s.t_min, s.t_max);

@@ -215,11 +215,7 @@ void PostureReference::check_step(double t, const EstimatedState& state) {
     }
     follow = unloaded_since_ >= 0.0 && t - unloaded_since_ >= config_.step.follow_delay;
   }
-  // The first step of a series also waits until the push has delivered more momentum than the
-  // ankle and hip strategies absorb (the envelope without steps): before that, ξ beyond the feet is
-  // what the hip strategy is there for.
-  const bool beyond_envelope = stepped_ || push_impulse_.norm() > config_.stepping.absorbable_impulse;
-  if (!follow && !(beyond_envelope && planner_.step_needed(sole, both, xi_))) return;
+  if (!follow && !planner_.step_needed(sole, both, xi_)) return;
   int swing = -1;
   if (stage_ == Stage::kHold || last_swing_ < 0) {
     const double fz = state.foot_force_z[0] + state.foot_force_z[1];
@@ -230,7 +226,6 @@ void PostureReference::check_step(double t, const EstimatedState& state) {
     swing = 1 - last_swing_;  // still settling from a step: the trailing foot follows
   }
   step_ = planner_.plan(sole, swing, xi_, omega_);
-  replan_ = true;
   begin_step(t);
 }
 
@@ -245,20 +240,6 @@ void PostureReference::begin_step(double t) {
   swing_time_ = std::max(step_.duration - config_.step.unload_time, 0.05);
   ++steps_taken_;
   begin_stage(Stage::kStepUnload, t);
-}
-
-bool PostureReference::request_step(int swing, const Eigen::Vector2d& target, double duration, double t) {
-  if (!started_ || stage_ != Stage::kHold || current_ != Support::kDouble || (swing != model::kRight && swing != model::kLeft)) {
-    return false;
-  }
-  step_ = StepPlan{};
-  step_.swing = swing;
-  step_.target = target;
-  step_.duration = duration;
-  step_.yaw = std::atan2(ground_soles_[static_cast<size_t>(1 - swing)].R(1, 0), ground_soles_[static_cast<size_t>(1 - swing)].R(0, 0));
-  replan_ = false;
-  begin_step(t);
-  return true;
 }
 
 void PostureReference::follow_lip(const EstimatedState& state, const Eigen::Vector2d& p) {
@@ -315,11 +296,11 @@ void PostureReference::ramp_landing_load(double since_touchdown) {
   }
 }
 
-double PostureReference::sole_height(const EstimatedState& state, int foot) {
-  if (state.q.size() != robot_->model.nq) return 0.0;
-  model::forward_kinematics(robot_->model, *fk_, state.q);
+model::SE3 PostureReference::measured_sole(const EstimatedState& state, int foot) {
   const auto fu = static_cast<size_t>(foot);
-  return model::update_frame_placement(robot_->model, *fk_, robot_->feet[fu].sole_frame).p.z() - ground_soles_[fu].p.z();
+  if (state.q.size() != robot_->model.nq) return ground_soles_[fu];
+  model::forward_kinematics(robot_->model, *fk_, state.q);
+  return model::update_frame_placement(robot_->model, *fk_, robot_->feet[fu].sole_frame);
 }
 
 void PostureReference::update_swing(double t, const EstimatedState* state) {
@@ -327,7 +308,7 @@ void PostureReference::update_swing(double t, const EstimatedState* state) {
   const double tau_s = (t - swing_start_) / swing_time_;
   const double remaining = swing_start_ + swing_time_ - t;
   const double dt = std::max(t - last_t_, 0.0);
-  if (replan_ && state != nullptr && tau_s < config_.step.replan_fraction && remaining > config_.step.replan_min_time) {
+  if (state != nullptr && tau_s < config_.step.replan_fraction && remaining > config_.step.replan_min_time) {
     // The landing follows the capture point, at most target_rate fast (the estimate is noisy).
     const StepPlan p = planner_.plan_landing(soles(), moving_foot_, xi_, omega_, remaining);
     const Eigen::Vector2d d = p.target - step_.target;
@@ -401,7 +382,7 @@ void PostureReference::land(double t, const EstimatedState* state) {
 
 const TaskReference& PostureReference::update(double t, const EstimatedState* state) {
   ref_.time = t;
-  if (state != nullptr && omega_ > 0.0) {
+  if (state != nullptr && config_.stepping.enabled && omega_ > 0.0) {
     // The horizontal external force by a momentum observer (no differentiation):
     // F̂ = K (m ċ − m ċ_0 − ∫ (Σ f_ground + F̂) dt), a first-order estimate of m c̈ − Σ f_ground
     // with time constant 1/K.
@@ -412,18 +393,10 @@ const TaskReference& PostureReference::update(double t, const EstimatedState* st
     if (t_prev_state_ >= 0.0 && dt > 0.0 && dt < 0.1) {
       momentum_integral_ += (f_ground + f_ext_) * dt;
       f_ext_ = (m * (v - v_prev_) - momentum_integral_) / config_.step.force_filter;
-      // The push's impulse so far: F̂ integrated while it stands out of the noise, forgotten with
-      // time constant impulse_memory once it is gone.
-      if (f_ext_.norm() > config_.stepping.push_force) {
-        push_impulse_ += f_ext_ * dt;
-      } else {
-        push_impulse_ *= std::max(0.0, 1.0 - dt / config_.stepping.impulse_memory);
-      }
     } else {
       v_prev_ = v;  // the observer's start
       momentum_integral_.setZero();
       f_ext_.setZero();
-      push_impulse_.setZero();
     }
     t_prev_state_ = t;
     // The external force counts until the first touchdown of a series of steps: after it, the
@@ -550,14 +523,9 @@ const TaskReference& PostureReference::update(double t, const EstimatedState* st
         stage_start_ = t;
         swing_start_ = t;
         // The swing starts from the sole as it is (a trailing sole may have rolled onto its toe).
-        swing_R0_ = ground_soles_[mu].R;
-        swing_p_ = ground_soles_[mu].p;
-        if (state != nullptr && state->q.size() == robot_->model.nq) {
-          model::forward_kinematics(robot_->model, *fk_, state->q);
-          const model::SE3& X = model::update_frame_placement(robot_->model, *fk_, robot_->feet[mu].sole_frame);
-          swing_R0_ = X.R;
-          swing_p_ = X.p;
-        }
+        const model::SE3 X = state != nullptr ? measured_sole(*state, moving_foot_) : ground_soles_[mu];
+        swing_R0_ = X.R;
+        swing_p_ = X.p;
         swing_z0_ = swing_p_.z() - ground_soles_[mu].p.z();
         swing_v_.setZero();
         swing_a_.setZero();
@@ -580,7 +548,8 @@ const TaskReference& PostureReference::update(double t, const EstimatedState* st
       // a state, at the planned time; at the latest 0.15 s after it.
       const double tau_s = (t - swing_start_) / swing_time_;
       const bool touched = state != nullptr && state->contact[static_cast<size_t>(moving_foot_)] && tau_s > 0.6 &&
-                           sole_height(*state, moving_foot_) < config_.step.touchdown_height;
+                           measured_sole(*state, moving_foot_).p.z() - ground_soles_[static_cast<size_t>(moving_foot_)].p.z() <
+                               config_.step.touchdown_height;
       if (touched || (state == nullptr && tau_s >= 1.0) || t - swing_start_ >= swing_time_ + 0.15) land(t, state);
       break;
     }

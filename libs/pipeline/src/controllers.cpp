@@ -91,11 +91,6 @@ void Controllers::control(const EstimatedState& state) {
   if (have_balance_) pass("BALANCE_STATUS", wbc_out.status, balance_msg, balance_, names_);
 }
 
-void Controllers::request_step(int swing, const Eigen::Vector2d& target, double duration, double t) {
-  wbc.request_step(swing, target, duration, t);
-  if (optimizer) optimizer->request_step(swing, target, duration, t);
-}
-
 void Controllers::request_support(balance::Support s, double t) {
   wbc.request_support(s, t);
   if (optimizer) optimizer->request_support(s, t);

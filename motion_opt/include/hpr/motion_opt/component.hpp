@@ -28,10 +28,6 @@ class MotionOptComponent {
 
   /// A support mode requested by the operator, from time t on.
   void request_support(balance::Support s, double t) { reference_.request_support(s, t); }
-  /// A step of foot `swing` to `target` (world, sole centre), touching down `duration` after t.
-  void request_step(int swing, const Eigen::Vector2d& target, double duration, double t) {
-    reference_.request_step(swing, target, duration, t);
-  }
   /// Back to the state after construction (keeping the parameters): for a clock that restarted.
   void reset();
 

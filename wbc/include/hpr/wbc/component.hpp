@@ -52,10 +52,6 @@ class WbcComponent {
   [[nodiscard]] bool damping() const { return damping_; }
   /// A support mode requested by the operator, from time t on.
   void request_support(balance::Support s, double t) { reference_.request_support(s, t); }
-  /// A step of foot `swing` to `target` (world, sole centre), touching down `duration` after t.
-  void request_step(int swing, const Eigen::Vector2d& target, double duration, double t) {
-    reference_.request_step(swing, target, duration, t);
-  }
   /// The posture starts again from the next usable estimate (a clock that restarted); an operator
   /// damp stays.
   void reset();

@@ -91,10 +91,6 @@ class PostureReference {
   [[nodiscard]] bool started() const { return started_; }
   /// Requests a support mode from time t on (a transition follows).
   void request_support(Support s, double t);
-  /// A step of foot `swing` (model::kRight or kLeft) to `target` (its sole centre on the ground,
-  /// world), touching down `duration` after t: taken at once when standing in double support
-  /// (false otherwise). The landing is kept as asked (no replanning).
-  bool request_step(int swing, const Eigen::Vector2d& target, double duration, double t);
   /// The reference at time t (t never decreasing). With the estimated `state` (its CoM, velocity
   /// and contacts) and stepping enabled, standing in double support, it steps when the capture
   /// point leaves what the ankle and hip strategies can hold (StepPlanner), and keeps stepping until
@@ -108,7 +104,8 @@ class PostureReference {
   [[nodiscard]] const StepPlan& step() const { return step_; }
   /// The capture point the stepping decision uses: ξ = c + ċ/ω, standing shifted by the external
   /// force the robot is resisting, F_ext / (m ω²) (the CMP that would hold it; F_ext = m c̈ −
-  /// Σ f_ground, horizontal, from a momentum observer), after a step's touchdown without it.
+  /// Σ f_ground, horizontal, from a momentum observer), after a step's touchdown without it
+  /// (computed with stepping enabled only: the observer costs nothing otherwise).
   [[nodiscard]] const Eigen::Vector2d& capture_point() const { return xi_; }
   [[nodiscard]] const Eigen::Vector2d& external_force() const { return f_ext_; }
   /// How far capture_point() lies beyond the double support grown by the hip strategy's CMP reach
@@ -133,8 +130,9 @@ class PostureReference {
   /// The load limits of both feet ramp to full over landing_load_time after a touchdown.
   void ramp_landing_load(double since_touchdown);
   void update_swing(double t, const EstimatedState* state);
-  /// Height of a sole above its ground [m], by the kinematics of the estimated state.
-  double sole_height(const EstimatedState& state, int foot);
+  /// A sole's placement by the kinematics of the estimated state (its ground pose when the state
+  /// has no configuration).
+  model::SE3 measured_sole(const EstimatedState& state, int foot);
   void land(double t, const EstimatedState* state);
 
   const model::RobotSpec* robot_;
@@ -157,7 +155,6 @@ class PostureReference {
   Eigen::Vector2d xi_ = Eigen::Vector2d::Zero(), f_ext_ = Eigen::Vector2d::Zero();
   Eigen::Vector2d v_prev_ = Eigen::Vector2d::Zero();  ///< the observer's initial CoM velocity
   Eigen::Vector2d momentum_integral_ = Eigen::Vector2d::Zero();  ///< ∫ (Σ f_ground + F̂) dt [N s]
-  Eigen::Vector2d push_impulse_ = Eigen::Vector2d::Zero();  ///< ∫ F̂ dt of the push under way [N s]
   double t_prev_state_ = -1.0, excess_ = -1.0;
   Eigen::Vector2d p_hold_ = Eigen::Vector2d::Zero();  ///< the CMP the CoM reference last followed
   int last_swing_ = -1;     ///< the foot that stepped last (the next step is the other's)
@@ -172,7 +169,6 @@ class PostureReference {
   double swing_z0_ = 0.0;  ///< its height above the ground then [m]
   std::optional<model::Data> fk_;  ///< kinematics workspace (the sole at lift-off)
   int steps_taken_ = 0;
-  bool replan_ = false;  ///< the step under way came from the planner (its landing follows the capture point)
 };
 
 /// One axis of a quintic from (p0, v0, a0) to (p1, 0, 0) over T, at time t ∈ [0, T]; returns

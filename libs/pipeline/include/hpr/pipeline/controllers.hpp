@@ -68,9 +68,6 @@ class Controllers {
 
   /// A support mode requested from time t on, as an OPERATOR message asks the wbc and motion_opt.
   void request_support(balance::Support s, double t);
-  /// A step of foot `swing` to `target` touching down `duration` after t, as the wbc and motion_opt
-  /// take it.
-  void request_step(int swing, const Eigen::Vector2d& target, double duration, double t);
   /// Forgets the estimate, the references and the held posture (a clock that restarted).
   void reset();
 
