@@ -122,6 +122,7 @@ int main(int argc, char** argv) {
       throw std::invalid_argument("the push needs --peak > 0 and a positive --impulse or --duration");
     }
     spec.config = find_config(spec.config);
+    if (spec.truth_state && !spec.in_process) throw std::invalid_argument("--truth-state needs --in-process");
     if (spec.in_process && (!spec.log_file.empty() || !video_file.empty())) {
       throw std::invalid_argument("--in-process writes no log: --log and --video need the processes");
     }

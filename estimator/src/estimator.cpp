@@ -302,10 +302,14 @@ void Estimator::update_contacts(const SensorSample& s) {
     // Right after a touchdown the sole settles and the leg's joint rates, filtered, still carry the
     // swing: its kinematics correct nothing yet.
     if (s.time - touchdown_time_[ku] < kTouchdownSettle) flat = false;
+    // A sole that is no anchor follows the leg in the position filter and the estimate in heading
+    // (position()); when it becomes one, it is seated where the estimate puts it: its heading held
+    // (and, on uneven ground, its tilt) and its position started from the leg kinematics. So a sole
+    // that turned or slid while it rolled on an edge (or before a touchdown settled) corrects
+    // nothing with where it used to be.
+    const bool seat = flat && !anchor_[ku];
     anchor_[ku] = flat;
-    if (contact_[ku] && !was) {
-      // Touchdown: hold the sole's heading (and, on uneven ground, its tilt) from now on, and start
-      // its position in the filter from the leg kinematics.
+    if (seat) {
       const Matrix3d R_WS = R_ * X_BS_[ku].R;
       R_WS_hold_[ku] = config_.level_ground ? level(R_WS) : R_WS;
       const int i = 6 + 3 * k;
@@ -481,7 +485,7 @@ void Estimator::position(const SensorSample& s, double dt) {
     P_(3 + i, 3 + i) += qa * dt;
   }
   for (int k = 0; k < 2; ++k) {
-    const double sf = contact_[static_cast<size_t>(k)] ? config_.foot_contact_noise : config_.foot_swing_noise;
+    const double sf = anchor_[static_cast<size_t>(k)] ? config_.foot_contact_noise : config_.foot_swing_noise;
     P_.block<3, 3>(6 + 3 * k, 6 + 3 * k).diagonal().array() += sf * sf * dt;
   }
   // Corrections from each sole in contact: its position relative to the IMU point, and the IMU
@@ -497,11 +501,11 @@ void Estimator::position(const SensorSample& s, double dt) {
     const auto ku = static_cast<size_t>(k);
     const int i = 6 + 3 * k;
     const Vector3d d = X_BS_[ku].p - p_BI_;
-    if (!contact_[ku]) {
-      x_.segment<3>(i) = x_.head<3>() + R_ * d;  // a swinging sole follows the leg
+    if (!anchor_[ku]) {
+      // A sole in the air, or in contact but rotating about an edge or settling: it follows the leg.
+      x_.segment<3>(i) = x_.head<3>() + R_ * d;
       continue;
     }
-    if (!anchor_[ku]) continue;  // rotating about an edge: its centre moves, no correction
     v_meas[ku] = -R_ * (w_.cross(d) + v_BS_[ku] - v_BI_);
     use[ku] = true;
     any_agrees = any_agrees || config_.anchor_velocity_gate <= 0.0 ||

@@ -210,4 +210,41 @@ TEST(InProcess, JudgesPushesAsTheProcessesDo) {
   }
 }
 
+TEST(InProcess, TheTruthStateGivesEveryControllerTheSimulatorsStateAndNoEstimatorRuns) {
+  // --truth-state: the same trial as a closed loop whose controllers read the simulator's truth,
+  // bit for bit; it differs from the trial with the estimator in the loop; the processes refuse it,
+  // and the wbc process's own switch to the truth is refused in process rather than ignored.
+  TrialSpec spec = experiment(Strategy::kCam, 18.0);
+  spec.after = 5.0;
+  spec.in_process = true;
+  spec.truth_state = true;
+  const auto truth = hpr::experiments::run_trial(spec);
+  ASSERT_TRUE(truth.recovered) << truth.failure;
+
+  const auto plan = hpr::experiments::plan_trial(spec);
+  hpr::pipeline::ClosedLoop loop(plan.config, plan.overrides, {.cam = true, .estimator_in_loop = false});
+  loop.sim.add_push(plan.push);
+  double peak_cam_y = 0.0;  // the commanded CAM from the push on, as the evaluator reads it
+  while (loop.sim.time() < plan.sim_duration) {
+    const double t = loop.sim.time();
+    loop.step();
+    if (loop.have_wholebody && t >= plan.push.start) peak_cam_y = std::max(peak_cam_y, std::abs(loop.wholebody.l_cmd.y()));
+  }
+  EXPECT_FALSE(loop.estimator.has_value()) << "no estimator runs";
+  EXPECT_GT(peak_cam_y, 0.1) << "the hip strategy acted";
+  EXPECT_EQ(truth.peak_cam_cmd.y(), peak_cam_y) << "the commanded CAM of the truth-fed closed loop";
+
+  spec.truth_state = false;
+  const auto estimated = hpr::experiments::run_trial(spec);
+  EXPECT_NE(truth.peak_cam_cmd.y(), estimated.peak_cam_cmd.y());
+
+  spec.truth_state = true;
+  spec.in_process = false;
+  EXPECT_THROW(hpr::experiments::run_trial(spec), std::invalid_argument);
+  spec.truth_state = false;
+  spec.in_process = true;
+  spec.overrides.push_back("wbc.state_source=sim_truth");
+  EXPECT_THROW(hpr::experiments::run_trial(spec), std::invalid_argument);
+}
+
 }  // namespace

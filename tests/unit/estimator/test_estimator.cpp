@@ -4,6 +4,7 @@
 // initialisation in the air, and configuration validation.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <random>
 
 #include "hpr/estimator/estimator.hpp"
@@ -174,6 +175,33 @@ TEST_F(EstimatorTest, ASoleLoadedAtItsEdgeIsNoAnchor) {
     est2.update(centred.sample);
   }
   EXPECT_GT(angle(est2.state().q, q), 0.01);
+}
+
+TEST_F(EstimatorTest, ASoleThatTurnedWhileItWasNoAnchorCorrectsNothingWithItsOldHeading) {
+  // Standing (both soles anchors), then 0.3 s in which the robot, rigid, turns by 0.1 rad about the
+  // vertical with both soles loaded at their toes (pivoting: no anchor, the gyro alone follows the
+  // turn), then standing again on flat soles. The soles are anchors again where they now stand: the
+  // estimate keeps the heading the gyro integrated, and no sole pulls it back to where it stood.
+  const double turn = 0.1, t_turn = 0.3;
+  const Vector3d toe(0.5 * robot.feet[0].length - 0.002, 0, 0);
+  estimator::Estimator est(robot, estimator::EstimatorConfig{});
+  Eigen::VectorXd q;
+  for (int k = 0; k <= 1500; ++k) {
+    const double t = 1e-3 * k;
+    const double s = std::clamp((t - 0.5) / t_turn, 0.0, 1.0);
+    const bool turning = t > 0.5 && t < 0.5 + t_turn;
+    q = standing_with_yaw(robot, turn * s);
+    StaticSensors sensors(robot, q, {0.5, 0.5}, turning ? std::array<Vector3d, 2>{toe, toe} : std::array<Vector3d, 2>{Vector3d::Zero(), Vector3d::Zero()});
+    const Matrix3d R_WI = sensors.data.oMf[static_cast<size_t>(robot.imu_frame)].R;
+    sensors.sample.imu_gyro_B = R_WI.transpose() * Vector3d(0, 0, turning ? turn / t_turn : 0.0);
+    sensors.sample.tick = k;
+    sensors.sample.time = t;
+    est.update(sensors.sample);
+  }
+  EXPECT_TRUE(est.state().contact[0] && est.state().contact[1]);
+  EXPECT_LT(angle(est.state().q, q), 2e-3) << "the heading the gyro integrated, not the soles' old one (0.1 rad off)";
+  EXPECT_LT((est.state().q.head<3>() - q.head<3>()).norm(), 1e-3) << "nor back to where they stood";
+  EXPECT_LT(est.state().v.norm(), 1e-3) << "at rest";
 }
 
 TEST_F(EstimatorTest, EstimatesTheGyroBias) {

@@ -75,6 +75,7 @@ std::string TrialSpec::describe() const {
   if (beta) s += fmt::format(" --beta {:g}", *beta);
   for (const auto& o : overrides) s += " --set " + o;
   if (in_process) s += " --in-process";
+  if (truth_state) s += " --truth-state";
   return s;
 }
 
@@ -194,6 +195,7 @@ TrialPlan plan_trial(const TrialSpec& spec) {
 
 TrialResult run_trial(const TrialSpec& spec, const std::function<void(const std::string&)>& progress) {
   if (spec.in_process) return run_trial_in_process(spec, progress);
+  if (spec.truth_state) throw std::invalid_argument("--truth-state needs --in-process (the processes run the estimator)");
   const auto wall0 = std::chrono::steady_clock::now();
   const TrialPlan plan = plan_trial(spec);
   const std::string& config = plan.config;
@@ -318,6 +320,8 @@ const char* const kPushOptionsUsage =
                         (e.g. push_tune's tuned.yaml), before the --set ones
   --in-process          the stack's libraries stepping in one thread (the in-process pipeline)
                         instead of the processes over LCM: many times faster, no log
+  --truth-state         (with --in-process) every controller sees the simulator's true state
+                        instead of the estimate: tells estimation errors from control ones
 )";
 
 bool read_push_option(ArgReader& args, TrialSpec& spec) {
@@ -341,6 +345,8 @@ bool read_push_option(ArgReader& args, TrialSpec& spec) {
     spec.overrides.push_back(args.value());
   } else if (args.is("--in-process")) {
     spec.in_process = true;
+  } else if (args.is("--truth-state")) {
+    spec.truth_state = true;
   } else if (args.is("--overlay")) {
     const auto o = overlay_overrides(args.value());
     spec.overrides.insert(spec.overrides.begin(), o.begin(), o.end());

@@ -9,10 +9,12 @@
 ///    below the sensor, with hysteresis (on above `contact_on`, off below `contact_off`). A sole in
 ///    contact whose centre of pressure is within `cop_edge_margin` of its edge may be rotating about
 ///    that edge (heel or toe): it stays in contact but its kinematics correct nothing until the CoP
-///    moves back inside.
+///    moves back inside. A sole that is no anchor (in the air, on an edge, turning, or just landed)
+///    follows the estimate; when it becomes one it is seated where the estimate then puts it, so
+///    that a sole that turned or slid on its edge is not pulled back to where it stood before.
 ///  - Attitude: an error-state Kalman filter on (R_WB, gyro bias b), predicted with the gyro and
 ///    corrected by the orientation the legs in contact give (sole flat on level ground, its yaw held
-///    since touchdown), and without contact by the accelerometer's gravity direction.
+///    since it became an anchor), and without contact by the accelerometer's gravity direction.
 ///  - Angular velocity: ω_B fused from the gyro (less b̂) and, in contact, the leg kinematics
 ///    (a sole at rest gives ω_B = −J_ω,sole q̇ in the base frame), which is far less noisy than a
 ///    MEMS gyro at 1 kHz.
@@ -173,7 +175,7 @@ class Estimator {
   std::array<Eigen::Matrix<double, 6, 1>, 2> wrench_W_{};  // ground on foot, world axes, at the sole centre
   std::array<double, 2> fz_{};
 
-  // Attitude: R_WB, bias (IMU frame), covariance of (δθ (base frame), δb); yaw of each sole since touchdown.
+  // Attitude: R_WB, bias (IMU frame), covariance of (δθ (base frame), δb); yaw each anchor holds.
   Eigen::Matrix3d R_ = Eigen::Matrix3d::Identity();
   Eigen::Vector3d b_ = Eigen::Vector3d::Zero();
   Eigen::Matrix<double, 6, 6> P_att_ = Eigen::Matrix<double, 6, 6>::Zero();

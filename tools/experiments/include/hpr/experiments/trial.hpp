@@ -64,6 +64,7 @@ struct TrialSpec {
   double timeout = 600.0;             ///< [s] wall clock for the whole run
   bool stop_when_decided = false;     ///< end the run as soon as it cannot count as recovered (sweeps)
   bool in_process = false;            ///< through the in-process pipeline, not the processes (no log)
+  bool truth_state = false;           ///< in process: the controllers see the simulator's truth, no estimator
 
   /// The push's duration from impulse and peak when not given.
   [[nodiscard]] double push_duration() const;
