@@ -77,10 +77,13 @@ void AxisGenerator::step(double t, double dt, double tau_ankle, double tau_min, 
   thres_ = params_.alpha * lim;
   const bool exceeded = tau_ankle >= 0 ? tau_ankle > thres_ : tau_ankle < thres_;
   if (exceeded && phase_ != Phase::kGenerate) {
-    // A push: phase 1 from whatever phase, continuing from the current l^ref.
+    // A push: phase 1 from whatever phase, continuing from the current l^ref. Entered again during
+    // the reduction, it continues the same momentum: the peak rate of (27) stays that of the whole
+    // episode, so that a brief re-entry with small rates does not stretch the reduction of a large
+    // l^ref over tens of seconds (T = 3 |l| / (2 β max |l̇|), (26)).
+    if (phase_ != Phase::kReduce) peak_rate_ = 0.0;
     phase_ = Phase::kGenerate;
     t_start_ = {t, -1, -1};
-    peak_rate_ = 0.0;
   }
   switch (phase_) {
     case Phase::kIdle:

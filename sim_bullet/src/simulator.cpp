@@ -68,6 +68,7 @@ SimConfig SimConfig::load(const Config& c) {
     const Config g = c.section("ground");
     s.ground_friction = g.real_or("friction", s.ground_friction, 0.0, 5.0);
     s.ground_restitution = g.real_or("restitution", s.ground_restitution, 0.0, 1.0);
+    s.ground_multipoint = g.boolean_or("multipoint", s.ground_multipoint);
     s.contact_stiffness = g.real_or("contact_stiffness", s.contact_stiffness, 0.0, 1e9);
     s.contact_damping = g.real_or("contact_damping", s.contact_damping, 0.0, 1e7);
     s.contact_erp = g.real_or("contact_erp", s.contact_erp, 0.0, 1.0);
@@ -162,6 +163,27 @@ void hold_gains(const model::RobotSpec& robot, const VectorXd& q, double kp, dou
   }
 }
 
+/// A joint limit that Bullet solves whichever links collide. Bullet solves a multibody constraint
+/// in the simulation island of its link's own collider and drops it when that link has none (with
+/// feet-only collisions, every joint but the ankles'): the limit is then simply not there. Every
+/// collider of one multibody lies in one island, so any of them names it.
+class JointLimit final : public btMultiBodyJointLimitConstraint {
+ public:
+  using btMultiBodyJointLimitConstraint::btMultiBodyJointLimitConstraint;
+  int getIslandIdA() const override { return island_of(m_bodyA); }
+  int getIslandIdB() const override { return island_of(m_bodyB); }
+
+ private:
+  static int island_of(const btMultiBody* mb) {
+    if (mb == nullptr) return -1;
+    if (const btMultiBodyLinkCollider* c = mb->getBaseCollider()) return c->getIslandTag();
+    for (int i = 0; i < mb->getNumLinks(); ++i) {
+      if (const btMultiBodyLinkCollider* c = mb->getLink(i).m_collider) return c->getIslandTag();
+    }
+    return -1;
+  }
+};
+
 struct Simulator::Impl {
   btDefaultCollisionConfiguration collision_config;
   btCollisionDispatcher dispatcher{&collision_config};
@@ -172,7 +194,7 @@ struct Simulator::Impl {
   std::vector<std::unique_ptr<btCollisionShape>> shapes;
   std::vector<std::unique_ptr<btMultiBodyLinkCollider>> colliders;
   std::vector<btMultiBodyLinkCollider*> body_collider;  // per model body (may be null)
-  std::vector<std::unique_ptr<btMultiBodyJointLimitConstraint>> limits;
+  std::vector<std::unique_ptr<JointLimit>> limits;
   std::unique_ptr<btCollisionShape> ground_shape;
   std::unique_ptr<btCollisionObject> ground;
   std::array<int, 2> foot_body{};
@@ -262,6 +284,7 @@ Simulator::Simulator(const model::RobotSpec& robot, SimConfig config)
   info.m_erp2 = config_.contact_erp;
   info.m_globalCfm = config_.contact_cfm;
   info.m_timeStep = config_.dt / config_.substeps;
+  if (config_.ground_multipoint) I.collision_config.setPlaneConvexMultipointIterations(3, 3);
 
   I.bullet = std::make_unique<MultiBodyRobot>(m);
   btMultiBody* mb = I.bullet->multibody();
@@ -355,7 +378,7 @@ Simulator::Simulator(const model::RobotSpec& robot, SimConfig config)
     for (int j = 0; j < m.nj; ++j) {
       const double lo = m.q_lower[static_cast<size_t>(j)], hi = m.q_upper[static_cast<size_t>(j)];
       if (!std::isfinite(lo) || !std::isfinite(hi)) continue;
-      auto c = std::make_unique<btMultiBodyJointLimitConstraint>(mb, j, lo, hi);
+      auto c = std::make_unique<JointLimit>(mb, j, lo, hi);
       I.world->addMultiBodyConstraint(c.get());
       I.limits.push_back(std::move(c));
     }

@@ -25,10 +25,12 @@ struct Outcome {
   double final_speed = 1e9;      ///< [m/s] of the CoM at the end
 };
 
-/// A push of `impulse` N s with a 65 N peak (the paper's experiment 1) from behind at 2 s, then 4 s.
-Outcome push_from_behind(double impulse, const std::vector<std::string>& overrides) {
+/// A push of `impulse` N s with a 65 N peak (the paper's experiment 1) at 2 s, then 4 s; from
+/// behind (+x) unless `direction` says otherwise.
+Outcome push_from_behind(double impulse, const std::vector<std::string>& overrides,
+                         const Eigen::Vector3d& direction = Eigen::Vector3d::UnitX()) {
   ClosedLoop loop("toro", overrides, {.cam = true, .estimator_in_loop = true});
-  loop.push_base(impulse, 65.0, Eigen::Vector3d::UnitX(), 2.0);
+  loop.push_base(impulse, 65.0, direction, 2.0);
   const std::array<Eigen::Vector3d, 2> p0 = loop.sim.truth().p_WF;
   Outcome o;
   loop.run(6.0, [&] {
@@ -47,6 +49,19 @@ TEST(SteppingClosedLoop, APushBeyondTheHipStrategysEnvelopeIsRecoveredByStepping
   EXPECT_TRUE(standing.fallen) << "the hip strategy alone loses this push";
   EXPECT_EQ(standing.steps, 0);
   const Outcome stepping = push_from_behind(40.0, stepping_overlay());
+  EXPECT_FALSE(stepping.fallen);
+  EXPECT_GE(stepping.steps, 1);
+  EXPECT_GT(stepping.max_foot_travel, 0.1) << "a sole moved: a step, not a slide";
+  EXPECT_LT(stepping.final_speed, 0.05) << "at rest again";
+}
+
+TEST(SteppingClosedLoop, APushFromTheFrontIsRecoveredByStepsBackwards) {
+  // 45 N s from the front, 1.4 times what the CAM strategy recovers standing (32.7 N s): it falls
+  // without steps; with them it steps back and stands.
+  const Eigen::Vector3d from_the_front = -Eigen::Vector3d::UnitX();
+  const Outcome standing = push_from_behind(45.0, {}, from_the_front);
+  EXPECT_TRUE(standing.fallen) << "the hip strategy alone loses this push";
+  const Outcome stepping = push_from_behind(45.0, stepping_overlay(), from_the_front);
   EXPECT_FALSE(stepping.fallen);
   EXPECT_GE(stepping.steps, 1);
   EXPECT_GT(stepping.max_foot_travel, 0.1) << "a sole moved: a step, not a slide";

@@ -388,7 +388,12 @@ const TaskReference& PostureReference::update(double t, const EstimatedState* st
     // with time constant 1/K.
     const Eigen::Vector2d v = state->v_com.head<2>();
     const double m = robot_->model.mass;
-    const Eigen::Vector2d f_ground = state->foot_wrench_W[0].head<2>() + state->foot_wrench_W[1].head<2>();
+    // The ground's force on the feet in contact only: the sensor of a foot in the air reads that
+    // foot's own inertia (tens of newtons while it swings), which is no ground force.
+    Eigen::Vector2d f_ground = Eigen::Vector2d::Zero();
+    for (size_t k = 0; k < 2; ++k) {
+      if (state->contact[k]) f_ground += state->foot_wrench_W[k].head<2>();
+    }
     const double dt = t - t_prev_state_;
     if (t_prev_state_ >= 0.0 && dt > 0.0 && dt < 0.1) {
       momentum_integral_ += (f_ground + f_ext_) * dt;

@@ -139,6 +139,35 @@ TEST(ReferenceGenerator, SecondPushInPhase2ReentersPhase1WithoutAJump) {
   EXPECT_TRUE(reentered);
 }
 
+TEST(ReferenceGenerator, ABriefReentryDuringTheReductionKeepsItsRate) {
+  // A push, then during phase 2 the ankle torque touches the threshold again for 20 ms, just above
+  // it: phase 1 again, with rates far below the push's. The reduction that follows keeps the rate
+  // of the whole episode (27): it ends within the duration (26) of the push's own peak rate, not
+  // after the tens of seconds the brief re-entry's rates would give.
+  GeneratorConfig cfg;
+  const AxisParams p{0.9, 0.4};
+  AxisGenerator g(p);
+  double reentry = -1, peak = 0, t_end_reduce = -1, l_at_reentry_exit = 0;
+  int reentries = 0;
+  for (int k = 0; k * kDt <= 12.0; ++k) {
+    const double t = k * kDt;
+    if (g.phase() == Phase::kReduce && reentry < 0) reentry = t + 0.05;
+    double tau = push_trace(t, 1.0, 100.0);
+    if (reentry > 0 && t >= reentry && t < reentry + 0.02) tau = -0.9 * kLimit - 0.1;  // just beyond the threshold
+    const Phase before = g.phase();
+    g.step(t, kDt, tau, -kLimit, kLimit, true, cfg);
+    if (before != Phase::kGenerate && g.phase() == Phase::kGenerate && reentry > 0) ++reentries;
+    if (before == Phase::kGenerate && g.phase() == Phase::kReduce && reentry > 0) l_at_reentry_exit = g.l();
+    if (g.phase() == Phase::kGenerate && reentry < 0) peak = std::max(peak, std::abs(g.ldot()));
+    if (before == Phase::kReduce && g.phase() == Phase::kRecover && reentries > 0) t_end_reduce = t;
+  }
+  ASSERT_EQ(reentries, 1);
+  ASSERT_GT(std::abs(l_at_reentry_exit), 0.1);
+  const double T_push = 3.0 * std::abs(l_at_reentry_exit) / (2.0 * p.beta * peak);
+  ASSERT_GT(t_end_reduce, 0.0) << "the reduction ended";
+  EXPECT_LT(t_end_reduce - (reentry + 0.02), T_push + 0.01);
+}
+
 TEST(ReferenceGenerator, AxesAreIndependent) {
   GeneratorConfig cfg;
   ReferenceGenerator both(cfg), y_only(cfg);

@@ -65,6 +65,35 @@ TEST(Simulator, PushedFreeFloatingBodyGainsTheImpulse) {
   }
 }
 
+TEST(Simulator, JointsStopAtTheirLimitsWhicheverLinksCollide) {
+  // Free-floating and without gravity, each joint below is driven towards its lower limit by a
+  // torque it would otherwise turn several radians with in 0.5 s: it stops at the URDF's limit,
+  // with only the feet colliding (the configured default) as with every link colliding.
+  for (const char* collisions : {"feet", "all"}) {
+    Robot r("toro");
+    r.sim_config.gravity.setZero();
+    r.sim_config.feet_only_collisions = std::string(collisions) == "feet";
+    sim::Simulator s(*r.spec, r.sim_config);
+    float_at_rest(r, s);
+    const model::Model& m = r.spec->model;
+    sim::JointCommand c;
+    c.resize(m.nj);
+    c.mode = sim::JointCommand::Mode::kRun;
+    const std::vector<std::string> driven{"l_hip_yaw", "r_hip_yaw", "r_knee", "waist_yaw", "l_elbow"};
+    for (const auto& name : driven) c.tau_ff(m.joint_index(name)) = -40.0;
+    for (int k = 0; k < 500; ++k) {
+      ASSERT_TRUE(s.set_command(c));
+      s.step();
+    }
+    for (const auto& name : driven) {
+      const auto j = m.joint_index(name);
+      const double lower = m.q_lower[static_cast<size_t>(j)];
+      EXPECT_GT(s.truth().q(7 + j), lower - 0.01) << collisions << " collisions: " << name << " passed its lower limit " << lower;
+      EXPECT_LT(s.truth().q(7 + j), lower + 0.05) << collisions << " collisions: " << name << " was driven to its limit";
+    }
+  }
+}
+
 // SIM_TRUTH's point of application is the pushed link's point, placed by the model library's
 // forward kinematics from the truth's own configuration.
 TEST(Simulator, TruthPushPointIsThePushedPointOfTheLink) {

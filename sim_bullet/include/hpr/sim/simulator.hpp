@@ -51,6 +51,12 @@ struct SimConfig {
   int substeps = 1;                 ///< physics steps per control period
   int solver_iterations = 20;
   double ground_friction = 0.9;
+  /// Contact points a flat polyhedral sole (box, mesh hull) keeps on the ground plane: Bullet adds
+  /// one point per step, so after a change of load a sole may stand on one or two corners and turn
+  /// about them under a small yaw moment; with multipoint, each step adds the corners found by
+  /// rotating the sole slightly when it has fewer than three (btConvexPlaneCollisionAlgorithm's
+  /// perturbation), so a flat sole keeps its four corners.
+  bool ground_multipoint = true;
   double ground_restitution = 0.0;
   double contact_stiffness = 0.0;   ///< 0: rigid contact (Bullet's default constraint)
   double contact_damping = 0.0;

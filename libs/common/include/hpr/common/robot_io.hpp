@@ -57,6 +57,8 @@ struct EstimatedState {
   Eigen::VectorXd tau;                          ///< measured joint torques
   std::array<bool, 2> contact{};                ///< right, left
   std::array<double, 2> foot_force_z{};
+  /// Ground on foot at the sole centre, world axes, from each ankle sensor less the weight of the foot
+  /// below it: the momentum rate of the foot is not taken off, so a foot in the air reads its inertia.
   std::array<Eigen::Matrix<double, 6, 1>, 2> foot_wrench_W{};
   Eigen::Vector3d l_com = Eigen::Vector3d::Zero(), ldot_com = Eigen::Vector3d::Zero();  ///< measured CAM and rate
   std::int32_t status = 0;                      ///< robot_state_t::STATUS_* bits
