@@ -6,6 +6,9 @@
 //                                sensors, truth) with the configuration's collisions (the feet)
 // SimStep/g1/all_meshes/hullN    the G1 with every link's mesh colliding with the ground as a convex
 //                                hull of at most N points (16, 64, 256)
+// .../single_point               the same with sim.ground.multipoint off: Bullet's one new contact
+//                                point per step, no perturbed queries of polyhedral shapes
+// SimStep/ROBOT/no_limits        without the joint-limit constraints (sim.joint_limits off)
 // The counter realtime_factor is simulated seconds per wall second; for the hull variants,
 // hull_gap_max_mm and hull_gap_mean_mm say how far inside the exact convex hull of each collision
 // mesh the simplified hull lies at worst (over 2000 directions), the largest and the mean over the
@@ -81,6 +84,10 @@ int main(int argc, char** argv) {
     benchmark::RegisterBenchmark((std::string("SimStep/") + robot).c_str(), sim_step, robot, std::vector<std::string>{})
         ->Unit(benchmark::kMicrosecond)
         ->MinTime(2.0);
+    benchmark::RegisterBenchmark((std::string("SimStep/") + robot + "/single_point").c_str(), sim_step, robot,
+                                 std::vector<std::string>{"sim.ground.multipoint=false"})
+        ->Unit(benchmark::kMicrosecond)
+        ->MinTime(2.0);
   }
   for (int points : {16, 64, 256}) {
     benchmark::RegisterBenchmark(("SimStep/g1/all_meshes/hull" + std::to_string(points)).c_str(), sim_step, "g1",
@@ -89,6 +96,16 @@ int main(int argc, char** argv) {
         ->Unit(benchmark::kMicrosecond)
         ->MinTime(2.0);
   }
+  for (const char* robot : {"toro", "g1"}) {
+    benchmark::RegisterBenchmark((std::string("SimStep/") + robot + "/no_limits").c_str(), sim_step, robot,
+                                 std::vector<std::string>{"sim.joint_limits=false"})
+        ->Unit(benchmark::kMicrosecond)
+        ->MinTime(2.0);
+  }
+  benchmark::RegisterBenchmark("SimStep/g1/all_meshes/hull64/single_point", sim_step, "g1",
+                               std::vector<std::string>{"sim.collisions=all", "robot.mesh_hull_points=64", "sim.ground.multipoint=false"})
+      ->Unit(benchmark::kMicrosecond)
+      ->MinTime(2.0);
   benchmark::Initialize(&argc, argv);
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
   benchmark::RunSpecifiedBenchmarks();
