@@ -103,6 +103,7 @@ int main(int argc, char** argv) {
         args.unknown();
       }
     }
+    if (base.truth_state && !base.in_process) throw std::invalid_argument("--truth-state needs --in-process");
     base.config = find_config(base.config);
     for (const auto& s : strategies) (void)strategy_from_string(s);
     if (angles.empty()) {
