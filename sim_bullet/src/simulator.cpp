@@ -165,8 +165,8 @@ void hold_gains(const model::RobotSpec& robot, const VectorXd& q, double kp, dou
 
 /// A joint limit that Bullet solves whichever links collide. Bullet solves a multibody constraint
 /// in the simulation island of its link's own collider and drops it when that link has none (with
-/// feet-only collisions, every joint but the ankles'): the limit is then simply not there. Every
-/// collider of one multibody lies in one island, so any of them names it.
+/// feet-only collisions, every joint but the two whose child link is a foot): the limit is then
+/// simply not there. Every collider of one multibody lies in one island, so any of them names it.
 class JointLimit final : public btMultiBodyJointLimitConstraint {
  public:
   using btMultiBodyJointLimitConstraint::btMultiBodyJointLimitConstraint;
