@@ -244,7 +244,7 @@ TEST(InProcess, TheTruthStateGivesEveryControllerTheSimulatorsStateAndNoEstimato
   spec.truth_state = false;
   spec.in_process = true;
   spec.overrides.push_back("wbc.state_source=sim_truth");
-  EXPECT_THROW(hpr::experiments::run_trial(spec), std::invalid_argument);
+  EXPECT_THROW(hpr::experiments::run_trial(spec), hpr::ConfigError);
 }
 
 }  // namespace

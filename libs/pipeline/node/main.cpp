@@ -53,9 +53,6 @@ void check_exchange_options(const Config& cfg) {
   (void)mo.boolean_or("wait_for_reference", true);
   (void)mo.real_or("reference_timeout", 0.5, 0.0, 60.0);
   (void)mo.integer_or("reference_stale_ticks", 20, 1, 100000);
-  if (wb.choice_or("state_source", "estimator", {"estimator", "sim_truth"}) != "estimator") {
-    wb.fail("state_source", "the composed controllers run their own estimator (sim_truth needs the wbc process)");
-  }
   (void)wb.real_or("wholebody_timeout", 0.5, 0.0, 60.0);
   (void)wb.integer_or("wholebody_stale_ticks", 50, 1, 100000);
   (void)wb.real_or("state_timeout", 0.05, 0.0, 60.0);

@@ -17,6 +17,12 @@ Controllers::Controllers(const Config& cfg, const model::RobotSpec& robot, Contr
     : options(opts),
       wbc(robot, wbc::WbcConfig::load(cfg.section("wbc"), robot), balance::PostureReferenceConfig::load(cfg.section("balance")),
           static_cast<int>(cfg.section("wbc").integer_or("bad_state_ticks", 20, 1, 100000))) {
+  // The composed wbc steps on the state it is given; the wbc process's test switch to the
+  // simulator's truth has no counterpart here (a truth-fed loop is ClosedLoop's option): refused.
+  if (const Config wb = cfg.section("wbc"); wb.choice_or("state_source", "estimator", {"estimator", "sim_truth"}) != "estimator") {
+    wb.fail("state_source", "the composed controllers run their own estimator (sim_truth needs the wbc process; in process, "
+                            "push_trial --truth-state feeds every controller the truth)");
+  }
   names_.joints = robot.model.joint_name;
   for (int j : robot.free_joints) free_names_.push_back(robot.model.joint_name[static_cast<size_t>(j)]);
   wbc_out.command.resize(robot.model.nj);

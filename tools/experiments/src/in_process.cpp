@@ -7,7 +7,6 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "hpr/common/config.hpp"
 #include "hpr/experiments/trial.hpp"
 #include "hpr/msg/robot_io.hpp"
 #include "hpr/pipeline/closed_loop.hpp"
@@ -21,12 +20,7 @@ TrialResult run_trial_in_process(const TrialSpec& spec, const std::function<void
   const TrialPlan plan = plan_trial(spec);
   pipeline::ClosedLoopOptions options;
   options.cam = spec.strategy == Strategy::kCam;
-  // The controllers see the estimator's state, or (truth_state) the simulator's truth. The wbc
-  // process's own test switch to the truth has no in-process counterpart: refused, not ignored.
-  const Config cfg = Config::load(plan.config, plan.overrides);
-  if (cfg.section("wbc").choice_or("state_source", "estimator", {"estimator", "sim_truth"}) != "estimator") {
-    throw std::invalid_argument("wbc.state_source: sim_truth is the wbc process's; in process, --truth-state gives every controller the truth");
-  }
+  // The controllers see the estimator's state, or (truth_state) the simulator's truth.
   options.estimator_in_loop = !spec.truth_state;
   pipeline::ClosedLoop loop(plan.config, plan.overrides, options);
   loop.sim.add_push(plan.push);
