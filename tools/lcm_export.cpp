@@ -152,6 +152,13 @@ void fill(Row& r, const humanoid::wholebody_command_t& m) {
   r.vec("xad_min", m.xad_min, m.adjusted_name);
   r.vec("xad_max", m.xad_max, m.adjusted_name);
   r.mat("segment_l_W", m.segment_l_W, m.segment_name);
+  r.add("stepping", m.stepping ? 1.0 : 0.0);
+  r.arr("xi_W", m.xi_W);
+  r.add("xi_excess", m.xi_excess);
+  r.add("step_foot", m.step_foot);
+  r.arr("step_target_W", m.step_target_W);
+  r.add("step_time_left", m.step_time_left);
+  r.add("steps_taken", m.steps_taken);
   r.add("posture_error", m.posture_error);
   r.add("qp_status", m.qp_status);
   r.add("qp_iterations", m.qp_iterations);

@@ -23,6 +23,8 @@ struct Outcome {
   int steps = 0;
   double max_foot_travel = 0.0;  ///< [m] farthest a sole moved from where it stood
   double final_speed = 1e9;      ///< [m/s] of the CoM at the end
+  int steps_shown = 0;           ///< steps the published reference announced (stepping.swing ≥ 0)
+  double landing_miss = 0.0;     ///< [m] farthest a sole came down from the landing last announced
 };
 
 /// A push of `impulse` N s with a 65 N peak (the paper's experiment 1) at 2 s, then 4 s; from
@@ -33,8 +35,18 @@ Outcome push_from_behind(double impulse, const std::vector<std::string>& overrid
   loop.push_base(impulse, 65.0, direction, 2.0);
   const std::array<Eigen::Vector3d, 2> p0 = loop.sim.truth().p_WF;
   Outcome o;
+  int swing = -1;
+  Eigen::Vector2d target = Eigen::Vector2d::Zero();
   loop.run(6.0, [&] {
     for (size_t k = 0; k < 2; ++k) o.max_foot_travel = std::max(o.max_foot_travel, (loop.sim.truth().p_WF[k] - p0[k]).head<2>().norm());
+    // What the wholebody command publishes for display: the step under way until touchdown.
+    const hpr::balance::StepStatus& st = loop.wholebody.command.stepping;
+    if (swing >= 0 && st.swing < 0) {
+      ++o.steps_shown;
+      o.landing_miss = std::max(o.landing_miss, (loop.sim.truth().p_WF[static_cast<size_t>(swing)].head<2>() - target).norm());
+    }
+    swing = st.swing;
+    target = st.target_W;
   });
   o.fallen = loop.sim.truth().fallen;
   o.steps = loop.optimizer->posture_reference().steps_taken();
@@ -51,6 +63,8 @@ TEST(SteppingClosedLoop, APushBeyondTheHipStrategysEnvelopeIsRecoveredByStepping
   const Outcome stepping = push_from_behind(40.0, stepping_overlay());
   EXPECT_FALSE(stepping.fallen);
   EXPECT_GE(stepping.steps, 1);
+  EXPECT_EQ(stepping.steps_shown, stepping.steps) << "every step announced in the wholebody command";
+  EXPECT_LT(stepping.landing_miss, 0.05) << "each sole came down where the announced step said";
   EXPECT_GT(stepping.max_foot_travel, 0.1) << "a sole moved: a step, not a slide";
   EXPECT_LT(stepping.final_speed, 0.05) << "at rest again";
 }

@@ -1,11 +1,13 @@
 // The viewer's page in a real browser (headless Chromium, software WebGL) on a recorded run of the
 // TORO-like robot: it loads without a console error, the scene graph's joint angles are the
 // logged ROBOT_STATE's at the shown tick (to 1e-9 rad), and the rendered image shows the robot
-// where it stands and the push arrow while the push acts (and no arrow before).
+// where it stands, the push arrow while the push acts (and no arrow before), and the stepping
+// strategy's capture point always and its planned step while one is under way.
 #include <gtest/gtest.h>
 
 #include <humanoid/robot_state_t.hpp>
 #include <humanoid/sim_truth_t.hpp>
+#include <humanoid/wholebody_command_t.hpp>
 
 #include <cmath>
 #include <filesystem>
@@ -22,6 +24,7 @@ namespace {
 using nlohmann::json;
 
 constexpr double kPushStart = 1.0, kPushEnd = 1.3;
+constexpr double kStepAhead = 0.35;  // [m] the planned step's landing ahead of the base
 
 /// The logged angle of joint j at tick k: the standing posture plus a slow sine per joint.
 double q_at(const Eigen::VectorXd& stand, std::int64_t k, int j) {
@@ -64,6 +67,19 @@ TEST(ViewerBrowser, PageShowsTheLoggedPostureTheRobotAndThePush) {
       tr.push_point_W[0] = q0(0) - 0.12;
       tr.push_point_W[2] = q0(2) + 0.05;
       log.write("SIM_TRUTH", tr, 1000 * k);
+      // The stepping strategy: the capture point runs ahead with the push, and the left foot
+      // (index 1) steps 0.35 m ahead while it acts.
+      humanoid::wholebody_command_t wb{};
+      wb.tick = k;
+      wb.utime = 1000 * k;
+      wb.stepping = true;
+      wb.xi_W[0] = q0(0) + (tr.push_active ? 0.15 : 0.0);
+      wb.xi_excess = tr.push_active ? 0.02 : -0.05;
+      wb.step_foot = tr.push_active ? 1 : -1;
+      wb.step_target_W[0] = q0(0) + kStepAhead;
+      wb.step_target_W[1] = 0.1;  // [m] the left sole's side
+      wb.step_time_left = tr.push_active ? kPushEnd - t : 0.0;
+      log.write("WHOLEBODY_COMMAND", wb, 1000 * k);
     }
   }
   hpr::test::ProcessGroup group;
@@ -104,6 +120,20 @@ TEST(ViewerBrowser, PageShowsTheLoggedPostureTheRobotAndThePush) {
   EXPECT_GT(out["push"]["push_pixels"]["red"].get<int>(), 40) << out["push"]["push_pixels"].dump();
   EXPECT_FALSE(out["before"]["push_visible"].get<bool>());
   EXPECT_EQ(out["before"]["pixels"]["whole"]["red"].get<int>(), 0) << "no arrow before the push";
+
+  // The capture point is drawn at both moments; the planned step only while a step is under way,
+  // as a sole-sized outline ahead of the robot.
+  EXPECT_TRUE(out["push"]["stepping"]["capture"].get<bool>());
+  EXPECT_TRUE(out["push"]["stepping"]["step"].get<bool>());
+  EXPECT_TRUE(out["before"]["stepping"]["capture"].get<bool>());
+  EXPECT_FALSE(out["before"]["stepping"]["step"].get<bool>());
+  EXPECT_GT(out["push"]["step_pixels"]["teal"].get<int>(), 100) << out["push"]["step_pixels"].dump();
+  EXPECT_GT(out["before"]["capture_pixels"]["teal"].get<int>(), 20) << out["before"]["capture_pixels"].dump();
+  EXPECT_GT(out["push"]["capture_pixels"]["red"].get<int>(), 20) << "red once a step is due: " << out["push"]["capture_pixels"].dump();
+  // The step lies ahead (+x) of the robot; the camera looks from behind and to the right, so
+  // ahead is up and to the right on the screen: its box starts right of the robot's centre.
+  const json& rb = out["push"]["robot_box"];
+  EXPECT_GT(out["push"]["step_box"]["x0"].get<double>(), 0.5 * (rb["x0"].get<double>() + rb["x1"].get<double>())) << out["push"].dump();
 }
 
 }  // namespace

@@ -592,6 +592,15 @@ const TaskReference& PostureReference::update(double t, const EstimatedState* st
   // During the shift both feet still carry load; from the lift on the robot is in single support.
   if (stage_ == Stage::kShift) ref_.support = Support::kDouble;
   if (stage_ == Stage::kLift) ref_.support = target_;
+  StepStatus& st = ref_.stepping;
+  st.enabled = config_.stepping.enabled;
+  st.xi_W = xi_;
+  st.excess = excess_;
+  st.swing = step_.swing;
+  st.target_W = step_.target;
+  st.target_yaw = step_.yaw;
+  st.time_left = step_.swing >= 0 ? std::max(step_start_ + config_.step.unload_time + swing_time_ - t, 0.0) : 0.0;
+  st.steps_taken = steps_taken_;
   return ref_;
 }
 

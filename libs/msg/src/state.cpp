@@ -167,6 +167,17 @@ void to_message(const balance::WholebodyCommand& c, const std::vector<std::strin
   for (size_t s = 0; s < c.segment_names.size(); ++s) {
     m.segment_l_W[s].assign(c.segment_l[s].data(), c.segment_l[s].data() + 3);
   }
+  const balance::StepStatus& st = r.stepping;
+  m.stepping = st.enabled;
+  m.xi_W[0] = st.xi_W.x();
+  m.xi_W[1] = st.xi_W.y();
+  m.xi_excess = st.excess;
+  m.step_foot = st.swing;
+  m.step_target_W[0] = st.target_W.x();
+  m.step_target_W[1] = st.target_W.y();
+  m.step_target_W[2] = st.target_yaw;
+  m.step_time_left = st.time_left;
+  m.steps_taken = st.steps_taken;
   m.posture_error = c.posture_error;
   m.qp_status = c.qp_status;
   m.qp_iterations = c.qp_iterations;
@@ -205,6 +216,11 @@ std::string from_message(const humanoid::wholebody_command_t& m, const std::vect
   for (const auto& l : m.segment_l_W) {
     if (!finite_all(l)) return "non-finite segment CAM";
   }
+  if (!detail::finite(m.xi_W, 2) || !std::isfinite(m.xi_excess) || !detail::finite(m.step_target_W, 3) ||
+      !std::isfinite(m.step_time_left)) {
+    return "non-finite capture point or step";
+  }
+  if (m.step_foot < -1 || m.step_foot > 1) return fmt::format("step_foot {} is no foot (-1, 0 or 1)", m.step_foot);
   const Eigen::Quaterniond qb = quat_wxyz(m.quat_WB);
   if (std::abs(qb.norm() - 1.0) > 1e-3) return "base quaternion not normalised";
   c.tick = m.tick;
@@ -243,6 +259,15 @@ std::string from_message(const humanoid::wholebody_command_t& m, const std::vect
   c.segment_names = m.segment_name;
   c.segment_l.resize(m.segment_l_W.size());
   for (size_t s = 0; s < m.segment_l_W.size(); ++s) c.segment_l[s] = Eigen::Map<const Eigen::Vector3d>(m.segment_l_W[s].data());
+  balance::StepStatus& st = r.stepping;
+  st.enabled = m.stepping != 0;
+  st.xi_W = Eigen::Vector2d(m.xi_W[0], m.xi_W[1]);
+  st.excess = m.xi_excess;
+  st.swing = m.step_foot;
+  st.target_W = Eigen::Vector2d(m.step_target_W[0], m.step_target_W[1]);
+  st.target_yaw = m.step_target_W[2];
+  st.time_left = m.step_time_left;
+  st.steps_taken = m.steps_taken;
   c.posture_error = m.posture_error;
   c.qp_status = m.qp_status;
   c.qp_iterations = m.qp_iterations;

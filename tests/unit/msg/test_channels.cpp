@@ -5,6 +5,7 @@
 
 #include <Eigen/Geometry>
 #include <cmath>
+#include <limits>
 #include <random>
 #include <vector>
 
@@ -186,6 +187,15 @@ TEST_F(Channels, WholebodyCommandArrivesUnchanged) {
   }
   c.segment_names = {"trunk", "right_arm"};
   c.segment_l = {Eigen::Vector3d(r(), r(), r()), Eigen::Vector3d(r(), r(), r())};
+  balance::StepStatus& st = t.stepping;
+  st.enabled = true;
+  fill(st.xi_W);
+  st.excess = 0.012;
+  st.swing = 1;
+  fill(st.target_W);
+  st.target_yaw = 0.3;
+  st.time_left = 0.21;
+  st.steps_taken = 2;
   c.posture_error = 0.25;
   c.qp_status = 3;
   c.qp_iterations = 4;
@@ -230,6 +240,14 @@ TEST_F(Channels, WholebodyCommandArrivesUnchanged) {
   EXPECT_EQ(got.segment_names, c.segment_names);
   ASSERT_EQ(got.segment_l.size(), 2U);
   EXPECT_EQ(got.segment_l[1], c.segment_l[1]);
+  EXPECT_TRUE(g.stepping.enabled);
+  EXPECT_EQ(g.stepping.xi_W, st.xi_W);
+  EXPECT_EQ(g.stepping.excess, st.excess);
+  EXPECT_EQ(g.stepping.swing, st.swing);
+  EXPECT_EQ(g.stepping.target_W, st.target_W);
+  EXPECT_EQ(g.stepping.target_yaw, st.target_yaw);
+  EXPECT_EQ(g.stepping.time_left, st.time_left);
+  EXPECT_EQ(g.stepping.steps_taken, st.steps_taken);
   EXPECT_EQ(got.posture_error, c.posture_error);
   EXPECT_EQ(got.qp_status, c.qp_status);
   EXPECT_EQ(got.qp_iterations, c.qp_iterations);
@@ -241,6 +259,14 @@ TEST_F(Channels, WholebodyCommandArrivesUnchanged) {
   EXPECT_NE(msg::from_message(m, {"elbow"}, got), "");
   m.posture_error = std::nan("");
   EXPECT_NE(msg::from_message(m, free_names, got), "");
+  m.posture_error = 0.25;
+  m.xi_W[1] = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(msg::from_message(m, free_names, got), "non-finite capture point or step");
+  m.xi_W[1] = 0.0;
+  m.step_foot = 2;
+  EXPECT_EQ(msg::from_message(m, free_names, got), "step_foot 2 is no foot (-1, 0 or 1)");
+  m.step_foot = -1;
+  EXPECT_EQ(msg::from_message(m, free_names, got), "");
 }
 
 TEST_F(Channels, BalanceStatusArrivesUnchanged) {

@@ -22,7 +22,7 @@ const params = new URLSearchParams(location.search);
 const renderMode = params.has('render');  // video frames: no controls, fixed size, a label
 if (renderMode) document.body.classList.add('render');
 
-const COLORS = { ref: 0xe0662b, cmd: 0x2b7be0, meas: 0x2bb04a, push: 0xd62728, com: 0xf2c12e, cop: 0x8e44ad, sole: 0x555f6b, support: 0x1f77b4 };
+const COLORS = { ref: 0xe0662b, cmd: 0x2b7be0, meas: 0x2bb04a, push: 0xd62728, com: 0xf2c12e, cop: 0x8e44ad, sole: 0x555f6b, support: 0x1f77b4, capture: 0x00a6a6, step: 0x00a6a6 };
 const CAM_SCALE = 0.25;    // [m per N m s]
 const PUSH_SCALE = 1 / 150; // [m per N]
 const PHASES = ['idle', 'generate', 'reduce', 'recover'];
@@ -132,6 +132,22 @@ const soleLines = [0, 1].map(() => {
   scene.add(l);
   return l;
 });
+// The stepping strategy (WHOLEBODY_COMMAND): the capture point it watches (a diamond on the
+// ground, red once a step is due) and the landing of the step under way (the sole's outline,
+// filled translucent).
+// Both are drawn in the transparent pass, after the support polygon, so that its tint stays off them.
+const captureMarker = new THREE.Mesh(new THREE.CircleGeometry(0.04, 4), new THREE.MeshBasicMaterial({ color: COLORS.capture, depthTest: false, transparent: true }));
+captureMarker.renderOrder = 4;
+captureMarker.visible = false;
+scene.add(captureMarker);
+const stepOutline = new THREE.Group();
+stepOutline.add(new THREE.Mesh(new THREE.PlaneGeometry(1, 1), new THREE.MeshBasicMaterial({ color: COLORS.step, transparent: true, opacity: 0.7, depthWrite: false, side: THREE.DoubleSide })));
+stepOutline.add(new THREE.LineLoop(new THREE.BufferGeometry().setFromPoints([[0.5, 0.5], [-0.5, 0.5], [-0.5, -0.5], [0.5, -0.5]].map(([x, y]) => new THREE.Vector3(x, y, 0))),
+  new THREE.LineBasicMaterial({ color: COLORS.step })));
+stepOutline.traverse((o) => { o.renderOrder = 3; });
+stepOutline.visible = false;
+scene.add(stepOutline);
+
 const supportMesh = new THREE.Mesh(new THREE.BufferGeometry(), new THREE.MeshBasicMaterial({ color: COLORS.support, transparent: true, opacity: 0.18, depthWrite: false, side: THREE.DoubleSide }));
 supportMesh.visible = false;
 scene.add(supportMesh);
@@ -312,6 +328,7 @@ function draw() {
     supportMesh.geometry = new THREE.ShapeGeometry(shape);
     supportMesh.position.z = 0.001;
   }
+  drawStepping(wb);
   // CoP: measured (disc) and commanded (ring), from the virtual stance foot frame.
   copMarker.visible = copCmdMarker.visible = !!bal;
   if (bal) {
@@ -319,6 +336,21 @@ function draw() {
     copCmdMarker.position.copy(vstanceToWorld(bal, bal.cop_V));
   }
   drawStatus();
+}
+
+function drawStepping(wb) {
+  const on = !!(wb?.stepping && wb.xi_W?.every((x) => x !== null));
+  captureMarker.visible = on;
+  stepOutline.visible = on && wb.step_foot >= 0 && wb.step_foot < info.feet.length && wb.step_target_W.every((x) => x !== null);
+  if (!on) return;
+  captureMarker.position.set(wb.xi_W[0], wb.xi_W[1], 0.004);
+  captureMarker.material.color.setHex(wb.xi_excess > 0 ? COLORS.push : COLORS.capture);
+  if (stepOutline.visible) {
+    const foot = info.feet[wb.step_foot];
+    stepOutline.position.set(wb.step_target_W[0], wb.step_target_W[1], 0.003);
+    stepOutline.rotation.set(0, 0, wb.step_target_W[2]);
+    stepOutline.scale.set(foot.length, foot.width, 1);
+  }
 }
 
 /// Once, at the first CoM: the camera's distance scaled to the robot (the CoM of a 1.3 m G1 stands
@@ -346,6 +378,11 @@ function drawStatus() {
   parts.push(`support ${bal ? SUPPORT[bal.support] ?? bal.support : '–'}`);
   if (cam) parts.push(`phase x ${PHASES[cam.phase[0]]}, y ${PHASES[cam.phase[1]]}, z ${PHASES[cam.phase[2]]}`);
   if (truth?.push_active) parts.push(`push ${fmt(Math.hypot(...truth.push_force_W), 0)} N`);
+  const wb = ch.WHOLEBODY_COMMAND;
+  if (wb?.stepping) {
+    parts.push(`steps ${wb.steps_taken}`);
+    if (wb.step_foot >= 0) parts.push(`${info.feet[wb.step_foot]?.side ?? wb.step_foot} foot lands in ${fmt(wb.step_time_left, 2)} s`);
+  }
   if (truth?.fallen) parts.push('FALLEN');
   if (unknownJoints.size) parts.push(`${unknownJoints.size} ROBOT_STATE joints unknown to ${info.name}: another robot? (tools/view --robot)`);
   let line2 = '';
@@ -570,7 +607,7 @@ window.hpr = {
   },
   /// Screen rectangle (pixels, origin top left) of the estimate's robot and of the push arrow.
   screenBox(what) {
-    const obj = what === 'push' ? pushArrow : robot;
+    const obj = { push: pushArrow, capture: captureMarker, step: stepOutline }[what] ?? robot;
     if (!obj.visible) return null;
     const box = new THREE.Box3().setFromObject(obj);
     const size = renderer.getSize(new THREE.Vector2());
@@ -583,6 +620,8 @@ window.hpr = {
     return r;
   },
   pushVisible() { return pushArrow.visible; },
+  /// Whether the capture point and the planned step are drawn.
+  steppingVisible() { return { capture: captureMarker.visible, step: stepOutline.visible }; },
   /// Camera position relative to the point it looks at (which follows the CoM in render mode).
   setView(offset) { viewOffset.set(...offset); if (controls) { camera.position.copy(controls.target).add(viewOffset); controls.update(); } renderNow(); },
   renderNow,

@@ -1,7 +1,7 @@
 // Drives the viewer's page in headless Chromium for the browser test: loads it, seeks two moments
 // of a recorded run, and prints one JSON object with what a person would check by eye, measured:
-// console errors, the joint angles read back from the scene graph, and pixel counts of the robot
-// and of the push arrow in the rendered WebGL image.
+// console errors, the joint angles read back from the scene graph, and pixel counts of the robot,
+// the push arrow, the capture point and the planned step in the rendered WebGL image.
 //
 //   node browser_check.mjs URL T_PUSH T_BEFORE
 import { chromium } from 'playwright-core';
@@ -20,14 +20,16 @@ function pixelStats({ box, side }) {
   const img = ctx.getImageData(0, 0, c.width, c.height).data;
   const robotLike = (r, g, b) => b >= r - 4 && Math.abs(r - g) < 28 && (r + g + b) / 3 < 215;
   const red = (r, g, b) => r > 150 && g < 100 && b < 100;
+  const teal = (r, g, b) => r < 90 && g > 110 && b > 110 && Math.abs(g - b) < 40;  // the capture point and step
   const count = (x0, y0, x1, y1) => {
-    const out = { pixels: 0, robot: 0, red: 0 };
+    const out = { pixels: 0, robot: 0, red: 0, teal: 0 };
     for (let y = Math.max(0, Math.floor(y0)); y < Math.min(c.height, Math.ceil(y1)); ++y) {
       for (let x = Math.max(0, Math.floor(x0)); x < Math.min(c.width, Math.ceil(x1)); ++x) {
         const i = 4 * (y * c.width + x);
         ++out.pixels;
         if (robotLike(img[i], img[i + 1], img[i + 2])) ++out.robot;
         if (red(img[i], img[i + 1], img[i + 2])) ++out.red;
+        if (teal(img[i], img[i + 1], img[i + 2])) ++out.teal;
       }
     }
     return out;
@@ -48,7 +50,14 @@ async function moment(page, t) {
   const side = robot ? { x0: robot.x0 - 1.6 * w, y0: robot.y0, x1: robot.x0 - 0.6 * w, y1: robot.y1 } : null;
   const pixels = await page.evaluate(pixelStats, { box: robot, side });
   const pushPixels = push ? (await page.evaluate(pixelStats, { box: push, side: null })).box : null;
-  return { ...at, angles, robot_box: robot, push_box: push, pixels, push_pixels: pushPixels, push_visible: await page.evaluate(() => window.hpr.pushVisible()) };
+  const stepping = await page.evaluate(() => window.hpr.steppingVisible());
+  const stepBox = await page.evaluate(() => window.hpr.screenBox('step'));
+  const captureBox = await page.evaluate(() => window.hpr.screenBox('capture'));
+  const boxPixels = async (box) => (box ? (await page.evaluate(pixelStats, { box, side: null })).box : null);
+  return {
+    ...at, angles, robot_box: robot, push_box: push, pixels, push_pixels: pushPixels, push_visible: await page.evaluate(() => window.hpr.pushVisible()),
+    stepping, step_box: stepBox, step_pixels: await boxPixels(stepBox), capture_box: captureBox, capture_pixels: await boxPixels(captureBox),
+  };
 }
 
 const browser = await chromium.launch(launchOptions());

@@ -30,6 +30,18 @@ struct FootReference {
   double load_limit = 1.0;    ///< fraction of the maximum normal force it may carry, for load transfer
 };
 
+/// What the stepping strategy watches and plans, for display and logs (the wbc does not use it).
+struct StepStatus {
+  bool enabled = false;           ///< balance.stepping.enabled: the fields below are computed
+  Eigen::Vector2d xi_W = Eigen::Vector2d::Zero();  ///< the capture point the decision watches [m]
+  double excess = 0.0;            ///< [m] how far xi_W lies beyond what the ankle and hip strategies hold
+  int swing = -1;                 ///< the stepping foot (model::kRight, model::kLeft), −1: no step under way
+  Eigen::Vector2d target_W = Eigen::Vector2d::Zero();  ///< landing sole centre [m] of the step under way
+  double target_yaw = 0.0;        ///< [rad] its yaw
+  double time_left = 0.0;         ///< [s] to the planned touchdown
+  int steps_taken = 0;            ///< since start
+};
+
 struct TaskReference {
   double time = 0.0;
   Support support = Support::kDouble;
@@ -39,6 +51,7 @@ struct TaskReference {
   std::array<FootReference, 2> feet;
   Eigen::VectorXd q_free, qd_free, qdd_free;  ///< free joints in RobotSpec::free_joints order
   bool settled = false;  ///< no transition under way
+  StepStatus stepping;
 };
 
 struct PostureReferenceConfig {
