@@ -167,21 +167,24 @@ void hold_gains(const model::RobotSpec& robot, const VectorXd& q, double kp, dou
 /// in the simulation island of its link's own collider and drops it when that link has none (with
 /// feet-only collisions, every joint but the two whose child link is a foot): the limit is then
 /// simply not there. Every collider of one multibody lies in one island, so any of them names it.
+/// The collider is looked up once (Bullet asks for the island in every comparison of its
+/// constraint sort, each sub-step); construct it after the multibody's colliders are attached.
 class JointLimit final : public btMultiBodyJointLimitConstraint {
  public:
-  using btMultiBodyJointLimitConstraint::btMultiBodyJointLimitConstraint;
-  int getIslandIdA() const override { return island_of(m_bodyA); }
-  int getIslandIdB() const override { return island_of(m_bodyB); }
+  JointLimit(btMultiBody* mb, int link, double lower, double upper)
+      : btMultiBodyJointLimitConstraint(mb, link, lower, upper), collider_(any_collider(mb)) {}
+  int getIslandIdA() const override { return collider_ != nullptr ? collider_->getIslandTag() : -1; }
+  int getIslandIdB() const override { return getIslandIdA(); }  // both bodies are the one multibody
 
  private:
-  static int island_of(const btMultiBody* mb) {
-    if (mb == nullptr) return -1;
-    if (const btMultiBodyLinkCollider* c = mb->getBaseCollider()) return c->getIslandTag();
+  static const btMultiBodyLinkCollider* any_collider(const btMultiBody* mb) {
+    if (const btMultiBodyLinkCollider* c = mb->getBaseCollider()) return c;
     for (int i = 0; i < mb->getNumLinks(); ++i) {
-      if (const btMultiBodyLinkCollider* c = mb->getLink(i).m_collider) return c->getIslandTag();
+      if (const btMultiBodyLinkCollider* c = mb->getLink(i).m_collider) return c;
     }
-    return -1;
+    return nullptr;
   }
+  const btMultiBodyLinkCollider* collider_;
 };
 
 struct Simulator::Impl {

@@ -82,6 +82,17 @@ TEST(SteppingClosedLoop, APushFromTheFrontIsRecoveredByStepsBackwards) {
   EXPECT_LT(stepping.final_speed, 0.05) << "at rest again";
 }
 
+TEST(SteppingClosedLoop, ASidewaysPushTheHipStrategyHoldsTakesNoStep) {
+  // 60 N s from the right (+y) lies inside what the CAM strategy holds standing (≥ 80 N s,
+  // docs/RESULTS.md): with stepping on, the capture point stays inside the double support and the
+  // robot takes no step.
+  const Outcome stepping = push_from_behind(60.0, stepping_overlay(), Eigen::Vector3d::UnitY());
+  EXPECT_FALSE(stepping.fallen);
+  EXPECT_EQ(stepping.steps, 0);
+  EXPECT_LT(stepping.max_foot_travel, 0.01) << "the soles stayed where they stood";
+  EXPECT_LT(stepping.final_speed, 0.05);
+}
+
 TEST(SteppingClosedLoop, WhileNoStepIsDueTheStackComputesWhatItComputesWithoutStepping) {
   // Stepping on, and a gentle push that the ankle strategy holds (5 N s, 25 N peak): the
   // controllers compute exactly what they compute with stepping off, tick by tick.
