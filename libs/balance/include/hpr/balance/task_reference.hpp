@@ -33,8 +33,11 @@ struct FootReference {
 /// What the stepping strategy watches and plans, for display and logs (the wbc does not use it).
 struct StepStatus {
   bool enabled = false;           ///< balance.stepping.enabled: the fields below are computed
-  Eigen::Vector2d xi_W = Eigen::Vector2d::Zero();  ///< the capture point the decision watches [m]
-  double excess = 0.0;            ///< [m] how far xi_W lies beyond what the ankle and hip strategies hold
+  /// The capture point the decision watches [m]: ξ = c + ċ/ω, shifted by the external force the
+  /// robot resists, F̂ / (m ω²) (the CMP that would hold it), until a step's touchdown.
+  Eigen::Vector2d xi_W = Eigen::Vector2d::Zero();
+  double excess = 0.0;            ///< [m] how far xi_W lies beyond what the ankle and hip strategies
+                                  ///< hold (StepPlanner::excess; > 0: a step is due)
   int swing = -1;                 ///< the stepping foot (model::kRight, model::kLeft), −1: no step under way
   Eigen::Vector2d target_W = Eigen::Vector2d::Zero();  ///< landing sole centre [m] of the step under way
   double target_yaw = 0.0;        ///< [rad] its yaw
@@ -111,19 +114,10 @@ class PostureReference {
   const TaskReference& update(double t, const EstimatedState* state = nullptr);
   [[nodiscard]] const TaskReference& reference() const { return ref_; }
   [[nodiscard]] Support target_support() const { return target_; }
-  /// Steps taken since start().
-  [[nodiscard]] int steps_taken() const { return steps_taken_; }
-  /// The step under way (swing < 0 when none), and the capture point of the last update with a state.
-  [[nodiscard]] const StepPlan& step() const { return step_; }
-  /// The capture point the stepping decision uses: ξ = c + ċ/ω, standing shifted by the external
-  /// force the robot is resisting, F_ext / (m ω²) (the CMP that would hold it; F_ext = m c̈ −
-  /// Σ f_ground, horizontal, from a momentum observer), after a step's touchdown without it
-  /// (computed with stepping enabled only: the observer costs nothing otherwise).
-  [[nodiscard]] const Eigen::Vector2d& capture_point() const { return xi_; }
+  /// The horizontal external force F̂ the robot is resisting (a momentum observer, stepping
+  /// enabled only); the capture point, the step under way and the steps taken are the reference's
+  /// `stepping` (StepStatus).
   [[nodiscard]] const Eigen::Vector2d& external_force() const { return f_ext_; }
-  /// How far capture_point() lies beyond the double support grown by the hip strategy's CMP reach
-  /// (StepPlanner::excess; positive: a step is due), at the last update with a state.
-  [[nodiscard]] double capture_excess() const { return excess_; }
 
  private:
   enum class Stage { kInit, kHold, kShift, kLift, kLower, kShiftBack, kStepUnload, kStepSwing, kStepSettle, kStepRecover };
