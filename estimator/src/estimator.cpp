@@ -2,7 +2,9 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace hpr::estimator {
 
@@ -30,7 +32,7 @@ EstimatorConfig EstimatorConfig::load(const Config& c) {
   c.reject_unknown({"sensor_timeout", "joint_accel_noise", "encoder_noise", "filter_joints", "gyro_noise", "gyro_bias_walk",
                     "gyro_bias_initial", "angular_accel_noise", "kinematic_orientation_noise", "kinematic_rate_noise",
                     "accel_orientation_noise", "level_ground", "accel_noise", "foot_contact_noise", "foot_swing_noise",
-                    "kinematic_position_noise", "kinematic_velocity_noise", "contact_on", "contact_off", "cop_edge_margin", "anchor_max_rate", "anchor_velocity_gate", "contact_max_height",
+                    "kinematic_position_noise", "kinematic_velocity_noise", "contact_on", "contact_off", "cop_edge_margin", "anchor_max_rate", "edge_velocity_noise", "edge_min_load", "anchor_velocity_gate", "contact_max_height",
                     "cam_observer_gain", "initialisation_time", "max_position_std", "max_accel", "max_gyro",
                     "max_ft_force", "joint_limit_margin"});
   EstimatorConfig e;
@@ -57,6 +59,8 @@ EstimatorConfig EstimatorConfig::load(const Config& c) {
   }
   e.cop_edge_margin = c.real_or("cop_edge_margin", e.cop_edge_margin, 0.0, 0.5);
   e.anchor_max_rate = c.real_or("anchor_max_rate", e.anchor_max_rate, 0.0, 100.0);
+  e.edge_velocity_noise = c.real_or("edge_velocity_noise", e.edge_velocity_noise, 0.0, 10.0);
+  e.edge_min_load = c.real_or("edge_min_load", e.edge_min_load, 0.0, 2.0);
   e.anchor_velocity_gate = c.real_or("anchor_velocity_gate", e.anchor_velocity_gate, 0.0, 100.0);
   e.contact_max_height = c.real_or("contact_max_height", e.contact_max_height, 0.0, 1.0);
   e.cam_observer_gain = c.real_or("cam_observer_gain", e.cam_observer_gain, 0.1, 1e4);
@@ -281,18 +285,20 @@ void Estimator::update_contacts(const SensorSample& s) {
     const bool was = contact_[ku];
     contact_[ku] = was ? fz_[ku] > config_.contact_off : fz_[ku] > config_.contact_on;
     // On level ground a sole well above the other one is in the air, whatever its sensor reads (a
-    // swinging foot's own inertia loads it).
+    // swinging foot's own inertia loads it). Heights of the lowest corners: a sole rolling on its
+    // toe lifts its centre, not its edge.
     if (config_.level_ground && config_.contact_max_height > 0.0) {
-      const double dz = (R_ * (X_BS_[ku].p - X_BS_[1 - ku].p)).z();
+      const double dz = lowest_corner_z(ku) - lowest_corner_z(1 - ku);
       if (dz > config_.contact_max_height) contact_[ku] = false;
     }
     // Centre of pressure in the sole frame: near an edge the sole may be rotating about it.
+    const model::FootSpec& foot = robot_->feet[ku];
     const Matrix3d R_WSole = R_ * X_BS_[ku].R;
     const Vector3d f_S = R_WSole.transpose() * f_ground, tau_S = R_WSole.transpose() * wrench_W_[ku].tail<3>();
     bool flat = contact_[ku] && f_S.z() > config_.contact_off;
     if (flat) {
-      const model::FootSpec& foot = robot_->feet[ku];
       const double cx = -tau_S.y() / f_S.z(), cy = tau_S.x() / f_S.z();
+      cop_S_[ku] = Vector3d(std::clamp(cx, -0.5 * foot.length, 0.5 * foot.length), std::clamp(cy, -0.5 * foot.width, 0.5 * foot.width), 0.0);
       flat = 0.5 * foot.length - std::abs(cx) > config_.cop_edge_margin && 0.5 * foot.width - std::abs(cy) > config_.cop_edge_margin;
     }
     // A sole that turns (base rate plus the leg's, from the last tick) rolls about an edge or has
@@ -309,6 +315,10 @@ void Estimator::update_contacts(const SensorSample& s) {
     // nothing with where it used to be.
     const bool seat = flat && !anchor_[ku];
     anchor_[ku] = flat;
+    // Settled, no anchor, and carrying a good part of the weight (friction holds its CoP point): it
+    // rolls on an edge or turns about that point, which stays at rest.
+    rolling_[ku] = !flat && contact_[ku] && f_S.z() > config_.edge_min_load * robot_->model.mass * g.norm() &&
+                   s.time - touchdown_time_[ku] >= kTouchdownSettle;
     if (seat) {
       const Matrix3d R_WS = R_ * X_BS_[ku].R;
       R_WS_hold_[ku] = config_.level_ground ? level(R_WS) : R_WS;
@@ -320,6 +330,18 @@ void Estimator::update_contacts(const SensorSample& s) {
       P_.block<3, 3>(i, i) = P_.topLeftCorner<3, 3>() + Matrix3d::Identity() * std::pow(config_.kinematic_position_noise, 2);
     }
   }
+}
+
+double Estimator::lowest_corner_z(size_t k) const {
+  const model::FootSpec& foot = robot_->feet[k];
+  double z = std::numeric_limits<double>::infinity();
+  for (const double sx : {-0.5, 0.5}) {
+    for (const double sy : {-0.5, 0.5}) {
+      const Vector3d corner = X_BS_[k].p + X_BS_[k].R * Vector3d(sx * foot.length, sy * foot.width, 0.0);
+      z = std::min(z, (R_ * corner).z());
+    }
+  }
+  return z;
 }
 
 void Estimator::initialise(const SensorSample& s) {
@@ -510,6 +532,17 @@ void Estimator::position(const SensorSample& s, double dt) {
     use[ku] = true;
     any_agrees = any_agrees || config_.anchor_velocity_gate <= 0.0 ||
                  (v_meas[ku] - x_.segment<3>(3)).norm() <= config_.anchor_velocity_gate;
+  }
+  // A sole rolling on an edge: the velocity of its point at the CoP, v_I = −R (ω × d + ḋ) with
+  // d = p_BC − p_BI, when it agrees with the estimate (it never overrides it).
+  for (int k = 0; k < 2 && config_.edge_velocity_noise > 0.0; ++k) {
+    const auto ku = static_cast<size_t>(k);
+    if (!rolling_[ku]) continue;
+    const Vector3d r_SC = X_BS_[ku].R * cop_S_[ku];
+    const Vector3d d = X_BS_[ku].p + r_SC - p_BI_;
+    const Vector3d v = -R_ * (w_.cross(d) + v_BS_[ku] + w_BS_[ku].cross(r_SC) - v_BI_);
+    if (config_.anchor_velocity_gate > 0.0 && (v - x_.segment<3>(3)).norm() > config_.anchor_velocity_gate) continue;
+    position_correct(3, v - x_.segment<3>(3), config_.edge_velocity_noise, true);
   }
   for (int k = 0; k < 2; ++k) {
     const auto ku = static_cast<size_t>(k);

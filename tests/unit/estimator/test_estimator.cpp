@@ -182,9 +182,13 @@ TEST_F(EstimatorTest, ASoleThatTurnedWhileItWasNoAnchorCorrectsNothingWithItsOld
   // vertical with both soles loaded at their toes (pivoting: no anchor, the gyro alone follows the
   // turn), then standing again on flat soles. The soles are anchors again where they now stand: the
   // estimate keeps the heading the gyro integrated, and no sole pulls it back to where it stood.
+  // Turning about the midpoint of the soles, both toes slide (5 cm/s): the velocity of a toe's CoP
+  // point, which a sole rolling on its edge gives, is off here.
   const double turn = 0.1, t_turn = 0.3;
   const Vector3d toe(0.5 * robot.feet[0].length - 0.002, 0, 0);
-  estimator::Estimator est(robot, estimator::EstimatorConfig{});
+  estimator::EstimatorConfig config;
+  config.edge_velocity_noise = 0.0;
+  estimator::Estimator est(robot, config);
   Eigen::VectorXd q;
   for (int k = 0; k <= 1500; ++k) {
     const double t = 1e-3 * k;
@@ -202,6 +206,66 @@ TEST_F(EstimatorTest, ASoleThatTurnedWhileItWasNoAnchorCorrectsNothingWithItsOld
   EXPECT_LT(angle(est.state().q, q), 2e-3) << "the heading the gyro integrated, not the soles' old one (0.1 rad off)";
   EXPECT_LT((est.state().q.head<3>() - q.head<3>()).norm(), 1e-3) << "nor back to where they stood";
   EXPECT_LT(est.state().v.norm(), 1e-3) << "at rest";
+}
+
+TEST_F(EstimatorTest, ASoleRollingOnItsToeGivesTheVelocityOfTheBase) {
+  // Standing still on both soles, then the robot, joints frozen, pivots forward about the right
+  // sole's toe edge at ω = 0.2 rad/s with all its weight on that edge, the left sole unloaded. The
+  // rotation starts at once: the base's velocity jumps (to ω × (p − p_toe), about 0.18 m/s) where
+  // the accelerometer sees nothing. No sole is an anchor (the right one carries its load at its
+  // edge); the toe's point at the CoP is at rest and gives the velocity. Without it (noise 0) the
+  // jump is never seen.
+  const model::Model& m = robot.model;
+  const Eigen::VectorXd q0 = standing_with_yaw(robot, 0.0);
+  model::Data d0(m);
+  model::forward_kinematics(m, d0, q0);
+  model::update_frame_placements(m, d0);
+  const model::SE3& X_WS0 = d0.oMf[static_cast<size_t>(robot.feet[0].sole_frame)];
+  const Vector3d p_toe = X_WS0.p + X_WS0.R * Vector3d(0.5 * robot.feet[0].length, 0, 0);
+  const Vector3d omega(0, 0.2, 0);
+  const Vector3d g = m.gravity;
+  auto run = [&](double edge_noise) {
+    estimator::EstimatorConfig config;
+    config.edge_velocity_noise = edge_noise;
+    estimator::Estimator est(robot, config);
+    Vector3d v_true = Vector3d::Zero();
+    for (int k = 0; k <= 600; ++k) {
+      const double t = 1e-3 * k, tp = std::max(0.0, t - 0.5);
+      // q: q0 rotated by exp(ω tp) about the toe edge.
+      const Matrix3d R = model::exp3(omega * tp);
+      Eigen::VectorXd q = q0;
+      q.head<3>() = p_toe + R * (q0.head<3>() - p_toe);
+      const Eigen::Quaterniond quat(R * model::base_quaternion(q0).toRotationMatrix());
+      q.segment<4>(3) = quat.coeffs();
+      StaticSensors sensors(robot, q);
+      SensorSample& s = sensors.sample;
+      if (t > 0.5) {
+        const model::SE3& X_WI = sensors.data.oMf[static_cast<size_t>(robot.imu_frame)];
+        s.imu_gyro_B = X_WI.R.transpose() * omega;
+        s.imu_accel_B = X_WI.R.transpose() * (omega.cross(omega.cross(X_WI.p - p_toe)) - g);
+        // The whole weight on the toe edge of the right sole; the left foot's sensor carries its foot.
+        for (size_t f = 0; f < 2; ++f) {
+          const model::SE3& X_WF = sensors.data.oMf[static_cast<size_t>(robot.feet[f].ft_frame)];
+          const model::Inertia& I = sensors.data.Iw[static_cast<size_t>(m.frames[static_cast<size_t>(robot.feet[f].ft_frame)].body)];
+          const Vector3d f_ground = f == 0 ? Vector3d(-m.mass * g) : Vector3d::Zero();
+          const Vector3d force = f_ground + I.m * g;
+          const Vector3d tau = (p_toe - X_WF.p).cross(f_ground) + (I.com() - X_WF.p).cross(I.m * g);
+          s.ft_wrench_S[f].head<3>() = X_WF.R.transpose() * force;
+          s.ft_wrench_S[f].tail<3>() = X_WF.R.transpose() * tau;
+        }
+        v_true = omega.cross(q.head<3>() - p_toe);
+      }
+      s.tick = k;
+      s.time = t;
+      est.update(s);
+    }
+    EXPECT_TRUE(est.state().contact[0] && !est.state().contact[1]);
+    const Vector3d v_est = model::base_quaternion(est.state().q).toRotationMatrix() * est.state().v.head<3>();
+    return (v_est - v_true).norm() / v_true.norm();
+  };
+  const double with_toe = run(0.03), without = run(0.0);
+  EXPECT_LT(with_toe, 0.05) << "relative error of the base velocity, 0.1 s into the roll";
+  EXPECT_GT(without, 0.5) << "the jump the accelerometer cannot see";
 }
 
 TEST_F(EstimatorTest, EstimatesTheGyroBias) {

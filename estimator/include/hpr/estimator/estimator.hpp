@@ -6,10 +6,13 @@
 ///  - Joints: positions and velocities from an α-β filter per joint (the steady-state Kalman filter
 ///    of a constant-velocity model), which removes encoder quantisation noise with little lag.
 ///  - Contact: each foot's normal ground force, from its ankle sensor plus the weight of the foot
-///    below the sensor, with hysteresis (on above `contact_on`, off below `contact_off`). A sole in
-///    contact whose centre of pressure is within `cop_edge_margin` of its edge may be rotating about
-///    that edge (heel or toe): it stays in contact but its kinematics correct nothing until the CoP
-///    moves back inside. A sole that is no anchor (in the air, on an edge, turning, or just landed)
+///    below the sensor, with hysteresis (on above `contact_on`, off below `contact_off`); on level
+///    ground a sole whose lowest corner is `contact_max_height` above the other's is in the air. A
+///    sole in contact whose centre of pressure is within `cop_edge_margin` of its edge may be
+///    rotating about that edge (heel or toe): it stays in contact, its pose corrects nothing until
+///    the CoP moves back inside, and only the point of the sole at its CoP, which the rolling leaves
+///    at rest, gives the velocity (`edge_velocity_noise`, while the sole carries `edge_min_load` of
+///    the weight). A sole that is no anchor (in the air, on an edge, turning, or just landed)
 ///    follows the estimate; when it becomes one it is seated where the estimate then puts it, so
 ///    that a sole that turned or slid on its edge is not pulled back to where it stood before.
 ///  - Attitude: an error-state Kalman filter on (R_WB, gyro bias b), predicted with the gyro and
@@ -21,7 +24,8 @@
 ///  - Position and velocity: a linear Kalman filter on x = (p_WI, v_WI, p_W,right, p_W,left) of the
 ///    IMU point I, predicted with the IMU's acceleration R_WI f_I + g, corrected by the position and
 ///    the velocity of each sole in contact relative to I from the leg kinematics (a sole in contact
-///    stays put; a sole in the air follows the leg).
+///    stays put; a sole in the air follows the leg; a sole rolling on an edge keeps its CoP point
+///    at rest).
 ///  - CAM: a momentum observer on the centroidal angular momentum l_c,
 ///        l̂̇ = Σ_contacts τ_c,k + K_l (A_G,ang ν − l̂),
 ///    whose fast part comes from the measured contact wrenches (moments about the CoM) and slow part
@@ -71,6 +75,9 @@ struct EstimatorConfig {
   double anchor_max_rate = 1.0;           ///< [rad/s] a sole in contact turning faster than this is not at rest
                                           ///< either (0: no such check)
   double contact_max_height = 0.025;      ///< [m] on level ground a sole this far above the other is in the air (0: no check)
+  double edge_velocity_noise = 0.0;       ///< [m/s] velocity from the CoP point of a sole rolling on its edge
+                                          ///< (0: such a sole gives no velocity; the stepping overlay sets 0.03)
+  double edge_min_load = 0.25;            ///< fraction of the robot's weight such a sole must carry for it (friction holds its CoP point)
   double anchor_velocity_gate = 0.3;      ///< [m/s] a sole whose kinematic velocity measurement differs from the
                                           ///< estimate by more than this corrects nothing (0: no gate)
   // Momentum observer.
@@ -138,6 +145,8 @@ class Estimator {
   void update_joints(const SensorSample& s, double dt);
   void leg_kinematics();
   void update_contacts(const SensorSample& s);
+  /// Height (world z, from the base) of the lowest corner of sole k.
+  [[nodiscard]] double lowest_corner_z(size_t k) const;
   void attitude(const SensorSample& s, double dt);
   void attitude_correct(const Eigen::Vector3d& r, double sigma, const Eigen::Matrix3d& H);
   void position(const SensorSample& s, double dt);
@@ -171,6 +180,8 @@ class Estimator {
 
   // Contact, and whether a sole in contact is a reliable anchor (flat: CoP inside the sole).
   std::array<bool, 2> contact_{}, anchor_{};
+  std::array<bool, 2> rolling_{};                    // in contact, loaded, no anchor: rolls on an edge or turns
+  std::array<Eigen::Vector3d, 2> cop_S_{};           // centre of pressure in the sole frame, inside the sole
   std::array<double, 2> touchdown_time_{-1e9, -1e9};  ///< when each sole last came into contact
   std::array<Eigen::Matrix<double, 6, 1>, 2> wrench_W_{};  // ground on foot, world axes, at the sole centre
   std::array<double, 2> fz_{};
