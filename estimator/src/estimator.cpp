@@ -295,8 +295,9 @@ void Estimator::update_contacts(const SensorSample& s) {
     const model::FootSpec& foot = robot_->feet[ku];
     const Matrix3d R_WSole = R_ * X_BS_[ku].R;
     const Vector3d f_S = R_WSole.transpose() * f_ground, tau_S = R_WSole.transpose() * wrench_W_[ku].tail<3>();
-    bool flat = contact_[ku] && f_S.z() > config_.contact_off;
-    if (flat) {
+    const bool pressed = contact_[ku] && f_S.z() > config_.contact_off;
+    bool flat = pressed;
+    if (pressed) {
       const double cx = -tau_S.y() / f_S.z(), cy = tau_S.x() / f_S.z();
       cop_S_[ku] = Vector3d(std::clamp(cx, -0.5 * foot.length, 0.5 * foot.length), std::clamp(cy, -0.5 * foot.width, 0.5 * foot.width), 0.0);
       flat = 0.5 * foot.length - std::abs(cx) > config_.cop_edge_margin && 0.5 * foot.width - std::abs(cy) > config_.cop_edge_margin;
@@ -317,7 +318,7 @@ void Estimator::update_contacts(const SensorSample& s) {
     anchor_[ku] = flat;
     // Settled, no anchor, and carrying a good part of the weight (friction holds its CoP point): it
     // rolls on an edge or turns about that point, which stays at rest.
-    rolling_[ku] = !flat && contact_[ku] && f_S.z() > config_.edge_min_load * robot_->model.mass * g.norm() &&
+    rolling_[ku] = pressed && !flat && f_S.z() > config_.edge_min_load * robot_->model.mass * g.norm() &&
                    s.time - touchdown_time_[ku] >= kTouchdownSettle;
     if (seat) {
       const Matrix3d R_WS = R_ * X_BS_[ku].R;
@@ -330,6 +331,14 @@ void Estimator::update_contacts(const SensorSample& s) {
       P_.block<3, 3>(i, i) = P_.topLeftCorner<3, 3>() + Matrix3d::Identity() * std::pow(config_.kinematic_position_noise, 2);
     }
   }
+}
+
+Vector3d Estimator::imu_velocity_at_rest(size_t k, const Vector3d& r_S) const {
+  // v_I = −R (ω × d + ḋ), d = p_BC − p_BI, C the point r_S of sole k (sole frame), ḋ its velocity
+  // relative to the IMU point through the leg.
+  const Vector3d r_SC = X_BS_[k].R * r_S;
+  const Vector3d d = X_BS_[k].p + r_SC - p_BI_;
+  return -R_ * (w_.cross(d) + v_BS_[k] + w_BS_[k].cross(r_SC) - v_BI_);
 }
 
 double Estimator::lowest_corner_z(size_t k) const {
@@ -511,7 +520,7 @@ void Estimator::position(const SensorSample& s, double dt) {
     P_.block<3, 3>(6 + 3 * k, 6 + 3 * k).diagonal().array() += sf * sf * dt;
   }
   // Corrections from each sole in contact: its position relative to the IMU point, and the IMU
-  // point's velocity with the sole at rest: v_I = −R (ω × d + ḋ), d = p_BS − p_BI.
+  // point's velocity with the sole at rest (imu_velocity_at_rest).
   // A sole that reads as loaded while it moves (a swing foot's own inertia on its sensor, a sliding
   // sole) is no anchor either: an anchor whose velocity measurement disagrees with the estimate by
   // more than anchor_velocity_gate is left out, as long as another anchor agrees (when none does,
@@ -528,19 +537,17 @@ void Estimator::position(const SensorSample& s, double dt) {
       x_.segment<3>(i) = x_.head<3>() + R_ * d;
       continue;
     }
-    v_meas[ku] = -R_ * (w_.cross(d) + v_BS_[ku] - v_BI_);
+    v_meas[ku] = imu_velocity_at_rest(ku, Vector3d::Zero());
     use[ku] = true;
     any_agrees = any_agrees || config_.anchor_velocity_gate <= 0.0 ||
                  (v_meas[ku] - x_.segment<3>(3)).norm() <= config_.anchor_velocity_gate;
   }
-  // A sole rolling on an edge: the velocity of its point at the CoP, v_I = −R (ω × d + ḋ) with
-  // d = p_BC − p_BI, when it agrees with the estimate (it never overrides it).
+  // A sole rolling on an edge: the velocity with its point at the CoP at rest, when it agrees with
+  // the estimate (it never overrides it).
   for (int k = 0; k < 2 && config_.edge_velocity_noise > 0.0; ++k) {
     const auto ku = static_cast<size_t>(k);
     if (!rolling_[ku]) continue;
-    const Vector3d r_SC = X_BS_[ku].R * cop_S_[ku];
-    const Vector3d d = X_BS_[ku].p + r_SC - p_BI_;
-    const Vector3d v = -R_ * (w_.cross(d) + v_BS_[ku] + w_BS_[ku].cross(r_SC) - v_BI_);
+    const Vector3d v = imu_velocity_at_rest(ku, cop_S_[ku]);
     if (config_.anchor_velocity_gate > 0.0 && (v - x_.segment<3>(3)).norm() > config_.anchor_velocity_gate) continue;
     position_correct(3, v - x_.segment<3>(3), config_.edge_velocity_noise, true);
   }

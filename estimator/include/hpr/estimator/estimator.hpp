@@ -147,6 +147,8 @@ class Estimator {
   void update_contacts(const SensorSample& s);
   /// Height (world z, from the base) of the lowest corner of sole k.
   [[nodiscard]] double lowest_corner_z(size_t k) const;
+  /// The IMU point's velocity (world) if the point r_S of sole k (sole frame) is at rest.
+  [[nodiscard]] Eigen::Vector3d imu_velocity_at_rest(size_t k, const Eigen::Vector3d& r_S) const;
   void attitude(const SensorSample& s, double dt);
   void attitude_correct(const Eigen::Vector3d& r, double sigma, const Eigen::Matrix3d& H);
   void position(const SensorSample& s, double dt);
