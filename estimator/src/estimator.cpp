@@ -266,6 +266,7 @@ constexpr double kTouchdownSettle = 0.03;  // [s]
 
 void Estimator::update_contacts(const SensorSample& s) {
   const Vector3d g = robot_->model.gravity;
+  const std::array<double, 2> z_low{lowest_corner_z(kRight), lowest_corner_z(kLeft)};
   for (int k = 0; k < 2; ++k) {
     const auto ku = static_cast<size_t>(k);
     const Matrix3d R_WF = R_ * X_BF_[ku].R;
@@ -288,7 +289,7 @@ void Estimator::update_contacts(const SensorSample& s) {
     // swinging foot's own inertia loads it). Heights of the lowest corners: a sole rolling on its
     // toe lifts its centre, not its edge.
     if (config_.level_ground && config_.contact_max_height > 0.0) {
-      const double dz = lowest_corner_z(ku) - lowest_corner_z(1 - ku);
+      const double dz = z_low[ku] - z_low[1 - ku];
       if (dz > config_.contact_max_height) contact_[ku] = false;
     }
     // Centre of pressure in the sole frame: near an edge the sole may be rotating about it.

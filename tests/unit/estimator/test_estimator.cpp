@@ -39,20 +39,22 @@ struct StaticSensors {
                                 data.oMf[static_cast<size_t>(robot.feet[1].sole_frame)].p);
     const Vector3d shift(com.x() - mid.x(), com.y() - mid.y(), 0.0);
     for (size_t k = 0; k < 2; ++k) {
-      const auto& foot = robot.feet[k];
-      const model::SE3& X_WS = data.oMf[static_cast<size_t>(foot.sole_frame)];
-      const model::SE3& X_WF = data.oMf[static_cast<size_t>(foot.ft_frame)];
-      const int fb = m.frames[static_cast<size_t>(foot.ft_frame)].body;
-      const model::Inertia& I = data.Iw[static_cast<size_t>(fb)];
       const Vector3d f_ground(0, 0, load[k] * m.mass * -m.gravity.z());
-      // Foot on leg = ground wrench + foot weight, about the sensor origin.
-      const Vector3d f = f_ground + I.m * m.gravity;
       const Vector3d cop = shift + cop_offset[k];
-      const Vector3d tau = (X_WS.p + cop - X_WF.p).cross(f_ground) + (I.com() - X_WF.p).cross(I.m * m.gravity);
+      set_ft_reading(k, f_ground, data.oMf[static_cast<size_t>(robot.feet[k].sole_frame)].p + cop);
       tau_sole[k] = cop.cross(f_ground);
-      sample.ft_wrench_S[k].head<3>() = X_WF.R.transpose() * f;
-      sample.ft_wrench_S[k].tail<3>() = X_WF.R.transpose() * tau;
     }
+  }
+  /// Foot k's sensor reading (foot on leg = ground force f_ground at p_W + the foot's weight, about
+  /// the sensor origin, sensor axes) in the configuration of `data`.
+  void set_ft_reading(size_t k, const Vector3d& f_ground, const Vector3d& p_W) {
+    const model::Model& m = robot.model;
+    const model::SE3& X_WF = data.oMf[static_cast<size_t>(robot.feet[k].ft_frame)];
+    const model::Inertia& I = data.Iw[static_cast<size_t>(m.frames[static_cast<size_t>(robot.feet[k].ft_frame)].body)];
+    const Vector3d f = f_ground + I.m * m.gravity;
+    const Vector3d tau = (p_W - X_WF.p).cross(f_ground) + (I.com() - X_WF.p).cross(I.m * m.gravity);
+    sample.ft_wrench_S[k].head<3>() = X_WF.R.transpose() * f;
+    sample.ft_wrench_S[k].tail<3>() = X_WF.R.transpose() * tau;
   }
   const model::RobotSpec& robot;
   Eigen::VectorXd q;
@@ -244,15 +246,8 @@ TEST_F(EstimatorTest, ASoleRollingOnItsToeGivesTheVelocityOfTheBase) {
         s.imu_gyro_B = X_WI.R.transpose() * omega;
         s.imu_accel_B = X_WI.R.transpose() * (omega.cross(omega.cross(X_WI.p - p_toe)) - g);
         // The whole weight on the toe edge of the right sole; the left foot's sensor carries its foot.
-        for (size_t f = 0; f < 2; ++f) {
-          const model::SE3& X_WF = sensors.data.oMf[static_cast<size_t>(robot.feet[f].ft_frame)];
-          const model::Inertia& I = sensors.data.Iw[static_cast<size_t>(m.frames[static_cast<size_t>(robot.feet[f].ft_frame)].body)];
-          const Vector3d f_ground = f == 0 ? Vector3d(-m.mass * g) : Vector3d::Zero();
-          const Vector3d force = f_ground + I.m * g;
-          const Vector3d tau = (p_toe - X_WF.p).cross(f_ground) + (I.com() - X_WF.p).cross(I.m * g);
-          s.ft_wrench_S[f].head<3>() = X_WF.R.transpose() * force;
-          s.ft_wrench_S[f].tail<3>() = X_WF.R.transpose() * tau;
-        }
+        sensors.set_ft_reading(0, -m.mass * g, p_toe);
+        sensors.set_ft_reading(1, Vector3d::Zero(), p_toe);
         v_true = omega.cross(q.head<3>() - p_toe);
       }
       s.tick = k;
