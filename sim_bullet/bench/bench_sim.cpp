@@ -9,6 +9,8 @@
 // .../single_point               the same with sim.ground.multipoint off: Bullet's one new contact
 //                                point per step, no perturbed queries of polyhedral shapes
 // SimStep/ROBOT/no_limits        without the joint-limit constraints (sim.joint_limits off)
+// SimStep/g1/held_impedance      the G1's 14 held finger joints simulated, held by joint impedance,
+//                                instead of welded (sim.held_joints.rigid off)
 // The counter realtime_factor is simulated seconds per wall second; for the hull variants,
 // hull_gap_max_mm and hull_gap_mean_mm say how far inside the exact convex hull of each collision
 // mesh the simplified hull lies at worst (over 2000 directions), the largest and the mean over the
@@ -102,6 +104,9 @@ int main(int argc, char** argv) {
         ->Unit(benchmark::kMicrosecond)
         ->MinTime(2.0);
   }
+  benchmark::RegisterBenchmark("SimStep/g1/held_impedance", sim_step, "g1", std::vector<std::string>{"sim.held_joints.rigid=false"})
+      ->Unit(benchmark::kMicrosecond)
+      ->MinTime(2.0);
   benchmark::RegisterBenchmark("SimStep/g1/all_meshes/hull64/single_point", sim_step, "g1",
                                std::vector<std::string>{"sim.collisions=all", "robot.mesh_hull_points=64", "sim.ground.multipoint=false"})
       ->Unit(benchmark::kMicrosecond)

@@ -104,6 +104,7 @@ SimConfig SimConfig::load(const Config& c) {
     const Config h = c.section("held_joints");
     s.held_kp = h.real_or("kp", s.held_kp, 0.0, 1e5);
     s.held_kd = h.real_or("kd", s.held_kd, 0.0, 1e4);
+    s.held_rigid = h.boolean_or("rigid", s.held_rigid);
   }
   if (c.has("fallen")) {
     const Config f = c.section("fallen");
@@ -262,7 +263,7 @@ void apply_model_error(model::Model& m, const std::vector<SimConfig::BodyError>&
 }  // namespace
 
 Simulator::Simulator(const model::RobotSpec& robot, SimConfig config)
-    : robot_(&robot), config_(config), full_(robot.full_model()), impl_(std::make_unique<Impl>()), rng_(config.noise.seed) {
+    : robot_(&robot), config_(config), full_(robot.full_model(config.held_rigid)), impl_(std::make_unique<Impl>()), rng_(config.noise.seed) {
   apply_model_error(full_, config_.model_error);
   const model::Model& m = full_;
   const model::RobotDescription& description = robot.description;
@@ -271,7 +272,7 @@ Simulator::Simulator(const model::RobotSpec& robot, SimConfig config)
   held_q_.resize(static_cast<Eigen::Index>(robot.model.held_joint_name.size()));
   held_tau_ = VectorXd::Zero(held_q_.size());
   for (size_t k = 0; k < robot.model.held_joint_name.size(); ++k) {
-    held_joint_.push_back(m.joint_index(robot.model.held_joint_name[k]));
+    if (!config_.held_rigid) held_joint_.push_back(m.joint_index(robot.model.held_joint_name[k]));
     held_q_(static_cast<Eigen::Index>(k)) = robot.model.held_q[k];
   }
   for (int k = 0; k < 2; ++k) {
@@ -474,7 +475,7 @@ void Simulator::apply_hold(JointCommand::Mode mode) {
 }
 
 bool Simulator::set_held_command(const JointCommand& c, std::string* why) {
-  const std::string reason = c.check(static_cast<int>(held_joint_.size()));
+  const std::string reason = c.check(static_cast<int>(held_q_.size()));
   if (!reason.empty()) {
     if (why != nullptr) *why = reason;
     return false;
@@ -549,6 +550,7 @@ void Simulator::reset() {
   delay_line_.assign(static_cast<std::size_t>(config_.actuation_delay_ticks) + 1, settle);
   delay_head_ = 0;
   command_time_ = 0.0;
+  truth_.fallen = false;  // latched by compute_truth until the next reset
   compute_truth();
   compute_sensors();
 }
@@ -694,12 +696,17 @@ void Simulator::compute_truth() {
     t.q(7 + j) = q_full_(7 + joint_of_[static_cast<size_t>(j)]);
     t.v(6 + j) = v_full_(6 + joint_of_[static_cast<size_t>(j)]);
   }
-  const auto nh = static_cast<Eigen::Index>(held_joint_.size());
-  t.q_held.resize(nh);
-  t.v_held.resize(nh);
-  for (Eigen::Index k = 0; k < nh; ++k) {
-    t.q_held(k) = q_full_(7 + held_joint_[static_cast<size_t>(k)]);
-    t.v_held(k) = v_full_(6 + held_joint_[static_cast<size_t>(k)]);
+  if (config_.held_rigid) {
+    t.q_held = held_q_;
+    t.v_held.setZero(held_q_.size());
+  } else {
+    const auto nh = static_cast<Eigen::Index>(held_joint_.size());
+    t.q_held.resize(nh);
+    t.v_held.resize(nh);
+    for (Eigen::Index k = 0; k < nh; ++k) {
+      t.q_held(k) = q_full_(7 + held_joint_[static_cast<size_t>(k)]);
+      t.v_held(k) = v_full_(6 + held_joint_[static_cast<size_t>(k)]);
+    }
   }
   t.tau_held = held_tau_;
   const SE3 X_WB = I.bullet->body_placement(0);

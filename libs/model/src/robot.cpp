@@ -161,11 +161,15 @@ RobotSpec RobotSpec::load(const Config& c) {
   return r;
 }
 
-Model RobotSpec::full_model() const {
+Model RobotSpec::full_model(bool held_rigid) const {
   ModelOptions options;
   options.base_link = model.body_name.front();
   options.physical_inertia = true;
-  options.leader_positions = held;
+  if (held_rigid) {
+    options.held = held;
+  } else {
+    options.leader_positions = held;
+  }
   Model full = Model::build(description, options);
   for (const auto& f : added_frames) full.add_frame(f.name, f.link, f.X_LF);
   return full;

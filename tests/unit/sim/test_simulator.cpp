@@ -300,6 +300,56 @@ TEST(Simulator, HeldJointsStayAtTheirPositionsOutsideTheCommands) {
   EXPECT_NEAR(s.truth().q(7 + shoulder), spec.q_joints_stand(shoulder), 0.1);
 }
 
+// Held joints welded (sim.held_joints.rigid): Bullet integrates the controllers' joints only, the
+// held links fixed at their held positions, so the simulated CoM and momentum are the controllers'
+// model's (held joints fixed there too) for any state; the held drives' commands are accepted and
+// change nothing.
+TEST(Simulator, RigidHeldJointsAreWeldedAtTheirPositions) {
+  auto cfg = Config::load(test::source_dir() + "/config/toro.yaml",
+                          {"robot.held_joints={r_wrist_yaw: 0.4, l_wrist_pitch: -0.6, neck_yaw: -0.2}",
+                           "sim.held_joints.rigid=true"});
+  const auto spec = model::RobotSpec::load(cfg.section("robot"));
+  const auto sim_config = sim::SimConfig::load(cfg.section("sim"));
+  ASSERT_TRUE(sim_config.held_rigid);
+  sim::Simulator s(spec, sim_config);
+  EXPECT_EQ(s.simulated_model().nj, 24);
+  test::RandomState rs(3);
+  model::Data data(spec.model);
+  for (int k = 0; k < 5; ++k) {
+    VectorXd q = rs.q(spec.model), v = rs.v(spec.model);
+    q(2) += 3.0;
+    s.set_state(q, v);
+    model::ccrba(spec.model, data, q, v);
+    EXPECT_LT((s.truth().p_WCom - data.com).norm(), 1e-9);
+    EXPECT_LT((s.truth().l_WCom - data.hg.tail<3>()).norm(), 1e-6 * data.hg.tail<3>().norm());
+  }
+  s.reset();  // stands again: the random states above count as falls until then
+  sim::JointCommand held;
+  held.resize(2);
+  EXPECT_FALSE(s.set_held_command(held)) << "three held drives, not two";
+  held.resize(3);
+  held.mode = sim::JointCommand::Mode::kRun;
+  held.q_des.setConstant(1.0);
+  held.kp.setConstant(100.0);
+  EXPECT_TRUE(s.set_held_command(held));
+  sim::JointCommand c;
+  c.resize(spec.model.nj);
+  c.mode = sim::JointCommand::Mode::kRun;
+  c.q_des = spec.q_joints_stand;
+  sim::hold_gains(spec, spec.standing_configuration(), 1500, 30, sim_config.dt / sim_config.substeps, c.kp, c.kd);
+  for (int k = 0; k < 300; ++k) {
+    ASSERT_TRUE(s.set_command(c));
+    s.step();
+  }
+  ASSERT_EQ(s.truth().q_held.size(), 3);
+  for (Eigen::Index h = 0; h < 3; ++h) {
+    const std::string& name = spec.model.held_joint_name[static_cast<size_t>(h)];
+    EXPECT_EQ(s.truth().q_held(h), spec.held.at(name)) << name;
+    EXPECT_EQ(s.truth().v_held(h), 0.0) << name;
+  }
+  EXPECT_FALSE(s.truth().fallen);
+}
+
 }  // namespace
 
 namespace {

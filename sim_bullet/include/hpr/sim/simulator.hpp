@@ -2,10 +2,10 @@
 /// \file
 /// The Bullet physics stand-in for the robot (no LCM here; the node does the I/O).
 ///
-/// A btMultiBody of the whole description (RobotSpec::full_model(): every joint free, held ones
-/// included, physically consistent inertias) stands on a flat ground; commands and sensors carry the
-/// controlled joints only, and the held joints are held by a stiff joint impedance (or, behind a
-/// drive emulator, by what the hal commands them). Every physics sub-step each
+/// A btMultiBody of the whole description (RobotSpec::full_model(): physically consistent inertias)
+/// stands on a flat ground; commands and sensors carry the controlled joints only. The held joints
+/// are welded at their held positions (SimConfig::held_rigid) or free and held by a stiff joint
+/// impedance (or, behind a drive emulator, by what the hal commands them). Every physics sub-step each
 /// joint gets the torque of a torque-controlled drive,
 ///     τ = sat(τ_ff + kp (q_des − q) + kd (q̇_des − q̇)),
 /// saturated at the joint's effort limit (modes: run, damp = kd only towards rest, off). Sensors are
@@ -73,6 +73,9 @@ struct SimConfig {
   double settle_time = 0.5;             ///< [s] holding the standing posture before tick 0
   double settle_kp = 3000.0, settle_kd = 60.0;
   double held_kp = 3000.0, held_kd = 60.0;  ///< held joints' impedance (capped per joint as hold_gains)
+  /// The held joints welded at their held positions (a rigid hand: fewer bodies to integrate, no
+  /// drive torque, commands of the held drives accepted and without effect); else held by impedance.
+  bool held_rigid = false;
   double fallen_base_height = 0.45;     ///< [m] pelvis below this: fallen
   double fallen_tilt_deg = 45.0;        ///< pelvis tilt above this: fallen
   NoiseConfig noise;
@@ -118,9 +121,9 @@ using TruthData = SimTruth;
 
 class Simulator {
  public:
-  /// Simulates `robot.description` with every joint free: the controlled joints (those of
-  /// `robot.model`, the only ones commands and sensors carry) are driven by the commands, the held
-  /// joints (`robot.held`) by a stiff joint impedance at their held positions.
+  /// Simulates `robot.description`: the controlled joints (those of `robot.model`, the only ones
+  /// commands and sensors carry) are driven by the commands, the held joints (`robot.held`) welded or
+  /// driven by a stiff joint impedance at their held positions (`config.held_rigid`).
   Simulator(const model::RobotSpec& robot, SimConfig config);
   ~Simulator();
   Simulator(const Simulator&) = delete;
@@ -135,7 +138,7 @@ class Simulator {
   bool set_command(const JointCommand& command, std::string* why = nullptr);
   /// Drives the held joints (RobotSpec::model.held_joint_name order) with `command` from now on,
   /// instead of the simulator's own hold: a drive emulator passes on what the hal sends them.
-  /// Returns false (and keeps the previous) when it is malformed.
+  /// Returns false (and keeps the previous) when it is malformed. Welded held joints ignore it.
   bool set_held_command(const JointCommand& command, std::string* why = nullptr);
   /// Schedules a push (start time in simulation time; negative: now).
   void add_push(Push push);
@@ -189,7 +192,7 @@ class Simulator {
   SimConfig config_;
   model::Model full_;                 ///< what Bullet integrates (robot_->full_model())
   std::vector<int> joint_of_;         ///< full_ joint of each controlled joint
-  std::vector<int> held_joint_;       ///< full_ joints held by impedance
+  std::vector<int> held_joint_;       ///< full_ joints held by impedance (none when they are rigid)
   Eigen::VectorXd held_q_, held_kp_, held_kd_, held_tau_;
   JointCommand held_command_;         ///< the hal's command of the held joints (emulator)
   bool held_external_ = false;

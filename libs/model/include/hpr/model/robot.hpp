@@ -61,9 +61,10 @@ struct RobotSpec {
   /// Joint indices of `names`, with errors naming the configuration key.
   [[nodiscard]] std::vector<int> joints(const std::vector<std::string>& names, const Config& where,
                                         const std::string& key) const;
-  /// The description as a model with every joint free (held ones included) and the physically
-  /// consistent inertias, with the same added frames: what a simulator integrates.
-  [[nodiscard]] Model full_model() const;
+  /// The description as a simulator integrates it: the physically consistent inertias, the same
+  /// added frames, and every joint free (held ones included), or with `held_rigid` the held joints
+  /// fixed at their held positions as in `model` (their links welded to their parents).
+  [[nodiscard]] Model full_model(bool held_rigid = false) const;
   /// Full configuration q of the standing posture with the soles flat at z = 0, centred on the origin.
   [[nodiscard]] Eigen::VectorXd standing_configuration() const;
 };
