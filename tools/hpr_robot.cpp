@@ -50,7 +50,7 @@ mass and inertia; the rest is the stack's defaults (config/templates/robot.yaml)
   --out FILE            the configuration to write (required; an existing file is not overwritten
                         without --force)
   --name NAME           robot name (default: the URDF's)
-  --leg-height F        hips at F times the straight leg's length above the soles (default 0.95)
+  --leg-height F        hips at F times the straight leg's length above the soles (default 0.90)
   --hold JOINT          hold this joint too (repeatable)
   --keep JOINT          never hold this joint (repeatable)
   --mesh-path DIR, --base LINK   as for check

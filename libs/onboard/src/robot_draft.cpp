@@ -181,7 +181,7 @@ RobotDraft draft_robot(const model::RobotDescription& d, const DraftOptions& o) 
   }
   if (residual > 1e-6) {
     throw model::ModelError(fmt::format("{}: the standing posture's inverse kinematics did not converge (sole error "
-                                        "{:.3g}); try another --leg-height-fraction",
+                                        "{:.3g}); try another --leg-height",
                                         d.source, residual));
   }
   model::forward_kinematics(m, data, q);

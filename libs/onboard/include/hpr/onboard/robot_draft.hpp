@@ -17,8 +17,9 @@ namespace hpr::onboard {
 struct DraftOptions {
   std::string name;                       ///< robot name (default: the URDF's)
   std::string base_link;                  ///< floating base (default: the URDF's root body)
-  /// Standing height of each hip above its sole, as a fraction of the straight leg's length.
-  double leg_height_fraction = 0.95;
+  /// Standing height of each hip above its sole, as a fraction of the straight leg's length. Knees
+  /// bent that far leave the hip strategy room to pitch the upper body before the legs stretch.
+  double leg_height_fraction = 0.90;
   /// A moving joint outside the legs whose name contains one of these (case-insensitive) is held.
   std::vector<std::string> hold_patterns = {"hand", "finger", "thumb", "index", "middle", "ring", "pinky",
                                             "little", "gripper", "head", "neck", "eye"};
