@@ -190,7 +190,7 @@ class Simulator {
 
   const model::RobotSpec* robot_;
   SimConfig config_;
-  model::Model full_;                 ///< what Bullet integrates (robot_->full_model())
+  model::Model full_;                 ///< what Bullet integrates (robot_->full_model(held_rigid))
   std::vector<int> joint_of_;         ///< full_ joint of each controlled joint
   std::vector<int> held_joint_;       ///< full_ joints held by impedance (none when they are rigid)
   Eigen::VectorXd held_q_, held_kp_, held_kd_, held_tau_;
