@@ -263,6 +263,7 @@ void Estimator::leg_kinematics() {
 }
 
 constexpr double kTouchdownSettle = 0.03;  // [s]
+constexpr double kAnchorTrust = 0.1;       // [s] a sole in contact this long may override the estimate alone
 
 void Estimator::update_contacts(const SensorSample& s) {
   const Vector3d g = robot_->model.gravity;
@@ -539,9 +540,11 @@ void Estimator::position(const SensorSample& s, double dt) {
       continue;
     }
     v_meas[ku] = imu_velocity_at_rest(ku, Vector3d::Zero());
-    use[ku] = true;
-    any_agrees = any_agrees || config_.anchor_velocity_gate <= 0.0 ||
-                 (v_meas[ku] - x_.segment<3>(3)).norm() <= config_.anchor_velocity_gate;
+    const bool agrees = config_.anchor_velocity_gate <= 0.0 || (v_meas[ku] - x_.segment<3>(3)).norm() <= config_.anchor_velocity_gate;
+    // A sole that touched down moments ago and disagrees may not be down at all (a swing foot's
+    // inertia on its sensor): it overrides the estimate only once it has stayed in contact.
+    use[ku] = agrees || s.time - touchdown_time_[ku] >= kAnchorTrust;
+    any_agrees = any_agrees || agrees;
   }
   // A sole rolling on an edge: the velocity with its point at the CoP at rest, when it agrees with
   // the estimate (it never overrides it).

@@ -263,6 +263,45 @@ TEST_F(EstimatorTest, ASoleRollingOnItsToeGivesTheVelocityOfTheBase) {
   EXPECT_GT(without, 0.5) << "the jump the accelerometer cannot see";
 }
 
+TEST_F(EstimatorTest, ASoleThatReadsLoadedWhileItStillMovesOverridesNothingAtFirst) {
+  // The robot stands still, its weight on the left sole's toe edge (no anchor) from t = 0.3 s. At
+  // t = 0.5 s the right foot's sensor reads a load while its leg says the sole still moves at about
+  // 0.3 m/s without turning (a swing foot's inertia on its sensor before it lands): the sole's
+  // velocity measurement disagrees with the estimate, and no other sole agrees. It is no anchor to
+  // trust before it has stayed in contact (kAnchorTrust, 0.1 s): the estimate stays at rest; after
+  // that, an anchor that stays in contact and disagrees means the estimate is wrong, and it corrects
+  // it (what the gate falls back to).
+  const Eigen::VectorXd q = standing_with_yaw(robot, 0.0);
+  const int hip = robot.model.joint_index("r_hip_pitch"), knee = robot.model.joint_index("r_knee"),
+            ankle = robot.model.joint_index("r_ankle_pitch");
+  const Vector3d toe(0.5 * robot.feet[1].length - 0.002, 0, 0);
+  estimator::EstimatorConfig config;
+  config.edge_velocity_noise = 0.0;
+  config.filter_joints = false;  // the leg's rates as the drives report them
+  estimator::Estimator est(robot, config);
+  double v_at_trust = 0.0;
+  for (int k = 0; k <= 700; ++k) {
+    const double t = 1e-3 * k;
+    StaticSensors sensors(robot, q, t < 0.3 ? std::array<double, 2>{0.5, 0.5} : std::array<double, 2>{t < 0.5 ? 0.0 : 0.3, 1.0},
+                          {Vector3d::Zero(), t < 0.3 ? Vector3d::Zero() : toe});
+    if (t >= 0.5) {
+      // Hip, knee and ankle pitch rates that sum to zero: the sole translates without turning.
+      sensors.sample.qd(hip) = 2.0;
+      sensors.sample.qd(knee) = -4.0;
+      sensors.sample.qd(ankle) = 2.0;
+    }
+    sensors.sample.tick = k;
+    sensors.sample.time = t;
+    est.update(sensors.sample);
+    if (k == 595) {
+      ASSERT_TRUE(est.state().contact[0]);
+      v_at_trust = est.state().v.head<3>().norm();
+    }
+  }
+  EXPECT_LT(v_at_trust, 0.01) << "95 ms after the touchdown the estimate is still at rest";
+  EXPECT_GT(est.state().v.head<3>().norm(), 0.1) << "the sole that stayed in contact moved it";
+}
+
 TEST_F(EstimatorTest, EstimatesTheGyroBias) {
   const Eigen::VectorXd q = standing_with_yaw(robot, 0.0);
   StaticSensors sensors(robot, q);

@@ -79,7 +79,8 @@ struct EstimatorConfig {
                                           ///< (0: such a sole gives no velocity; the stepping overlay sets 0.03)
   double edge_min_load = 0.25;            ///< fraction of the robot's weight such a sole must carry for it (friction holds its CoP point)
   double anchor_velocity_gate = 0.3;      ///< [m/s] a sole whose kinematic velocity measurement differs from the
-                                          ///< estimate by more than this corrects nothing (0: no gate)
+                                          ///< estimate by more than this corrects nothing (0: no gate), unless no
+                                          ///< sole agrees and it has been in contact 0.1 s: then the estimate is wrong
   // Momentum observer.
   double cam_observer_gain = 20.0;        ///< K_l [1/s]
   // Health.
