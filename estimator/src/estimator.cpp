@@ -526,7 +526,7 @@ void Estimator::position(const SensorSample& s, double dt) {
   // A sole that reads as loaded while it moves (a swing foot's own inertia on its sensor, a sliding
   // sole) is no anchor either: an anchor whose velocity measurement disagrees with the estimate by
   // more than anchor_velocity_gate is left out, as long as another anchor agrees (when none does,
-  // the estimate is what is wrong, and every anchor corrects it).
+  // the estimate is what is wrong, and every anchor that has stayed in contact corrects it).
   std::array<Vector3d, 2> v_meas{};
   std::array<bool, 2> use{};
   bool any_agrees = false;
