@@ -527,6 +527,10 @@ void Estimator::position(const SensorSample& s, double dt) {
   // sole) is no anchor either: an anchor whose velocity measurement disagrees with the estimate by
   // more than anchor_velocity_gate is left out, as long as another anchor agrees (when none does,
   // the estimate is what is wrong, and every anchor that has stayed in contact corrects it).
+  // Whether a velocity measurement of the IMU point agrees with the estimate as it stands.
+  const auto agrees = [this](const Vector3d& v_I) {
+    return config_.anchor_velocity_gate <= 0.0 || (v_I - x_.segment<3>(3)).norm() <= config_.anchor_velocity_gate;
+  };
   std::array<Vector3d, 2> v_meas{};
   std::array<bool, 2> use{};
   bool any_agrees = false;
@@ -540,11 +544,11 @@ void Estimator::position(const SensorSample& s, double dt) {
       continue;
     }
     v_meas[ku] = imu_velocity_at_rest(ku, Vector3d::Zero());
-    const bool agrees = config_.anchor_velocity_gate <= 0.0 || (v_meas[ku] - x_.segment<3>(3)).norm() <= config_.anchor_velocity_gate;
+    const bool agreed = agrees(v_meas[ku]);
     // A sole that touched down moments ago and disagrees may not be down at all (a swing foot's
     // inertia on its sensor): it overrides the estimate only once it has stayed in contact.
-    use[ku] = agrees || s.time - touchdown_time_[ku] >= kAnchorTrust;
-    any_agrees = any_agrees || agrees;
+    use[ku] = agreed || s.time - touchdown_time_[ku] >= kAnchorTrust;
+    any_agrees = any_agrees || agreed;
   }
   // A sole rolling on an edge: the velocity with its point at the CoP at rest, when it agrees with
   // the estimate (it never overrides it).
@@ -552,13 +556,12 @@ void Estimator::position(const SensorSample& s, double dt) {
     const auto ku = static_cast<size_t>(k);
     if (!rolling_[ku]) continue;
     const Vector3d v = imu_velocity_at_rest(ku, cop_S_[ku]);
-    if (config_.anchor_velocity_gate > 0.0 && (v - x_.segment<3>(3)).norm() > config_.anchor_velocity_gate) continue;
-    position_correct(3, v - x_.segment<3>(3), config_.edge_velocity_noise, true);
+    if (agrees(v)) position_correct(3, v - x_.segment<3>(3), config_.edge_velocity_noise, true);
   }
   for (int k = 0; k < 2; ++k) {
     const auto ku = static_cast<size_t>(k);
     if (!use[ku]) continue;
-    if (any_agrees && config_.anchor_velocity_gate > 0.0 && (v_meas[ku] - x_.segment<3>(3)).norm() > config_.anchor_velocity_gate) continue;
+    if (any_agrees && !agrees(v_meas[ku])) continue;
     const int i = 6 + 3 * k;
     const Vector3d d = X_BS_[ku].p - p_BI_;
     const Vector3d r_pos = R_ * d - (x_.segment<3>(i) - x_.head<3>());
