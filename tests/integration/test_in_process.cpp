@@ -181,9 +181,9 @@ TEST(InProcess, AnkleStrategyGivesTheProcessesMessagesBitForBit) { expect_same_m
 
 TEST(InProcess, JudgesPushesAsTheProcessesDo) {
   // Each strategy on both sides of its largest recovered impulse from behind (docs/RESULTS.md:
-  // ankle 18.28, CAM 26.72 N s), both ways.
+  // ankle 26.02, CAM 27.42 N s), both ways.
   for (const auto& [strategy, impulse] : std::vector<std::pair<Strategy, double>>{
-           {Strategy::kAnkle, 17.5}, {Strategy::kAnkle, 19.5}, {Strategy::kCam, 19.5}, {Strategy::kCam, 28.0}}) {
+           {Strategy::kAnkle, 25.5}, {Strategy::kAnkle, 26.5}, {Strategy::kCam, 26.5}, {Strategy::kCam, 29.0}}) {
     TrialSpec spec = experiment(strategy, impulse);
     spec.after = 5.0;
     spec.stop_when_decided = true;

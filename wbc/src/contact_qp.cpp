@@ -130,6 +130,16 @@ qp::Status ContactQp::solve_mode(bool exact, int na, const int* active, const st
         params_.torque_weight, params_.torque_weight;
     H_.noalias() = Gn.transpose() * W.asDiagonal() * Gn;
     H_.diagonal() += params_.regularization * R.head(n);
+    // ρ_t, ρ_z with two soles on the ground (one alone has no internal forces to spend), along and
+    // about world z, the level ground's normal: not the soles' (a sole rolled onto its toe carries
+    // its weight along its own plane).
+    if (na == 2) {
+      for (int a = 0; a < na; ++a) {
+        H_(6 * a, 6 * a) += params_.tangential_weight;
+        H_(6 * a + 1, 6 * a + 1) += params_.tangential_weight;
+        H_(6 * a + 5, 6 * a + 5) += params_.torsion_weight;
+      }
+    }
     g_.noalias() = -(Gn.transpose() * W.asDiagonal() * w_des);
   }
   const qp::Status s = solver.solve_hot(H_, g_, A_, lb_, ub_, lbA_, ubA_);

@@ -84,6 +84,8 @@ WbcConfig WbcConfig::load(const Config& c, const model::RobotSpec& robot) {
     p.regularization = s.real_or("regularization", p.regularization, 1e-12, 1e3);
     p.distribution_force = s.real_or("distribution_force", p.distribution_force, 1e-9, 1e3);
     p.distribution_torque = s.real_or("distribution_torque", p.distribution_torque, 1e-9, 1e3);
+    p.tangential_weight = s.real_or("tangential_weight", p.tangential_weight, 0.0, 1e3);
+    p.torsion_weight = s.real_or("torsion_weight", p.torsion_weight, 0.0, 1e3);
     p.max_working_set_changes = static_cast<int>(s.integer_or("max_working_set_changes", p.max_working_set_changes, 1, 10000));
   }
   w.impedance_at_drive = c.boolean_or("impedance_at_drive", w.impedance_at_drive);

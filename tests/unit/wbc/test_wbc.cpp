@@ -91,9 +91,11 @@ TEST(ContactQp, InfeasibleWrenchKeepsTheConstraintsAndMinimisesTheError) {
   wbc::ContactParams p;
   p.max_working_set_changes = 100;  // every sample is a new problem: no hot start to rely on
   wbc::ContactQp qp(p);
-  // Reference: the same least-squares problem with a far smaller regularisation, solved cold.
+  // Reference: the same least-squares problem with a far smaller regularisation and no weight on
+  // the forces along the soles and the torsions, solved cold: those cost the error next to nothing.
   wbc::ContactParams pr = p;
   pr.regularization = 1e-7;
+  pr.tangential_weight = pr.torsion_weight = 0;
   for (int s = 0; s < 100; ++s) {
     std::array<wbc::Contact, 2> c;
     c[0] = {true, random_sole(gen, -0.1), 0.2, 0.1, 1.0};
@@ -115,6 +117,55 @@ TEST(ContactQp, InfeasibleWrenchKeepsTheConstraintsAndMinimisesTheError) {
     };
     EXPECT_LE(err(qp.achieved()), err(ref.achieved()) + 1e-3 * w_des.norm()) << "sample " << s;
   }
+}
+
+// The H1-2 standing on its heels, both soles tilted 1.5° (toes up, turned ±1°), as a 45 N s push
+// from the front leaves it: the CoM wrench the impedances ask for has its CMP behind the heels.
+// Without ρ_t, ρ_z the least-squares distribution squeezed the feet together with 186 N each
+// (the friction limit at 0.55 f_z) and twisted them with ±6.5 N m (the torsion limit) for 0.1 N m
+// less pitch error; in simulation the soles then turned 27° on the ground.
+TEST(ContactQp, AnOutOfReachWrenchIsDistributedWithoutInternalForces) {
+  std::array<wbc::Contact, 2> c;
+  c[0].active = c[1].active = true;
+  c[0].X_WS.p = Vector3d(0.0015, -0.1647, 0.0023);
+  c[0].X_WS.R = Eigen::AngleAxisd(0.02553, Vector3d(-0.0048, -0.7258, -0.6879).normalized()).toRotationMatrix();
+  c[1].X_WS.p = Vector3d(0.0012, 0.1647, 0.0027);
+  c[1].X_WS.R = Eigen::AngleAxisd(0.02518, Vector3d(0.0050, -0.8650, 0.5018).normalized()).toRotationMatrix();
+  for (auto& foot : c) {
+    foot.length = 0.26;
+    foot.width = 0.086;
+  }
+  const Vector3d com(-0.0508, 0.0001, 0.8975);
+  Vector6d w_des;
+  w_des << 87.2, 0.0, 673.7, 1.2, 32.1, 0.1;
+
+  wbc::ContactParams p;
+  p.max_working_set_changes = 100;
+  wbc::ContactParams p0 = p;
+  p0.tangential_weight = p0.torsion_weight = 0;
+  wbc::ContactQp qp(p), qp0(p0);
+  qp.solve(c, com, w_des);
+  qp0.solve(c, com, w_des);
+  ASSERT_TRUE(qp.valid());
+  ASSERT_TRUE(qp0.valid());
+  ASSERT_FALSE(qp.exact());  // out of reach: the least-squares fallback
+  expect_constraints_hold(c, qp.wrenches(), p);
+  auto err = [&](const Vector6d& achieved) {
+    const Vector6d e = achieved - w_des;
+    return std::sqrt(p.force_weight * e.head<3>().squaredNorm() + p.torque_weight * e.tail<3>().squaredNorm());
+  };
+  // The scenario is the one described: without the weights the feet are squeezed and twisted.
+  EXPECT_GT(std::abs(qp0.wrenches()[0].y()), 100.0);
+  EXPECT_GT(std::abs(qp0.wrenches()[0](5)), 5.0);
+  for (int k = 0; k < 2; ++k) {
+    const Vector6d& w = qp.wrenches()[static_cast<size_t>(k)];
+    EXPECT_LT(std::abs(w.y()), 5.0) << "foot " << k << ": sideways force " << w.y() << " N";
+    EXPECT_LT(w.head<2>().norm(), 0.2 * w.z()) << "foot " << k << ": well inside the friction cone";
+    EXPECT_LT(std::abs(w(5)), 1.0) << "foot " << k << ": torsion";
+  }
+  // And the CoM wrench is as close to the desired one, to a fraction of a percent of the error.
+  EXPECT_LE(err(qp.achieved()), 1.005 * err(qp0.achieved()));
+  EXPECT_NEAR(qp.achieved()(0), qp0.achieved()(0), 2.0);  // the forward force the sole can give
 }
 
 // Torques (9) in the model's constrained dynamics (both feet fixed) reproduce the closed loop (4):

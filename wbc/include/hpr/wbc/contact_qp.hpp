@@ -7,7 +7,14 @@
 ///
 /// When the desired wrench is feasible it is met exactly (equality constraints), and among the
 /// distributions that meet it the one of least ½ wᵀ R w is chosen. When it is not, the error is
-/// minimised instead:  min ½ ‖Adᵀ w − w_des‖²_W + ½ ε wᵀ R w  under the same contact constraints.
+/// minimised instead, under the same contact constraints:
+///   min ½ ‖Adᵀ w − w_des‖²_W + ½ ε wᵀ R w + Σ_feet ½ (ρ_t (f_x² + f_y²) + ρ_z τ_z²)
+/// with (f_x, f_y) the force along the ground and τ_z the torsion about its normal (world axes: the
+/// ground is level), the last sum with both feet on the ground only. Internal forces (equal and
+/// opposite along the ground) and opposite torsions change Adᵀ w by nothing, or only through the
+/// soles' tilt and height; without ρ_t, ρ_z the least-squares optimum spends them at the friction
+/// and torsion limits to gain a fraction of a newton metre (a sole tilted 1° on its heel lends its
+/// normal a newton per 57 N of sideways force), and the feet turn on the ground.
 ///
 /// Wrenches are (f, τ) at the sole centre in world axes. Both QPs are hot-started from tick to tick.
 
@@ -30,6 +37,8 @@ struct ContactParams {
   double regularization = 1e-4;   ///< ε of the least-squares fallback
   double distribution_force = 1e-3;  ///< R for the forces (distribution among the feet)
   double distribution_torque = 1.0;  ///< R for the torques (keeps the CoPs central)
+  double tangential_weight = 0.01;   ///< ρ_t of the least-squares fallback: horizontal forces [per N², against W]
+  double torsion_weight = 0.1;       ///< ρ_z of the least-squares fallback: torsions about z [per (N m)², against W]
   int max_working_set_changes = 10;  ///< per tick for the exact QP; the fallback gets three times as many
 };
 
