@@ -267,8 +267,8 @@ TEST(Robustness, CamBeatsTheAnkleStrategyWhenTheTrunkIsNotWhereTheModelSaysTheDr
   // The paper's claim that the hip strategy makes the robot more robust to model uncertainty, at
   // three mismatches from docs/RESULTS.md, each at an impulse from behind between the two
   // strategies' largest recovered ones: the simulated trunk's centre of mass 2 cm ahead of the
-  // controllers' model (CAM 24.96, ankle 23.55 N s), a 2 ms extra actuation delay (CAM 27.77, ankle
-  // 24.96 N s) and the simulated sensors' noise (CAM 25.66, ankle 21.09 N s). In process (the
+  // controllers' model (CAM 24.96, ankle 23.91 N s), a 2 ms extra actuation delay (CAM 28.48, ankle
+  // 24.61 N s) and the simulated sensors' noise (CAM 26.37, ankle 21.56 N s). In process (the
   // processes' messages bit for bit).
   const std::vector<std::pair<std::string, std::string>> cases = {
       {"'sim.model_error=[{body: torso, com_offset: [0.02, 0, 0]}]'", "24.2"},
@@ -285,8 +285,8 @@ TEST(Robustness, CamBeatsTheAnkleStrategyWhenTheTrunkIsNotWhereTheModelSaysTheDr
 
 TEST(KneesBent, StandingLowerTheHipStrategyRecoversPushesFromBehindTheConfiguredPostureLoses) {
   // config/overlays/toro_knees_bent.yaml (CoM 0.87 m instead of 0.93 m, base pitch within
-  // ±0.55 rad): the largest push from behind the CAM strategy recovers goes from 27.4 to 33.0 N s,
-  // the ankle strategy's in the same posture from 26.0 to 29.5 N s (docs/RESULTS.md). At 32 N s:
+  // ±0.55 rad): the largest push from behind the CAM strategy recovers goes from 28.1 to 33.0 N s,
+  // the ankle strategy's in the same posture from 26.0 to 28.1 N s (docs/RESULTS.md). At 32 N s:
   // the configured posture stretches the knees and loses it; standing lower, the CAM strategy
   // recovers it and the ankle strategy does not.
   const std::string push = "--in-process --robot toro --support double --direction 0 --peak 65 --impulse 32";
