@@ -190,6 +190,32 @@ TEST(NodeConfiguration, AKeyTheNodeDoesNotReadStopsItNamingTheNearestOne) {
       << r.out;
 }
 
+TEST(NodeConfiguration, TheInProcessPipelineRefusesAKeyNoComponentReadsAsTheNodesDo) {
+  // push_trial --in-process loads the same configuration once for every component: a misspelt
+  // override stops it (exit 2) naming the key meant, for a component's own key and for the options
+  // only the processes use (validated, not applied); the correctly spelt ones run.
+  const std::string cfg = hpr::test::source_dir() + "/config/toro.yaml";
+  const std::vector<std::pair<std::string, std::string>> cases = {{"reference_gen.y.lean_budget_positve=3", "lean_budget_positive"},
+                                                                  {"wbc.wholebody_timout=0.5", "wholebody_timeout"},
+                                                                  {"sim.lockstep_timout=1", "lockstep_timeout"},
+                                                                  {"estimator.sensor_timout=0.02", "sensor_timeout"}};
+  const std::vector<std::string> trial = {"timeout", "60", hpr::test::bin_dir() + "/push_trial", "--quiet", "--in-process", "--robot", cfg,
+                                          "--impulse", "5"};
+  for (const auto& [set, meant] : cases) {
+    std::vector<std::string> args = trial;
+    args.insert(args.end(), {"--set", set});
+    const auto r = hpr::test::run_command(args, "2>&1");
+    EXPECT_EQ(r.exit_code, 2) << set << ": " << r.out;
+    EXPECT_NE(r.out.find("unknown key"), std::string::npos) << set << ": " << r.out;
+    EXPECT_NE(r.out.find("did you mean '" + meant + "'"), std::string::npos) << set << ": " << r.out;
+  }
+  std::vector<std::string> args = trial;
+  args.insert(args.end(), {"--set", "reference_gen.y.lean_budget_positive=3", "--set", "wbc.wholebody_timeout=0.5", "--set",
+                           "sim.lockstep_timeout=1", "--set", "estimator.sensor_timeout=0.02"});
+  const auto r = hpr::test::run_command(args, "2>&1");
+  EXPECT_EQ(r.exit_code, 0) << r.out;
+}
+
 /// Resident memory of `pid` [kB] (VmRSS), -1 when unreadable.
 long rss_kb(int pid) {
   std::ifstream in("/proc/" + std::to_string(pid) + "/status");

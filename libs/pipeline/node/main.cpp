@@ -43,21 +43,6 @@ void add_parameters(node::Runtime& rt, pipeline::Controllers& c) {
   wbc::add_parameters(rt.parameters("wbc"), c.wbc.controller());
 }
 
-/// The options of the four processes that concern their exchange over LCM (waits, timeouts,
-/// staleness): composed, every input of a tick is there when it steps, so they do not apply; they
-/// are still validated, with the processes' ranges, so that one configuration serves both.
-void check_exchange_options(const Config& cfg) {
-  const Config rg = cfg.section("reference_gen"), mo = cfg.section("motion_opt"), wb = cfg.section("wbc");
-  (void)rg.boolean_or("wait_for_balance", true);
-  (void)rg.real_or("balance_timeout", 0.5, 0.0, 60.0);
-  (void)mo.boolean_or("wait_for_reference", true);
-  (void)mo.real_or("reference_timeout", 0.5, 0.0, 60.0);
-  (void)mo.integer_or("reference_stale_ticks", 20, 1, 100000);
-  (void)wb.real_or("wholebody_timeout", 0.5, 0.0, 60.0);
-  (void)wb.integer_or("wholebody_stale_ticks", 50, 1, 100000);
-  (void)wb.real_or("state_timeout", 0.05, 0.0, 60.0);
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -65,11 +50,12 @@ int main(int argc, char** argv) {
       argc, argv, "controllers", "estimator, reference_gen, motion_opt and wbc in one process",
       [](const node::CommandLine& cl, const Config& cfg) {
         const auto robot = model::RobotSpec::load(cfg.section("robot"));
-        check_exchange_options(cfg);
         // wbc.wait_for_wholebody false: the wbc holds its own posture (the ankle strategy, as the
         // wbc process without motion_opt).
         const bool cam = cfg.section("wbc").boolean_or("wait_for_wholebody", true);
-        pipeline::Controllers c(cfg, robot, {.cam = cam, .estimator = true, .messages = true});
+        const pipeline::ControllersOptions run{.cam = cam, .estimator = true, .messages = true};
+        pipeline::check_exchange_options(cfg, run);
+        pipeline::Controllers c(cfg, robot, run);
         const double sensor_timeout = cfg.section("estimator").real_or("sensor_timeout", 0.02, 1e-3, 60.0);
         node::Runtime rt(cl.name, node::lcm_url(cl, cfg), node::runtime_options(cfg, 1e-3));
         SensorSample sample;

@@ -15,14 +15,26 @@ SimulatedRobot::SimulatedRobot(const std::string& config_file, const std::vector
       spec(model::RobotSpec::load(cfg.section("robot"))),
       sim(spec, sim::SimConfig::load(cfg.section("sim"))) {}
 
+namespace {
+ControllersOptions controllers_options(const ClosedLoopOptions& o) {
+  return {.cam = o.cam, .estimator = o.estimator_in_loop || o.run_estimator, .messages = o.estimator_in_loop};
+}
+}  // namespace
+
 ClosedLoop::ClosedLoop(const std::string& config_file, const std::vector<std::string>& overrides, ClosedLoopOptions loop_options)
-    : SimulatedRobot(config_file, overrides),
-      Controllers(cfg, spec,
-                  ControllersOptions{.cam = loop_options.cam,
-                                     .estimator = loop_options.estimator_in_loop || loop_options.run_estimator,
-                                     .messages = loop_options.estimator_in_loop}),
-      opt(loop_options) {
+    : SimulatedRobot(config_file, overrides), Controllers(cfg, spec, controllers_options(loop_options)), opt(loop_options) {
   sample_.resize(spec.model.nj);
+  // Every key read, as each process checks its own: a misspelt override is refused, not ignored.
+  // What only the processes use (their exchange over LCM, the simulator's clock) is validated too.
+  check_exchange_options(cfg, controllers_options(loop_options));
+  const Config s = cfg.section("sim");
+  (void)s.choice_or("mode", "lockstep", {"lockstep", "realtime"});
+  (void)s.real_or("lockstep_timeout", 1.0, 1e-3, 600.0);
+  (void)s.real_or("startup_timeout", 10.0, 0.0, 600.0);
+  (void)s.real_or("duration", 0.0, 0.0, 1e7);
+  (void)s.boolean_or("publish_truth", true);
+  (void)s.string_or("scenario", "");
+  cfg.check_all_read();
   if (estimator) estimator->update(sensors_as_received());
 }
 

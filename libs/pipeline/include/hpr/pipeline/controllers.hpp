@@ -52,6 +52,12 @@ struct ControllersOptions {
   bool messages = true;   ///< pass every channel through its message (else hand the values over)
 };
 
+/// The options of the controller processes that concern their exchange over LCM (waits, timeouts,
+/// staleness): composed, every input of a tick is there when it steps, so they do not apply; they
+/// are validated with the processes' ranges for the components `run` runs, so that one
+/// configuration serves both and a misspelt key is refused the same way.
+void check_exchange_options(const Config& cfg, const ControllersOptions& run);
+
 class Controllers {
  public:
   /// `cfg`: the robot configuration (sections robot, estimator, reference_gen, motion_opt, wbc,
