@@ -1,6 +1,6 @@
 // push_tune: automatic tuning of the CAM strategy's parameters, the paper's future work. A
 // derivative-free optimiser (NLopt) searches α, β (reference generator, (23), (27)), Q_l, Q_p and
-// K_p (motion optimisation, (13), (16); K_a on request) within bounds, maximising
+// K_p (motion optimisation, (13), (16); K_a and the lean budget about y on request) within bounds, maximising
 //
 //     J = min over the directions of the largest recovered impulse [N s]
 //         − w · mean over the directions of the posture return time at that impulse [s]
@@ -44,6 +44,7 @@ struct Param {
   double lo, hi;
   bool log_scale;
   const char* what;
+  bool off_at_top = false;  ///< the top of the range stands for ∞ (the bound switched off)
 };
 
 constexpr Param kParams[] = {
@@ -53,6 +54,8 @@ constexpr Param kParams[] = {
     {"Q_p", "motion_opt.weights.posture", 0.01, 5.0, true, "posture weight (14b)"},
     {"K_p", "motion_opt.gains.posture", 0.3, 20.0, true, "posture gain (16) [1/s]"},
     {"K_a", "motion_opt.gains.limits", 1.0, 50.0, true, "limit gain (17) [1/s]"},
+    {"lean_y_neg", "reference_gen.y.lean_budget_negative", 0.3, 30.0, true, "lean budget about y, l < 0 [N m s^2]", true},
+    {"lean_y_pos", "reference_gen.y.lean_budget_positive", 0.3, 30.0, true, "lean budget about y, l > 0 [N m s^2]", true},
 };
 
 const Param& param(const std::string& name) {
@@ -70,10 +73,12 @@ double to_unit(const Param& p, double v) {
 }
 double from_unit(const Param& p, double u) {
   u = std::clamp(u, 0.0, 1.0);
+  if (p.off_at_top && u >= 1.0) return std::numeric_limits<double>::infinity();
   return p.log_scale ? p.lo * std::pow(p.hi / p.lo, u) : p.lo + u * (p.hi - p.lo);
 }
 
-/// The configured value of a parameter, overrides applied (the first entry of a per-axis list).
+/// The configured value of a parameter, overrides applied (the first entry of a per-axis list); ∞
+/// for a bound that is off unless configured.
 double configured(const hpr::Config& cfg, const Param& p) {
   const std::string key = p.key;
   const auto dot = key.find('.');
@@ -81,6 +86,9 @@ double configured(const hpr::Config& cfg, const Param& p) {
   const std::string rest = key.substr(dot + 1);
   const auto dot2 = rest.find('.');
   if (dot2 == std::string::npos) return section.real(rest);
+  if (p.off_at_top && (!section.has(rest.substr(0, dot2)) || !section.section(rest.substr(0, dot2)).has(rest.substr(dot2 + 1)))) {
+    return std::numeric_limits<double>::infinity();
+  }
   const hpr::Config sub = section.section(rest.substr(0, dot2));
   const std::string leaf = rest.substr(dot2 + 1);
   try {
@@ -99,7 +107,8 @@ struct Evaluation {
   double wall_s = 0.0;
 };
 
-std::string value_text(double v) { return fmt::format("{:.6g}", v); }
+std::string value_text(double v) { return std::isinf(v) ? std::string(".inf") : fmt::format("{:.6g}", v); }
+double text_value(const std::string& t) { return t == ".inf" ? std::numeric_limits<double>::infinity() : std::stod(t); }
 
 void usage(std::FILE* out) {
   std::fputs(R"(usage: push_tune [options]
@@ -117,6 +126,8 @@ overlay for --overlay) and a summary.
                            Q_p    motion_opt.weights.posture  [0.01, 5]    (14b)
                            K_p    motion_opt.gains.posture    [0.3, 20]    (16)
                            K_a    motion_opt.gains.limits     [1, 50]      (17)
+                           lean_y_neg, lean_y_pos  reference_gen.y.lean_budget_negative, _positive
+                                  [0.3, 30] N m s^2, 30 = off (.inf): the lean budget about y
   --angles LIST          push directions [deg] (default 0,180: from behind and from the front)
   --support S            double | left | right (default double)
   --algorithm A          bobyqa | cobyla | sbplx | crs (default crs: controlled random search,
@@ -252,7 +263,10 @@ int main(int argc, char** argv) {
       try {
         const json j = json::parse(line);
         Evaluation e;
-        for (const Param* p : params) e.values.push_back(j.at("params").at(p->name).get<double>());
+        for (const Param* p : params) {
+          const json& v = j.at("params").at(p->name);
+          e.values.push_back(v.is_string() ? text_value(v.get<std::string>()) : v.get<double>());
+        }
         e.impulse = j.at("impulse_Ns").get<std::vector<double>>();
         e.return_time = j.at("return_time_s").get<std::vector<double>>();
         e.objective = j.at("objective").get<double>();
@@ -322,7 +336,7 @@ int main(int argc, char** argv) {
     std::vector<double> values;
     for (size_t i = 0; i < params.size(); ++i) values.push_back(from_unit(*params[i], u[i]));
     // The results are keyed by the values as written (6 digits): the same request, the same answer.
-    for (auto& v : values) v = std::stod(value_text(v));
+    for (auto& v : values) v = text_value(value_text(v));
     const std::string key = cache_key(values);
     Evaluation e;
     bool cached = false;
@@ -334,7 +348,9 @@ int main(int argc, char** argv) {
       cache[key] = e;
       json j;
       j["evaluation"] = n_eval + 1;
-      for (size_t i = 0; i < params.size(); ++i) j["params"][params[i]->name] = values[i];
+      for (size_t i = 0; i < params.size(); ++i) {
+        j["params"][params[i]->name] = std::isinf(values[i]) ? json(value_text(values[i])) : json(values[i]);  // JSON has no ∞
+      }
       j["angles_deg"] = angles;
       j["impulse_Ns"] = e.impulse;
       j["return_time_s"] = e.return_time;
@@ -388,7 +404,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "push_tune: the optimiser stopped: %s (the best point so far stands)\n", e.what());
   }
   std::vector<double> configured_values;
-  for (size_t i = 0; i < params.size(); ++i) configured_values.push_back(std::stod(value_text(from_unit(*params[i], x0[i]))));
+  for (size_t i = 0; i < params.size(); ++i) configured_values.push_back(text_value(value_text(from_unit(*params[i], x0[i]))));
   if (!cache.contains(cache_key(configured_values))) (void)objective(x0);
   initial = cache.at(cache_key(configured_values));
 

@@ -1,5 +1,6 @@
 #include "hpr/reference_gen/generator.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "hpr/common/log.hpp"
@@ -20,6 +21,8 @@ GeneratorConfig GeneratorConfig::load(const Config& c) {
       const Config ax = c.section(names[i]);
       a.alpha = ax.real_or("alpha", alpha, 1e-3, 1.0);
       a.beta = ax.real_or("beta", beta, 1e-3, 1.0);
+      a.budget_negative = ax.real_or("lean_budget_negative", a.budget_negative, 1e-6);  // [N m s²], .inf: none
+      a.budget_positive = ax.real_or("lean_budget_positive", a.budget_positive, 1e-6);
       g.enabled[static_cast<size_t>(i)] = ax.boolean_or("enabled", true);
     }
     if (a.alpha < 0.7 || a.alpha > 0.9) {
@@ -59,6 +62,13 @@ void AxisGenerator::begin_reduction(double t, const GeneratorConfig& cfg) {
   a_[3] = 2.0 * a_[0] + a_[1];
 }
 
+double AxisGenerator::predicted_integral(const GeneratorConfig& cfg) const {
+  const double rate = std::max(params_.beta * peak_rate_, cfg.min_rate);  // (27)
+  const double T = 3.0 * std::abs(l_) / (2.0 * rate);                     // (26)
+  // ∫₀¹ Σ a_j τʲ T dτ of (25) = T (a₀ + a₁/2 + a₂/3 + a₃/4) = T (l₂/2 + l̇₂ T/12)
+  return stored_ + T * (l_ / 2.0 + ldot_ * T / 12.0);
+}
+
 Eigen::Vector2d AxisGenerator::cubic(double t) const {
   const double tau = (t - t2_) / T_;
   return {a_[0] + tau * (a_[1] + tau * (a_[2] + tau * a_[3])), (a_[1] + tau * (2 * a_[2] + tau * 3 * a_[3])) / T_};
@@ -76,7 +86,8 @@ void AxisGenerator::step(double t, double dt, double tau_ankle, double tau_min, 
   const double lim = tau_ankle >= 0 ? tau_max : tau_min;
   thres_ = params_.alpha * lim;
   const bool exceeded = tau_ankle >= 0 ? tau_ankle > thres_ : tau_ankle < thres_;
-  if (exceeded && phase_ != Phase::kGenerate) {
+  // A spent lean budget keeps phase 1 shut until the posture is back (idle).
+  if (exceeded && phase_ != Phase::kGenerate && !spent_) {
     // A push: phase 1 from whatever phase, continuing from the current l^ref. Entered again during
     // the reduction, it continues the same momentum: the peak rate of (27) stays that of the whole
     // episode, so that a brief re-entry with small rates does not stretch the reduction of a large
@@ -102,6 +113,11 @@ void AxisGenerator::step(double t, double dt, double tau_ankle, double tau_min, 
       ldot_ = thres_ - tau_ankle;  // (24)
       peak_rate_ = std::max(peak_rate_, std::abs(ldot_));
       l_ += ldot_ * dt;
+      stored_ += l_ * dt;
+      if (const double s = predicted_integral(cfg); s >= params_.budget_positive || -s >= params_.budget_negative) {
+        spent_ = true;
+        begin_reduction(t, cfg);
+      }
       break;
     case Phase::kReduce: {
       const double tau = (t - t2_) / T_;
@@ -113,6 +129,7 @@ void AxisGenerator::step(double t, double dt, double tau_ankle, double tau_min, 
       }
       l_ = a_[0] + tau * (a_[1] + tau * (a_[2] + tau * a_[3]));
       ldot_ = (a_[1] + tau * (2 * a_[2] + tau * 3 * a_[3])) / T_;
+      stored_ += l_ * dt;
       break;
     }
     case Phase::kRecover: {
@@ -121,6 +138,8 @@ void AxisGenerator::step(double t, double dt, double tau_ankle, double tau_min, 
       if ((posture_converged && in_phase >= cfg.min_recover_time) || in_phase >= cfg.max_recover_time) {
         phase_ = Phase::kIdle;
         t_start_ = {-1, -1, -1};
+        stored_ = 0;
+        spent_ = false;
       }
       break;
     }

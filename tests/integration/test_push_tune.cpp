@@ -84,6 +84,34 @@ TEST(PushTune, EvaluationsAreRecordedTheOverlayAppliesAndAResumedRunReplaysThem)
   EXPECT_EQ(read_results(dir + "/results.jsonl").size(), results.size());
 }
 
+TEST(PushTune, TheLeanBudgetStartsSwitchedOffAndTheTunedValueIsWrittenAndReplayed) {
+  // The configuration has no lean budget: the first evaluation is the unbounded generator (".inf"
+  // in the file, as JSON has no infinity), the others lie in the searched range, the overlay names
+  // the key, and a resumed run reads the ".inf" back without running a trial.
+  const std::string dir = hpr::test::temp_dir("push-tune-lean");
+  const std::string config = hpr::test::source_dir() + "/config/toro.yaml";
+  const std::vector<std::string> args = {hpr::test::bin_dir() + "/push_tune", "--robot", config, "--params", "lean_y_pos", "--angles", "0",
+                                         "--evaluations", "3", "--algorithm", "sbplx", "--resolution", "4", "--out", dir};
+  const auto first = hpr::test::run_command(args);
+  ASSERT_EQ(first.exit_code, 0) << first.out;
+  const auto results = read_results(dir + "/results.jsonl");
+  ASSERT_GE(results.size(), 2U);
+  EXPECT_EQ(results[0]["params"]["lean_y_pos"], ".inf") << results[0].dump();
+  for (size_t i = 1; i < results.size(); ++i) {
+    const json& v = results[i]["params"]["lean_y_pos"];
+    if (v.is_string()) continue;  // the top of the range again
+    EXPECT_GE(v.get<double>(), 0.3) << results[i].dump();
+    EXPECT_LT(v.get<double>(), 30.0) << results[i].dump();
+  }
+  const std::string overlay = hpr::test::read_file(dir + "/tuned.yaml");
+  EXPECT_NE(overlay.find("lean_budget_positive:"), std::string::npos) << overlay;
+  std::vector<std::string> again = args;
+  again.push_back("--resume");
+  const auto second = hpr::test::run_command(again);
+  ASSERT_EQ(second.exit_code, 0) << second.out;
+  EXPECT_NE(second.out.find("0 trials"), std::string::npos) << second.out;
+}
+
 TEST(PushTune, AnUnknownParameterIsRefusedNamingTheKnownOnes) {
   const auto r = hpr::test::run_command({"sh", "-c", hpr::test::quote(hpr::test::bin_dir() + "/push_tune") + " --params alpha,gamma 2>&1"});
   EXPECT_EQ(r.exit_code, 2);

@@ -1,6 +1,7 @@
 // The three-phase CAM reference generator on synthetic ankle torque traces.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -215,6 +216,94 @@ TEST(ReferenceGenerator, StaleBalanceStatusHoldsThenRampsToZero) {
   }
   EXPECT_GT(held, 0.0);
   EXPECT_NEAR(g.output().l_ref_V.y(), 0.0, 1e-12) << "ramped to zero";
+}
+
+// ∫ l dt of one episode (the generator's own sum is not used).
+double episode_integral(const std::vector<Sample>& s) {
+  double sum = 0;
+  for (const Sample& x : s) sum += x.l * kDt;
+  return sum;
+}
+
+TEST(ReferenceGenerator, TheLeanBudgetBoundsTheIntegralOfTheEpisode) {
+  // A push from behind builds l > 0. Unbounded, its episode's ∫ l dt is S; with a budget of S/3 for
+  // l > 0 phase 2 begins early, the episode's ∫ l dt (summed here from the samples) comes to the
+  // budget within one tick's worth, and l stays below the unbounded peak. A budget for l < 0 alone
+  // changes nothing.
+  const auto trace = [](double t) { return push_trace(t, 1.0, 110.0); };
+  const AxisParams paper{0.9, 0.4};
+  const auto free = run_axis(paper, trace);
+  const double S = episode_integral(free);
+  ASSERT_GT(S, 0.05);
+  AxisParams bounded = paper;
+  bounded.budget_positive = S / 3.0;
+  const auto b = run_axis(bounded, trace);
+  const double peak_free = std::max_element(free.begin(), free.end(), [](auto& x, auto& y) { return x.l < y.l; })->l;
+  const double peak_b = std::max_element(b.begin(), b.end(), [](auto& x, auto& y) { return x.l < y.l; })->l;
+  EXPECT_NEAR(episode_integral(b), S / 3.0, 0.01 * S / 3.0);
+  EXPECT_LT(peak_b, 0.8 * peak_free);
+  EXPECT_EQ(b.back().phase, Phase::kIdle) << "the episode ends";
+  // Phase 2 began while the ankle torque was still beyond the threshold, and phase 1 did not come back.
+  size_t k2 = 0;
+  while (k2 < b.size() && b[k2].phase != Phase::kReduce) ++k2;
+  ASSERT_LT(k2, b.size());
+  EXPECT_GT(std::abs(b[k2].tau), std::abs(b[k2].thres));
+  for (size_t k = k2; k < b.size(); ++k) ASSERT_NE(b[k].phase, Phase::kGenerate) << "t = " << b[k].t;
+
+  AxisParams other_sign = paper;
+  other_sign.budget_negative = S / 3.0;
+  const auto o = run_axis(other_sign, trace);
+  ASSERT_EQ(o.size(), free.size());
+  for (size_t k = 0; k < o.size(); ++k) ASSERT_EQ(o[k].l, free[k].l) << "t = " << o[k].t;
+}
+
+TEST(ReferenceGenerator, AfterASpentBudgetTheNextEpisodeBuildsAgain) {
+  // Phase 1 stays shut after the budget ended it, while the push goes on, until the axis is idle
+  // (the posture back once the push is over); a push after that gets a new budget.
+  GeneratorConfig cfg;
+  AxisParams p{0.9, 0.4};
+  p.budget_positive = 0.02;
+  AxisGenerator g(p);
+  int episodes = 0, spent_in = 0;
+  double second = -1;
+  for (int k = 0; k * kDt <= 10.0; ++k) {
+    const double t = k * kDt;
+    if (episodes == 1 && g.phase() == Phase::kIdle && second < 0) second = t + 0.5;
+    const double tau = push_trace(t, 1.0, 110.0) + (second > 0 ? push_trace(t, second, 110.0) : 0.0);
+    const Phase before = g.phase();
+    const bool spent_before = g.budget_spent();
+    g.step(t, kDt, tau, -kLimit, kLimit, /*posture_converged=*/tau == 0.0, cfg);
+    if (before != Phase::kGenerate && g.phase() == Phase::kGenerate) ++episodes;
+    if (!spent_before && g.budget_spent()) {
+      ++spent_in;
+      EXPECT_GT(std::abs(tau), std::abs(g.threshold())) << "spent while the push is beyond the threshold, t = " << t;
+    }
+    if (g.phase() != Phase::kIdle) {
+      // 2 %: the sum of 1 ms samples against the cubic's integral, and phase 1's last tick, on a
+      // budget this small
+      ASSERT_LE(g.stored(), 1.02 * p.budget_positive) << "t = " << t;
+    }
+  }
+  EXPECT_GT(second, 0.0) << "idle after the first push";
+  EXPECT_EQ(episodes, 2) << "phase 1 once per push, although each push stayed beyond the threshold after its budget";
+  EXPECT_EQ(spent_in, 2) << "each push spent its own budget";
+}
+
+TEST(ReferenceGenerator, TheLeanBudgetIsReadPerAxisAndSign) {
+  const auto load = [](const std::string& yaml) { return GeneratorConfig::load(hpr::Config::parse(yaml, "gen.yaml")); };
+  const GeneratorConfig signs = load("y: {lean_budget_negative: 0.25, lean_budget_positive: 2.0}\n");
+  EXPECT_EQ(signs.axes[1].budget_negative, 0.25);
+  EXPECT_EQ(signs.axes[1].budget_positive, 2.0);
+  EXPECT_TRUE(std::isinf(signs.axes[0].budget_positive)) << "other axes unbounded";
+  EXPECT_TRUE(std::isinf(load("y: {lean_budget_positive: .inf}\n").axes[1].budget_positive));
+  try {
+    (void)load("y: {lean_budget_negative: -1}\n");
+    FAIL() << "a negative budget must be rejected";
+  } catch (const std::exception& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("gen.yaml"), std::string::npos) << what;
+    EXPECT_NE(what.find("y.lean_budget_negative"), std::string::npos) << what;
+  }
 }
 
 // Golden figure: the Fig. 3 scenario (12 N s from behind at t = 1 s) for α ∈ {0.7, 0.8, 0.9} at

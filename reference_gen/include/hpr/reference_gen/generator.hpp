@@ -12,11 +12,19 @@
 ///            error is small
 ///
 /// A new push re-enters phase 1 from any phase, continuing from the current l^ref (no jump).
+///
+/// The lean budget (a bound the paper does not have, docs/RESULTS.md): what builds l_c^ref is the
+/// rotation of the adjusted coordinates (`motion_opt.adjusted`), and the angle they turn through in one
+/// episode is ∫ l dt divided by their composite inertia, so their range bounds ∫ l dt. In phase 1
+/// the generator predicts the episode's ∫ l dt if phase 2 began now (what was stored, plus
+/// T (l₂/2 + l̇₂ T/12), the integral of the cubic (25)) and begins phase 2 when that reaches the
+/// budget of l's sign; phase 1 is then not entered again until the axis is idle.
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <array>
 #include <cstdint>
+#include <limits>
 
 #include "hpr/balance/ports.hpp"
 #include "hpr/common/config.hpp"
@@ -32,6 +40,10 @@ using BalanceInput = balance::BalanceStatus;
 struct AxisParams {
   double alpha = 0.9;  ///< α ∈ (0, 1]: activation at this fraction of the contact torque limit (23)
   double beta = 0.4;   ///< β ∈ (0, 1]: reduction rate as a fraction of the peak phase-1 rate (27)
+  /// Lean budget: the largest ∫ l^ref dt of one episode for l^ref < 0 and for l^ref > 0 [N m s²]
+  /// (keys lean_budget_negative, lean_budget_positive; ∞: the paper's unbounded phase 1).
+  double budget_negative = std::numeric_limits<double>::infinity();
+  double budget_positive = std::numeric_limits<double>::infinity();
 };
 
 struct GeneratorConfig {
@@ -69,6 +81,9 @@ class AxisGenerator {
   [[nodiscard]] double ldot_max() const { return ldot_max_; }
   [[nodiscard]] double peak_rate() const { return peak_rate_; }
   [[nodiscard]] double duration() const { return T_; }
+  /// ∫ l^ref dt since the axis left idle [N m s²], and whether it reached the lean budget.
+  [[nodiscard]] double stored() const { return stored_; }
+  [[nodiscard]] bool budget_spent() const { return spent_; }
   /// The phase-2 cubic (25) and its rate at time t (for analysis; valid once phase 2 began).
   [[nodiscard]] Eigen::Vector2d cubic(double t) const;
   [[nodiscard]] double t2() const { return t2_; }
@@ -79,12 +94,16 @@ class AxisGenerator {
 
  private:
   void begin_reduction(double t, const GeneratorConfig& cfg);
+  /// ∫ l dt of the episode if phase 2 began now, from the current l, l̇ and peak rate.
+  [[nodiscard]] double predicted_integral(const GeneratorConfig& cfg) const;
 
   AxisParams params_;
   Phase phase_ = Phase::kIdle;
   double l_ = 0, ldot_ = 0, thres_ = 0, peak_rate_ = 0, ldot_max_ = 0, T_ = 0;
   std::array<double, 4> a_{};  // cubic coefficients (25)
   double t2_ = 0;
+  double stored_ = 0;   // ∫ l dt since idle
+  bool spent_ = false;  // the lean budget ended phase 1
   std::array<double, 3> t_start_{-1, -1, -1};
 };
 
