@@ -86,11 +86,10 @@ double configured(const hpr::Config& cfg, const Param& p) {
   const std::string rest = key.substr(dot + 1);
   const auto dot2 = rest.find('.');
   if (dot2 == std::string::npos) return section.real(rest);
-  if (p.off_at_top && (!section.has(rest.substr(0, dot2)) || !section.section(rest.substr(0, dot2)).has(rest.substr(dot2 + 1)))) {
-    return std::numeric_limits<double>::infinity();
-  }
-  const hpr::Config sub = section.section(rest.substr(0, dot2));
-  const std::string leaf = rest.substr(dot2 + 1);
+  const std::string sub_name = rest.substr(0, dot2), leaf = rest.substr(dot2 + 1);
+  const bool set = section.has(sub_name) && section.section(sub_name).has(leaf);
+  if (p.off_at_top && !set) return std::numeric_limits<double>::infinity();
+  const hpr::Config sub = section.section(sub_name);
   try {
     return sub.real(leaf);
   } catch (const std::exception&) {

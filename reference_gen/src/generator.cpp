@@ -47,8 +47,8 @@ void AxisGenerator::begin_reduction(double t, const GeneratorConfig& cfg) {
   phase_ = Phase::kReduce;
   t2_ = t;
   t_start_[1] = t;
-  ldot_max_ = std::max(params_.beta * peak_rate_, cfg.min_rate);  // (27)
-  T_ = 3.0 * std::abs(l_) / (2.0 * ldot_max_);                     // (26)
+  ldot_max_ = reduction_rate(cfg);
+  T_ = 3.0 * std::abs(l_) / (2.0 * ldot_max_);  // (26)
   if (T_ <= 0.0) {
     phase_ = Phase::kRecover;
     t_start_[2] = t;
@@ -62,9 +62,12 @@ void AxisGenerator::begin_reduction(double t, const GeneratorConfig& cfg) {
   a_[3] = 2.0 * a_[0] + a_[1];
 }
 
+double AxisGenerator::reduction_rate(const GeneratorConfig& cfg) const {
+  return std::max(params_.beta * peak_rate_, cfg.min_rate);  // (27)
+}
+
 double AxisGenerator::predicted_integral(const GeneratorConfig& cfg) const {
-  const double rate = std::max(params_.beta * peak_rate_, cfg.min_rate);  // (27)
-  const double T = 3.0 * std::abs(l_) / (2.0 * rate);                     // (26)
+  const double T = 3.0 * std::abs(l_) / (2.0 * reduction_rate(cfg));  // (26)
   // ∫₀¹ Σ a_j τʲ T dτ of (25) = T (a₀ + a₁/2 + a₂/3 + a₃/4) = T (l₂/2 + l̇₂ T/12)
   return stored_ + T * (l_ / 2.0 + ldot_ * T / 12.0);
 }

@@ -27,11 +27,28 @@ std::vector<json> read_results(const std::string& path) {
   return out;
 }
 
+std::string toro() { return hpr::test::source_dir() + "/config/toro.yaml"; }
+
+/// A short Sbplx search of `params` from behind on the TORO-like robot, results in `dir`.
+std::vector<std::string> tune_args(const std::string& dir, const std::string& params, const std::string& evaluations,
+                                   const std::string& resolution) {
+  return {hpr::test::bin_dir() + "/push_tune", "--robot", toro(), "--params", params, "--angles", "0", "--evaluations", evaluations,
+          "--algorithm", "sbplx", "--resolution", resolution, "--out", dir};
+}
+
+/// The same search resumed: answered from results.jsonl, no trial runs, nothing appended.
+void expect_resume_runs_no_trial(const std::vector<std::string>& args, const std::string& dir, std::size_t lines) {
+  std::vector<std::string> again = args;
+  again.push_back("--resume");
+  const auto second = hpr::test::run_command(again);
+  ASSERT_EQ(second.exit_code, 0) << second.out;
+  EXPECT_NE(second.out.find("0 trials"), std::string::npos) << second.out;
+  EXPECT_EQ(read_results(dir + "/results.jsonl").size(), lines);
+}
+
 TEST(PushTune, EvaluationsAreRecordedTheOverlayAppliesAndAResumedRunReplaysThem) {
   const std::string dir = hpr::test::temp_dir("push-tune");
-  const std::string config = hpr::test::source_dir() + "/config/toro.yaml";
-  const std::vector<std::string> args = {hpr::test::bin_dir() + "/push_tune", "--robot", config, "--params", "alpha,K_p", "--angles", "0",
-                                         "--evaluations", "4", "--algorithm", "sbplx", "--resolution", "2", "--out", dir};
+  const std::vector<std::string> args = tune_args(dir, "alpha,K_p", "4", "2");
   const auto first = hpr::test::run_command(args);
   ASSERT_EQ(first.exit_code, 0) << first.out;
   const auto results = read_results(dir + "/results.jsonl");
@@ -66,7 +83,7 @@ TEST(PushTune, EvaluationsAreRecordedTheOverlayAppliesAndAResumedRunReplaysThem)
   EXPECT_NE(overlay.find("posture:"), std::string::npos) << overlay;
   const double impulse = best_eval["impulse_Ns"][0].get<double>();
   const auto at = [&](double ns) {
-    const auto r = hpr::test::run_command({hpr::test::bin_dir() + "/push_trial", "--quiet", "--in-process", "--robot", config, "--overlay",
+    const auto r = hpr::test::run_command({hpr::test::bin_dir() + "/push_trial", "--quiet", "--in-process", "--robot", toro(), "--overlay",
                                            dir + "/tuned.yaml", "--impulse", std::to_string(ns)});
     EXPECT_TRUE(r.exit_code == 0 || r.exit_code == 1) << r.out;
     return json::parse(r.out, nullptr, false);
@@ -76,12 +93,7 @@ TEST(PushTune, EvaluationsAreRecordedTheOverlayAppliesAndAResumedRunReplaysThem)
   EXPECT_TRUE(at_best["recovered"].get<bool>()) << at_best.dump();
 
   // Resumed: the same requests are answered from the file, no trial runs, nothing is appended.
-  std::vector<std::string> again = args;
-  again.push_back("--resume");
-  const auto second = hpr::test::run_command(again);
-  ASSERT_EQ(second.exit_code, 0) << second.out;
-  EXPECT_NE(second.out.find("0 trials"), std::string::npos) << second.out;
-  EXPECT_EQ(read_results(dir + "/results.jsonl").size(), results.size());
+  expect_resume_runs_no_trial(args, dir, results.size());
 }
 
 TEST(PushTune, TheLeanBudgetStartsSwitchedOffAndTheTunedValueIsWrittenAndReplayed) {
@@ -89,9 +101,7 @@ TEST(PushTune, TheLeanBudgetStartsSwitchedOffAndTheTunedValueIsWrittenAndReplaye
   // in the file, as JSON has no infinity), the others lie in the searched range, the overlay names
   // the key, and a resumed run reads the ".inf" back without running a trial.
   const std::string dir = hpr::test::temp_dir("push-tune-lean");
-  const std::string config = hpr::test::source_dir() + "/config/toro.yaml";
-  const std::vector<std::string> args = {hpr::test::bin_dir() + "/push_tune", "--robot", config, "--params", "lean_y_pos", "--angles", "0",
-                                         "--evaluations", "3", "--algorithm", "sbplx", "--resolution", "4", "--out", dir};
+  const std::vector<std::string> args = tune_args(dir, "lean_y_pos", "3", "4");
   const auto first = hpr::test::run_command(args);
   ASSERT_EQ(first.exit_code, 0) << first.out;
   const auto results = read_results(dir + "/results.jsonl");
@@ -105,11 +115,7 @@ TEST(PushTune, TheLeanBudgetStartsSwitchedOffAndTheTunedValueIsWrittenAndReplaye
   }
   const std::string overlay = hpr::test::read_file(dir + "/tuned.yaml");
   EXPECT_NE(overlay.find("lean_budget_positive:"), std::string::npos) << overlay;
-  std::vector<std::string> again = args;
-  again.push_back("--resume");
-  const auto second = hpr::test::run_command(again);
-  ASSERT_EQ(second.exit_code, 0) << second.out;
-  EXPECT_NE(second.out.find("0 trials"), std::string::npos) << second.out;
+  expect_resume_runs_no_trial(args, dir, results.size());
 }
 
 TEST(PushTune, AnUnknownParameterIsRefusedNamingTheKnownOnes) {

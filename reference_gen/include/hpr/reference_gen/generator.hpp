@@ -94,6 +94,8 @@ class AxisGenerator {
 
  private:
   void begin_reduction(double t, const GeneratorConfig& cfg);
+  /// l̇^max of the reduction, β times the episode's peak phase-1 rate (27).
+  [[nodiscard]] double reduction_rate(const GeneratorConfig& cfg) const;
   /// ∫ l dt of the episode if phase 2 began now, from the current l, l̇ and peak rate.
   [[nodiscard]] double predicted_integral(const GeneratorConfig& cfg) const;
 
