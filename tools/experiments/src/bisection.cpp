@@ -10,15 +10,18 @@ ImpulseBracket largest_recovered(const std::function<bool(double)>& recovered, d
   double lo = 0.0, hi = 0.0, g = std::min(start, max_impulse);
   if (recovered(g)) {
     lo = g;
-    while (g < max_impulse) {
-      g = std::min(max_impulse, g * 1.5);
+    // The largest push allowed next: a direction the robot withstands costs two trials, not the
+    // whole ×1.5 ladder of full-length recovered runs up to it.
+    if (g < max_impulse && !recovered(max_impulse)) hi = max_impulse;
+    b.reached_max = hi == 0.0;
+    while (!b.reached_max && g * 1.5 < hi) {
+      g *= 1.5;
       if (!recovered(g)) {
         hi = g;
         break;
       }
       lo = g;
     }
-    b.reached_max = hi == 0.0;
   } else {
     hi = g;
     while (g > resolution) {
@@ -38,6 +41,7 @@ ImpulseBracket largest_recovered(const std::function<bool(double)>& recovered, d
       hi = mid;
     }
   }
+  if (b.reached_max) lo = max_impulse;
   b.max_recovered = lo;
   b.min_lost = b.reached_max ? 0.0 : hi;
   return b;

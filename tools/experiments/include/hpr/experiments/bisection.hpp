@@ -12,9 +12,11 @@ struct ImpulseBracket {
   bool reached_max = false;    ///< the largest impulse allowed was recovered
 };
 
-/// `recovered(impulse)` runs one trial. From `start` the impulse grows by ×1.5 while recovered
-/// (up to `max_impulse`) or shrinks by ÷1.5 until recovered; then bisection until the bracket is
-/// at most `resolution` wide. The trials are run in that order, one at a time.
+/// `recovered(impulse)` runs one trial; recovery is taken to be monotonic in the impulse. `start`
+/// first: when recovered, `max_impulse` next (recovered: done), then the impulse grows from `start`
+/// by ×1.5 while recovered and below the failed maximum; when `start` is lost, it shrinks by ÷1.5
+/// until recovered. Then bisection until the bracket is at most `resolution` wide. The trials run
+/// in that order, one at a time.
 ImpulseBracket largest_recovered(const std::function<bool(double)>& recovered, double start, double max_impulse,
                                  double resolution);
 
