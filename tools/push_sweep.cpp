@@ -1,7 +1,8 @@
 // push_sweep: the push envelope. For each direction, support and strategy, the largest impulse the
-// robot recovers (push_trial's criteria), found by bracketing and bisection to a resolution; a
-// progress line per trial; a JSON table and a polar plot (largest recovered impulse per direction,
-// CAM against ankle).
+// robot recovers (push_trial's criteria), found by bracketing and bisection to a resolution
+// (largest_recovered: the start, the cap, ×1.5 steps, bisection); in process, each case's trials
+// continue one run from just before the push (PrePushCheckpoint); a progress line per trial; a JSON
+// table and a polar plot (largest recovered impulse per direction, CAM against ankle).
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -11,6 +12,7 @@
 #include <filesystem>
 #include <fstream>
 #include <future>
+#include <memory>
 #include <mutex>
 #include <nlohmann/json.hpp>
 
@@ -130,11 +132,16 @@ int main(int argc, char** argv) {
   std::atomic<int> trials_done{0};
   const auto t0 = std::chrono::steady_clock::now();
   auto run_case = [&](Case& c) {
+    TrialSpec case_spec = base;
+    case_spec.support = c.support;
+    case_spec.strategy = c.strategy;
+    case_spec.direction_deg = c.direction;
+    // In process, the case's trials continue one run from just before the push (bit for bit the
+    // fresh runs' results).
+    std::unique_ptr<PrePushCheckpoint> checkpoint;
+    if (base.in_process) checkpoint = std::make_unique<PrePushCheckpoint>(case_spec);
     auto trial = [&](double impulse) {
-      TrialSpec spec = base;
-      spec.support = c.support;
-      spec.strategy = c.strategy;
-      spec.direction_deg = c.direction;
+      TrialSpec spec = case_spec;
       spec.impulse = impulse;
       bool ok = false, inconclusive = true;
       std::string why;
@@ -142,7 +149,7 @@ int main(int argc, char** argv) {
       // the time limit) says nothing about the robot: it is run again, up to kAttempts times.
       for (int attempt = 1; attempt <= kAttempts && inconclusive; ++attempt) {
         try {
-          const TrialResult r = run_trial(spec);
+          const TrialResult r = checkpoint ? checkpoint->run(spec) : run_trial(spec);
           ok = r.recovered;
           inconclusive = r.inconclusive;
           why = r.failure;
@@ -175,12 +182,16 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "  => %s %s %.0f deg: largest recovered impulse %.2f N s%s\n", c.support.c_str(), to_string(c.strategy),
                  c.direction, c.max_recovered, c.reached_max ? " (the maximum tried)" : "");
   };
-  // Cases run `jobs` at a time, each on its own LCM URL.
+  // Cases run `jobs` at a time, each on its own LCM URL, direction by direction (the strategies of
+  // one direction side by side: the costly directions are spread over the run, not left to its end).
+  std::vector<size_t> order(cases.size());
+  for (size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return cases[a].direction < cases[b].direction; });
   std::atomic<size_t> next{0};
   std::vector<std::future<void>> workers;
   for (int w = 0; w < jobs; ++w) {
     workers.push_back(std::async(std::launch::async, [&] {
-      for (size_t i = next++; i < cases.size(); i = next++) run_case(cases[i]);
+      for (size_t i = next++; i < cases.size(); i = next++) run_case(cases[order[i]]);
     }));
   }
   for (auto& w : workers) w.get();

@@ -21,6 +21,7 @@
 #include <fstream>
 #include <future>
 #include <map>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <nlopt.hpp>
 #include <sstream>
@@ -300,15 +301,19 @@ int main(int argc, char** argv) {
       workers.push_back(std::async(std::launch::async, [&] {
         for (size_t a = next++; a < angles.size(); a = next++) {
           std::map<double, TrialResult> tried;
+          TrialSpec case_spec = base;
+          case_spec.strategy = Strategy::kCam;
+          case_spec.direction_deg = angles[a];
+          const std::vector<std::string> tuned = overrides_of(values);
+          case_spec.overrides.insert(case_spec.overrides.end(), tuned.begin(), tuned.end());
+          // In process, the direction's trials continue one run from just before the push.
+          std::unique_ptr<PrePushCheckpoint> checkpoint;
+          if (base.in_process) checkpoint = std::make_unique<PrePushCheckpoint>(case_spec);
           const auto recovered = [&](double impulse) {
-            TrialSpec spec = base;
-            spec.strategy = Strategy::kCam;
-            spec.direction_deg = angles[a];
+            TrialSpec spec = case_spec;
             spec.impulse = impulse;
-            const std::vector<std::string> tuned = overrides_of(values);
-            spec.overrides.insert(spec.overrides.end(), tuned.begin(), tuned.end());
             ++trials;
-            const TrialResult r = run_trial(spec);
+            const TrialResult r = checkpoint ? checkpoint->run(spec) : run_trial(spec);
             tried[impulse] = r;
             return r.recovered;
           };

@@ -241,7 +241,7 @@ double lip_bound(const std::string& config_file) {
 TEST(PaperExperiments, EnvelopeOfBothStrategiesAgainstTheInvertedPendulumsBound) {
   const std::string dir = hpr::test::temp_dir("envelope");
   // Through the in-process pipeline, which gives the processes' messages bit for bit (InProcess.*):
-  // 98 s on 2 cores.
+  // 55 s on 2 cores.
   const auto m = sweep("--robot toro --supports double --strategies cam,ankle --directions 8 --resolution 0.5 --in-process", dir);
   ASSERT_EQ(m.size(), 16U);
   const double bound = lip_bound(hpr::test::source_dir() + "/config/toro.yaml");

@@ -210,6 +210,35 @@ TEST(InProcess, JudgesPushesAsTheProcessesDo) {
   }
 }
 
+TEST(InProcess, ACheckpointBeforeThePushGivesTheFreshRunsResultBitForBit) {
+  // One run to just before the push, continued in a copy of the process per push: each result is
+  // the fresh in-process run's, every field to the last bit (the wall time aside), for a recovered
+  // and a lost push and for another direction from the same checkpoint.
+  TrialSpec base = experiment(Strategy::kCam, 27.5);
+  base.after = 5.0;
+  base.stop_when_decided = true;
+  base.in_process = true;
+  const hpr::experiments::PrePushCheckpoint checkpoint(base);
+  for (const auto& [direction, impulse] : std::vector<std::pair<double, double>>{{0.0, 27.5}, {0.0, 29.0}, {180.0, 30.0}}) {
+    TrialSpec spec = base;
+    spec.direction_deg = direction;
+    spec.impulse = impulse;
+    hpr::experiments::TrialResult fresh = hpr::experiments::run_trial(spec);
+    hpr::experiments::TrialResult forked = checkpoint.run(spec);
+    fresh.wall_time = forked.wall_time = 0.0;
+    EXPECT_EQ(forked.to_json(spec), fresh.to_json(spec)) << direction << " deg " << impulse << " N s";
+    // docs/RESULTS.md: CAM recovers 28.12 N s from behind and 42.45 N s from the front.
+    EXPECT_EQ(fresh.recovered, direction != 0.0 || impulse < 28.0) << direction << " deg " << impulse << " N s";
+  }
+  // Only the push may change.
+  TrialSpec ankle = base;
+  ankle.strategy = Strategy::kAnkle;
+  EXPECT_THROW((void)checkpoint.run(ankle), std::invalid_argument);
+  TrialSpec other = base;
+  other.alpha = 0.8;
+  EXPECT_THROW((void)checkpoint.run(other), std::invalid_argument);
+}
+
 TEST(InProcess, TheTruthStateGivesEveryControllerTheSimulatorsStateAndNoEstimatorRuns) {
   // --truth-state: the same trial as a closed loop whose controllers read the simulator's truth,
   // bit for bit; it differs from the trial with the estimator in the loop; the processes refuse it,

@@ -3,6 +3,8 @@
 // never "not recovered"; a fall or a tilted sole decides the trial whatever the run's length.
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include <humanoid/sim_truth_t.hpp>
 
 #include "hpr/experiments/trial.hpp"
@@ -112,6 +114,45 @@ TEST(TrialEvaluator, WithStepsASoleThatLiftsAndLandsElsewhereIsAStepNotASlip) {
   EXPECT_EQ(s.steps, 0) << "steps are counted only when they are allowed";
   EXPECT_TRUE(hpr::experiments::steps_enabled({"a.b=1", "balance.stepping.enabled=true"}));
   EXPECT_FALSE(hpr::experiments::steps_enabled({"balance.stepping.enabled=true", "balance.stepping.enabled=false"}));
+}
+
+TEST(TrialEvaluator, AResultReadBackFromItsJsonIsTheSameToTheLastBit) {
+  // What a trial run in another process (a pre-push checkpoint's copy) hands back.
+  hpr::experiments::TrialResult r;
+  r.recovered = false;
+  r.fallen = true;
+  r.completed = true;
+  r.failure = "fell; sole tilt 3.1 deg";
+  r.impulse_W = Eigen::Vector3d(0.1 / 3.0, -2.0 / 7.0, 0.0);
+  r.max_tilt_deg = M_PI;
+  r.max_slip = 1e-17;
+  r.steps = 2;
+  r.peak_cam = Eigen::Vector3d(1.0 / 3.0, 2.0 / 3.0, 5.0 / 9.0);
+  r.peak_cam_cmd = Eigen::Vector3d(std::sqrt(2.0), 1e300, -0.0);
+  r.min_cop_margin = -0.0123456789012345678;
+  r.max_com_deviation = std::exp(1.0);
+  r.return_time = 0.1 + 0.2;
+  r.final_com_deviation = 1.0 / 7.0;
+  r.final_base_angle_deg = 4.9e-324;
+  r.final_joint_deg = 0.3;
+  r.final_joint = "left_hip_pitch";
+  r.push_start = 2.0;
+  r.push_end = 2.0 + 0.6 / 3.0;
+  r.sim_time = 7.21;
+  r.wall_time = 1.5;
+  hpr::experiments::TrialSpec spec;
+  spec.config = "toro";
+  const std::string json = r.to_json(spec);
+  const TrialResult back = TrialResult::from_json(json);
+  EXPECT_EQ(back.to_json(spec), json);
+  EXPECT_EQ(back.impulse_W, r.impulse_W);
+  EXPECT_EQ(back.peak_cam_cmd, r.peak_cam_cmd);
+  EXPECT_EQ(back.return_time, r.return_time);
+  EXPECT_EQ(back.completed, r.completed);
+  EXPECT_EQ(back.final_base_angle_deg, r.final_base_angle_deg);
+  r.return_time.reset();
+  EXPECT_FALSE(TrialResult::from_json(r.to_json(spec)).return_time.has_value());
+  EXPECT_THROW((void)TrialResult::from_json("{\"recovered\": true}"), std::exception);
 }
 
 }  // namespace

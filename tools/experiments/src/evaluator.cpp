@@ -180,6 +180,7 @@ std::string TrialResult::to_json(const TrialSpec& spec) const {
   j["duration_s"] = spec.push_duration();
   j["recovered"] = recovered;
   j["fallen"] = fallen;
+  j["completed"] = completed;
   j["failure"] = failure;
   j["inconclusive"] = inconclusive;
   j["applied_impulse_Ns"] = impulse_W.norm();
@@ -204,6 +205,39 @@ std::string TrialResult::to_json(const TrialSpec& spec) const {
   if (spec.beta) j["beta"] = *spec.beta;
   if (!log_file.empty()) j["log"] = log_file;
   return j.dump();
+}
+
+TrialResult TrialResult::from_json(const std::string& json) {
+  const nlohmann::json j = nlohmann::json::parse(json);
+  const auto vec = [&](const char* key) {
+    const auto& a = j.at(key);
+    return Vector3d(a.at(0).get<double>(), a.at(1).get<double>(), a.at(2).get<double>());
+  };
+  TrialResult r;
+  r.recovered = j.at("recovered").get<bool>();
+  r.fallen = j.at("fallen").get<bool>();
+  r.completed = j.at("completed").get<bool>();
+  r.inconclusive = j.at("inconclusive").get<bool>();
+  r.failure = j.at("failure").get<std::string>();
+  r.impulse_W = vec("applied_impulse_W_Ns");
+  r.max_tilt_deg = j.at("max_foot_tilt_deg").get<double>();
+  r.max_slip = j.at("max_sole_slip_m").get<double>();
+  r.steps = j.at("steps").get<int>();
+  r.peak_cam = vec("peak_cam_Nms");
+  r.peak_cam_cmd = vec("peak_cam_commanded_Nms");
+  r.min_cop_margin = j.at("min_cop_margin_m").get<double>();
+  r.max_com_deviation = j.at("max_com_deviation_m").get<double>();
+  if (!j.at("return_time_s").is_null()) r.return_time = j.at("return_time_s").get<double>();
+  r.final_com_deviation = j.at("final_com_deviation_m").get<double>();
+  r.final_base_angle_deg = j.at("final_base_angle_deg").get<double>();
+  r.final_joint_deg = j.at("final_joint_deviation_deg").get<double>();
+  r.final_joint = j.at("final_joint").get<std::string>();
+  r.push_start = j.at("push_start_s").get<double>();
+  r.push_end = j.at("push_end_s").get<double>();
+  r.sim_time = j.at("simulated_s").get<double>();
+  r.wall_time = j.at("wall_s").get<double>();
+  if (j.contains("log")) r.log_file = j.at("log").get<std::string>();
+  return r;
 }
 
 }  // namespace hpr::experiments

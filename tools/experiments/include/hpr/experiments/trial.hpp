@@ -98,6 +98,8 @@ struct TrialResult {
 
   /// One JSON object (the fields above, units in the names).
   [[nodiscard]] std::string to_json(const TrialSpec& spec) const;
+  /// The result to_json wrote, every field as it was (doubles round-trip exactly).
+  static TrialResult from_json(const std::string& json);
 };
 
 /// Computes the result from the run's messages (fed in order). Independent of how they were produced.
@@ -107,6 +109,8 @@ class TrialEvaluator {
   void on_truth(const humanoid::sim_truth_t& t);
   void on_sensors(const humanoid::robot_sensors_t& s);
   void on_wholebody(const humanoid::wholebody_command_t& w);
+  /// A push that ends at `push_end` (a run continued from before the push with another push).
+  void set_push_end(double push_end) { push_end_ = r_.push_end = push_end; }
   /// The result once the run is over (`sim_time` reached).
   [[nodiscard]] TrialResult result() const;
   [[nodiscard]] double last_time() const { return last_time_; }
@@ -191,6 +195,31 @@ TrialResult run_trial(const TrialSpec& spec, const std::function<void(const std:
 /// log), evaluated from the same messages. Many times faster than run_trial, for sweeps and
 /// tuning; run_trial stays the end-to-end check of the processes. `spec.log_file` must be empty.
 TrialResult run_trial_in_process(const TrialSpec& spec, const std::function<void(const std::string&)>& progress = {});
+
+/// In-process trials that share their run up to the push. The robot, support, strategy and
+/// configuration of `base` are simulated once, to 0.1 s before the push; each run() continues a
+/// copy of that process (fork) with its own push and returns what run_trial_in_process returns
+/// for the same spec, bit for bit (nothing before the push depends on it; test
+/// InProcess.ACheckpointBeforeThePushGivesTheFreshRunsResultBitForBit). The 2 s before a push are a
+/// quarter of a recovered trial and most of a lost one: a sweep or a tune runs one per case.
+/// `wall_time` counts from the fork. Not for a process that must not fork (the copy holds every
+/// thread's memory but runs only the caller's).
+struct InProcessRun;
+
+class PrePushCheckpoint {
+ public:
+  explicit PrePushCheckpoint(const TrialSpec& base);
+  ~PrePushCheckpoint();
+  PrePushCheckpoint(const PrePushCheckpoint&) = delete;
+  PrePushCheckpoint& operator=(const PrePushCheckpoint&) = delete;
+  /// `spec` may differ from `base` only in the push (impulse, peak, duration, direction, link,
+  /// height) and the time after it; anything else throws std::invalid_argument.
+  [[nodiscard]] TrialResult run(const TrialSpec& spec) const;
+
+ private:
+  std::unique_ptr<InProcessRun> run_;
+  TrialSpec base_;
+};
 
 /// The options that shape the push and the robot, shared by push_trial and push_sweep: --robot,
 /// --peak, --link, --height, --alpha, --beta, --push-time, --after, --set, --in-process. Reads the current one
