@@ -139,7 +139,11 @@ int main(int argc, char** argv) {
     // In process, the case's trials continue one run from just before the push (bit for bit the
     // fresh runs' results).
     std::unique_ptr<PrePushCheckpoint> checkpoint;
-    if (base.in_process) checkpoint = std::make_unique<PrePushCheckpoint>(case_spec);
+    try {
+      if (base.in_process) checkpoint = std::make_unique<PrePushCheckpoint>(case_spec);
+    } catch (const std::exception&) {
+      // Each trial then runs afresh and reports what stops it.
+    }
     auto trial = [&](double impulse) {
       TrialSpec spec = case_spec;
       spec.impulse = impulse;

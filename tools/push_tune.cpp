@@ -308,7 +308,11 @@ int main(int argc, char** argv) {
           case_spec.overrides.insert(case_spec.overrides.end(), tuned.begin(), tuned.end());
           // In process, the direction's trials continue one run from just before the push.
           std::unique_ptr<PrePushCheckpoint> checkpoint;
-          if (base.in_process) checkpoint = std::make_unique<PrePushCheckpoint>(case_spec);
+          try {
+            if (base.in_process) checkpoint = std::make_unique<PrePushCheckpoint>(case_spec);
+          } catch (const std::exception&) {
+            // Each trial then runs afresh and reports what stops it.
+          }
           const auto recovered = [&](double impulse) {
             TrialSpec spec = case_spec;
             spec.impulse = impulse;

@@ -149,8 +149,11 @@ TrialResult PrePushCheckpoint::run(const TrialSpec& spec) const {
   }
   if (pid == 0) {
     // The copy: continue with this push, hand the result over, and leave without running the
-    // parent's exit handlers or flushing its buffers.
-    ::close(fds[0]);
+    // parent's exit handlers or flushing its buffers. It keeps no other descriptor: a pipe another
+    // thread of the parent opened for its own copy must see its end of file when that copy ends.
+    const auto fd = static_cast<unsigned>(fds[1]);
+    if (fd > 3) ::close_range(3, fd - 1, 0);
+    ::close_range(fd + 1, ~0U, 0);
     int status = 0;
     try {
       write_all(fds[1], run_->finish(spec, plan, {}, wall0).to_json(spec));
