@@ -3,6 +3,8 @@
 // is checked by integrating the pendulum through the swing and after the touchdown.
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
+
 #include <random>
 #include <vector>
 
@@ -158,6 +160,34 @@ TEST(StepDecision, NoStepWhileTheAnkleAndHipStrategiesSufficeAndAStepBeyond) {
   EXPECT_FALSE(StepPlanner(c).step_needed(soles, both, Vector2d(1.0, 0.0))) << "disabled: never";
 }
 
+TEST(StepDecision, BehindTheSupportTheBackwardReachHoldsBetweenTheDirectionsItBlends) {
+  SteppingConfig c;
+  c.enabled = true;
+  c.cmp_reach = 0.02;
+  c.cmp_reach_backward = 0.05;
+  StepPlanner planner(c);
+  const std::array<bool, 2> both{true, true};
+  for (const double yaw : {0.0, 0.7}) {
+    // The same soles turned by `yaw` about the origin: the reach follows their heading.
+    auto soles = standing();
+    const Eigen::Rotation2Dd R(yaw);
+    for (auto& sole : soles) {
+      sole.centre = R * sole.centre;
+      sole.yaw = yaw;
+    }
+    // 4 cm ahead of the toes and behind the heels: beyond the reach ahead, inside the one behind.
+    EXPECT_NEAR(planner.excess(soles, both, R * Vector2d(0.14, 0.0)), 0.04 - 0.02, 1e-12) << yaw;
+    EXPECT_NEAR(planner.excess(soles, both, R * Vector2d(-0.14, 0.0)), 0.04 - 0.05, 1e-12) << yaw;
+    EXPECT_TRUE(planner.step_needed(soles, both, R * Vector2d(0.14, 0.0)));
+    EXPECT_FALSE(planner.step_needed(soles, both, R * Vector2d(-0.14, 0.0)));
+    // Sideways the reach ahead; behind at 45° half of each (cos² 45° = 1/2).
+    EXPECT_NEAR(planner.excess(soles, both, R * Vector2d(0.0, 0.19)), 0.04 - 0.02, 1e-12) << yaw;
+    const Vector2d diagonal = R * Vector2d(-0.13, -0.13);
+    const double d = hpr::balance::support_distance(soles, both, diagonal);
+    EXPECT_NEAR(planner.excess(soles, both, diagonal), d - 0.035, 1e-12) << yaw;
+  }
+}
+
 TEST(StepDecision, TheFootOnTheSideTheDcmRunsToSwingsElseTheLessLoadedOne) {
   const StepPlanner planner(SteppingConfig{});
   const auto soles = standing();
@@ -249,6 +279,9 @@ TEST(SteppingConfig, LoadsAndRefusesOutOfRangeValuesNamingTheKey) {
   EXPECT_TRUE(c.enabled);
   EXPECT_EQ(c.t_min, 0.2);
   EXPECT_EQ(c.cmp_reach, 0.03);
+  EXPECT_EQ(c.cmp_reach_backward, 0.03) << "unset, the reach behind is the reach ahead";
+  const auto behind = hpr::Config::parse("stepping: {cmp_reach: 0.03, cmp_reach_backward: 0.05}", "test.yaml");
+  EXPECT_EQ(SteppingConfig::load(behind.section("stepping")).cmp_reach_backward, 0.05);
   const auto bad = hpr::Config::parse("stepping: {t_min: 0.4, t_max: 0.3}", "test.yaml");
   try {
     (void)SteppingConfig::load(bad.section("stepping"));

@@ -67,7 +67,11 @@ struct SteppingConfig {
   bool enabled = false;        ///< take steps (else the ankle and hip strategies only, as the paper)
   double margin = 0.0;         ///< [m] ξ may come this close to the grown support edge before a step
   double cmp_reach = 0.025;    ///< [m] how far beyond the support the hip strategy holds the capture point
-                               ///<     (shifted by F̂ / (m ω²)) without a step
+                               ///<     (shifted by F̂ / (m ω²)) without a step, ahead and to the sides
+  /// [m] the same behind the support (a push from the front), where the hip strategy may hold more:
+  /// the trunk pitches forward to gain it, while ahead it has to lean back. Between the
+  /// directions the reach blends with the squares of the direction's components.
+  double cmp_reach_backward = 0.025;
   double t_min = 0.25, t_max = 0.6, t_nominal = 0.35;  ///< [s] swing duration bounds and nominal
   double dcm_offset = 0.0;     ///< [m] b: ξ_T − u wanted along the push, >0 lands short of the DCM
   /// Reachability of the swing sole centre in the stance sole's frame (x forward, y towards the
