@@ -138,12 +138,7 @@ int main(int argc, char** argv) {
     case_spec.direction_deg = c.direction;
     // In process, the case's trials continue one run from just before the push (bit for bit the
     // fresh runs' results).
-    std::unique_ptr<PrePushCheckpoint> checkpoint;
-    try {
-      if (base.in_process) checkpoint = std::make_unique<PrePushCheckpoint>(case_spec);
-    } catch (const std::exception&) {
-      // Each trial then runs afresh and reports what stops it.
-    }
+    const std::unique_ptr<PrePushCheckpoint> checkpoint = PrePushCheckpoint::for_case(case_spec);
     auto trial = [&](double impulse) {
       TrialSpec spec = case_spec;
       spec.impulse = impulse;

@@ -307,12 +307,7 @@ int main(int argc, char** argv) {
           const std::vector<std::string> tuned = overrides_of(values);
           case_spec.overrides.insert(case_spec.overrides.end(), tuned.begin(), tuned.end());
           // In process, the direction's trials continue one run from just before the push.
-          std::unique_ptr<PrePushCheckpoint> checkpoint;
-          try {
-            if (base.in_process) checkpoint = std::make_unique<PrePushCheckpoint>(case_spec);
-          } catch (const std::exception&) {
-            // Each trial then runs afresh and reports what stops it.
-          }
+          const std::unique_ptr<PrePushCheckpoint> checkpoint = PrePushCheckpoint::for_case(case_spec);
           const auto recovered = [&](double impulse) {
             TrialSpec spec = case_spec;
             spec.impulse = impulse;

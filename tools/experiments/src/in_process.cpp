@@ -125,6 +125,15 @@ PrePushCheckpoint::PrePushCheckpoint(const TrialSpec& base) : base_(base) {
 
 PrePushCheckpoint::~PrePushCheckpoint() = default;
 
+std::unique_ptr<PrePushCheckpoint> PrePushCheckpoint::for_case(const TrialSpec& base) {
+  if (!base.in_process) return nullptr;
+  try {
+    return std::make_unique<PrePushCheckpoint>(base);
+  } catch (const std::exception&) {
+    return nullptr;
+  }
+}
+
 TrialResult PrePushCheckpoint::run(const TrialSpec& spec) const {
   const TrialPlan plan = plan_trial(spec);
   const auto differs = [](const char* what) {

@@ -210,6 +210,9 @@ class PrePushCheckpoint {
  public:
   explicit PrePushCheckpoint(const TrialSpec& base);
   ~PrePushCheckpoint();
+  /// A checkpoint for a sweep's or a tune's case: none (nullptr) when `base` is not in process or
+  /// its run cannot be built; its trials then run afresh (run_trial) and report what stops them.
+  static std::unique_ptr<PrePushCheckpoint> for_case(const TrialSpec& base);
   PrePushCheckpoint(const PrePushCheckpoint&) = delete;
   PrePushCheckpoint& operator=(const PrePushCheckpoint&) = delete;
   /// `spec` may differ from `base` only in the push (impulse, peak, duration, direction, link,
