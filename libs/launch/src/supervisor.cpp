@@ -244,18 +244,22 @@ void Supervisor::step(double now) {
   }
   // Watched processes whose HEALTH stopped: hung (stopped, stuck in a step, or starved). Judged only
   // when this supervisor itself ran a moment ago: after it was not scheduled for a while, the HEALTH
-  // sent meanwhile is still queued, and a silence it measures now would be its own.
+  // sent meanwhile is still queued, and a silence it measures now would be its own. And judged only
+  // once the whole group is up, the silence counted from then at the earliest: while the others
+  // start (the simulator settling, the optimiser setting up, at real-time priorities, on two cores
+  // most of them) a ready process may wait for a CPU longer than hung_after.
   const bool awake = last_step_ >= 0 && now - last_step_ <= kMaxJudgingGap;
   last_step_ = now;
-  for (std::size_t i = 0; i < status_.size() && awake; ++i) {
+  for (std::size_t i = 0; i < status_.size() && awake && announced_up_; ++i) {
     ProcessStatus& s = status_[i];
     const Slot& slot = slots_[i];
     const double after = slot.spec->hung_after_s;
     if (after <= 0 || s.hung || s.state != ProcessState::kReady || s.pid <= 0 || slot.health_seen_at < s.started_at) continue;
-    if (now - slot.health_seen_at <= after) continue;
+    const double silent_since = std::max(slot.health_seen_at, up_at_);
+    if (now - silent_since <= after) continue;
     s.hung = true;
     const std::string text = fmt::format("{}hung: no HEALTH for {:.0f} ms (hung_after {:.0f} ms)", s.critical ? "(critical) " : "",
-                                         (now - slot.health_seen_at) * 1e3, after * 1e3);
+                                         (now - silent_since) * 1e3, after * 1e3);
     emit(s.critical ? SupervisorEvent::Kind::kCriticalHung : SupervisorEvent::Kind::kWarning, s.name,
          s.critical ? s.name + " " + text : text);
   }
@@ -312,14 +316,14 @@ void Supervisor::step(double now) {
       }
     }
   }
-  update_group_state();
+  update_group_state(now);
 }
 
 bool Supervisor::all_ended() const {
   return std::none_of(status_.begin(), status_.end(), [](const ProcessStatus& s) { return running_state(s.state); });
 }
 
-void Supervisor::update_group_state() {
+void Supervisor::update_group_state(double now) {
   const auto any = [&](auto pred) { return std::any_of(status_.begin(), status_.end(), pred); };
   if (going_down_) {
     state_ = all_ended() ? GroupState::kStopped : GroupState::kStopping;
@@ -337,6 +341,7 @@ void Supervisor::update_group_state() {
     state_ = unhealthy && announced_up_ ? GroupState::kDegraded : GroupState::kUp;
     if (!announced_up_) {
       announced_up_ = true;
+      up_at_ = now;
       emit(SupervisorEvent::Kind::kGroupUp, "", "group '" + group_.name + "' up on host '" + host_ + "'");
     }
   } else if (announced_up_) {

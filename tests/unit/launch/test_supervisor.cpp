@@ -177,6 +177,42 @@ TEST(Supervisor, CriticalDeathIsReportedAtOnce) {
   EXPECT_EQ(f.sup->state(), GroupState::kDegraded);
 }
 
+TEST(Supervisor, HangsAreJudgedOnceTheGroupIsUpTheSilenceCountedFromThen) {
+  // A watched controller ready early, then silent while another process of the group starts (on a
+  // machine whose cores the others' start-up holds): no hang before the group is up, and its
+  // silence counts from the moment it is.
+  ProcessSpec c = proc("controller", "exec sleep 30"), s = proc("simulator", "exec sleep 30");
+  c.critical = true;
+  c.hung_after_s = 0.05;
+  Fixture f({c, s});
+  const double t0 = hpr::monotonic_s();
+  f.sup->up(t0);
+  double t = t0;
+  auto advance = [&](double until) {
+    while (t + 0.01 < t0 + until) {
+      t += 0.01;
+      f.sup->step(t);
+    }
+    t = t0 + until;
+    f.sup->step(t);
+  };
+  f.sup->on_health("controller", 1, 2, 1000.0, 0, {}, t0 + 0.01);
+  advance(0.3);  // 290 ms of silence while the simulator is not ready
+  EXPECT_FALSE(f.st("controller").hung) << "judged before the group was up";
+  EXPECT_NE(f.sup->state(), GroupState::kUp);
+  f.sup->on_health("simulator", 1, 2, 1000.0, 0, {}, t0 + 0.3);
+  advance(0.31);
+  ASSERT_EQ(f.sup->state(), GroupState::kUp);
+  advance(0.35);  // 40 ms after the group came up
+  EXPECT_FALSE(f.st("controller").hung);
+  advance(0.37);  // 60 ms
+  EXPECT_TRUE(f.st("controller").hung);
+  const auto events = f.sup->take_events();
+  const auto hung = std::find_if(events.begin(), events.end(), [](const SupervisorEvent& e) { return e.kind == Kind::kCriticalHung; });
+  ASSERT_NE(hung, events.end());
+  EXPECT_NE(hung->text.find("no HEALTH for 60 ms"), std::string::npos) << hung->text;
+}
+
 TEST(Supervisor, AWatchedProcessWhoseHealthStopsIsHungAndACriticalOneIsReported) {
   // The supervisor's clock is the caller's: HEALTH arrivals and steps at chosen times.
   const std::string rate_file =

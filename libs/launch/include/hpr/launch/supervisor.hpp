@@ -105,7 +105,7 @@ class Supervisor {
   void start(std::size_t i, double now);
   void handle_end(std::size_t i, const ProcessResult& r, double now);
   void begin_stop(std::size_t i, double now);
-  void update_group_state();
+  void update_group_state(double now);
   void emit(SupervisorEvent::Kind kind, const std::string& process, std::string text);
 
   GroupSpec group_;
@@ -117,6 +117,7 @@ class Supervisor {
   std::vector<SupervisorEvent> events_;
   GroupState state_ = GroupState::kStopped;
   bool going_down_ = false, announced_up_ = false;
+  double up_at_ = 0.0;  ///< [s] monotonic, when the group was last announced up
   double last_step_ = -1;  ///< [s] the previous step's time
   /// [s] A step more than this after the previous one does not judge hangs (see step()).
   static constexpr double kMaxJudgingGap = 0.025;
