@@ -177,6 +177,24 @@ TEST(Supervisor, CriticalDeathIsReportedAtOnce) {
   EXPECT_EQ(f.sup->state(), GroupState::kDegraded);
 }
 
+/// The supervisor's clock in the caller's hands: `up` at t0, then steps every 10 ms (its loop) and
+/// HEALTH arrivals at chosen times after t0.
+struct SteppedClock {
+  explicit SteppedClock(Supervisor& s) : sup(s), t0(hpr::monotonic_s()), t(t0) { sup.up(t0); }
+  /// Steps every 10 ms up to t0 + `until`.
+  void advance(double until) {
+    while (t + 0.01 < t0 + until) {
+      t += 0.01;
+      sup.step(t);
+    }
+    t = t0 + until;
+    sup.step(t);
+  }
+  void health(const std::string& node, double at) { sup.on_health(node, 1, 2, 1000.0, 0, {}, t0 + at); }
+  Supervisor& sup;
+  double t0, t;
+};
+
 TEST(Supervisor, HangsAreJudgedOnceTheGroupIsUpTheSilenceCountedFromThen) {
   // A watched controller ready early, then silent while another process of the group starts (on a
   // machine whose cores the others' start-up holds): no hang before the group is up, and its
@@ -185,27 +203,17 @@ TEST(Supervisor, HangsAreJudgedOnceTheGroupIsUpTheSilenceCountedFromThen) {
   c.critical = true;
   c.hung_after_s = 0.05;
   Fixture f({c, s});
-  const double t0 = hpr::monotonic_s();
-  f.sup->up(t0);
-  double t = t0;
-  auto advance = [&](double until) {
-    while (t + 0.01 < t0 + until) {
-      t += 0.01;
-      f.sup->step(t);
-    }
-    t = t0 + until;
-    f.sup->step(t);
-  };
-  f.sup->on_health("controller", 1, 2, 1000.0, 0, {}, t0 + 0.01);
-  advance(0.3);  // 290 ms of silence while the simulator is not ready
+  SteppedClock clock(*f.sup);
+  clock.health("controller", 0.01);
+  clock.advance(0.3);  // 290 ms of silence while the simulator is not ready
   EXPECT_FALSE(f.st("controller").hung) << "judged before the group was up";
   EXPECT_NE(f.sup->state(), GroupState::kUp);
-  f.sup->on_health("simulator", 1, 2, 1000.0, 0, {}, t0 + 0.3);
-  advance(0.31);
+  clock.health("simulator", 0.3);
+  clock.advance(0.31);
   ASSERT_EQ(f.sup->state(), GroupState::kUp);
-  advance(0.35);  // 40 ms after the group came up
+  clock.advance(0.35);  // 40 ms after the group came up
   EXPECT_FALSE(f.st("controller").hung);
-  advance(0.37);  // 60 ms
+  clock.advance(0.37);  // 60 ms
   EXPECT_TRUE(f.st("controller").hung);
   const auto events = f.sup->take_events();
   const auto hung = std::find_if(events.begin(), events.end(), [](const SupervisorEvent& e) { return e.kind == Kind::kCriticalHung; });
@@ -224,26 +232,14 @@ TEST(Supervisor, AWatchedProcessWhoseHealthStopsIsHungAndACriticalOneIsReported)
   c.hung_after_s = 0.05;
   m.hung_after_s = 0.5;
   Fixture f({c, m, u});
-  const double t0 = hpr::monotonic_s();
-  f.sup->up(t0);
-  double t = t0;
-  // Steps every 10 ms up to t0 + `until` (the supervisor's loop).
-  auto advance = [&](double until) {
-    while (t + 0.01 < t0 + until) {
-      t += 0.01;
-      f.sup->step(t);
-    }
-    t = t0 + until;
-    f.sup->step(t);
-  };
-  auto health = [&](const std::string& n, double at) { f.sup->on_health(n, 1, 2, 1000.0, 0, {}, t0 + at); };
-  for (const char* n : {"controller", "monitor", "unwatched"}) health(n, 0.01);
-  advance(0.02);
+  SteppedClock clock(*f.sup);
+  for (const char* n : {"controller", "monitor", "unwatched"}) clock.health(n, 0.01);
+  clock.advance(0.02);
   ASSERT_EQ(f.sup->state(), GroupState::kUp);
-  health("controller", 0.03);
-  advance(0.079);  // 49 ms of silence: not yet
+  clock.health("controller", 0.03);
+  clock.advance(0.079);  // 49 ms of silence: not yet
   EXPECT_FALSE(f.st("controller").hung);
-  advance(0.081);  // 51 ms
+  clock.advance(0.081);  // 51 ms
   EXPECT_TRUE(f.st("controller").hung);
   EXPECT_FALSE(f.st("monitor").hung);
   auto events = f.sup->take_events();
@@ -253,11 +249,11 @@ TEST(Supervisor, AWatchedProcessWhoseHealthStopsIsHungAndACriticalOneIsReported)
   EXPECT_NE(hung->text.find("no HEALTH for 51 ms"), std::string::npos) << hung->text;
   EXPECT_EQ(f.sup->state(), GroupState::kDegraded);
   // Reported once, not every step.
-  advance(0.2);
+  clock.advance(0.2);
   events = f.sup->take_events();
   EXPECT_EQ(std::count_if(events.begin(), events.end(), [](const SupervisorEvent& e) { return e.kind == Kind::kCriticalHung; }), 0);
   // A watched process that is not critical: a warning, no damp.
-  advance(0.52);
+  clock.advance(0.52);
   EXPECT_TRUE(f.st("monitor").hung);
   events = f.sup->take_events();
   EXPECT_EQ(std::count_if(events.begin(), events.end(), [](const SupervisorEvent& e) { return e.kind == Kind::kCriticalHung; }), 0);
@@ -266,19 +262,19 @@ TEST(Supervisor, AWatchedProcessWhoseHealthStopsIsHungAndACriticalOneIsReported)
   }));
   EXPECT_FALSE(f.st("unwatched").hung) << "hung_after 0 is not watched";
   // HEALTH again: no longer hung.
-  health("controller", 0.6);
-  health("monitor", 0.6);
-  advance(0.61);
+  clock.health("controller", 0.6);
+  clock.health("monitor", 0.6);
+  clock.advance(0.61);
   EXPECT_FALSE(f.st("controller").hung);
   EXPECT_FALSE(f.st("monitor").hung);
   EXPECT_EQ(f.sup->state(), GroupState::kUp);
   // The supervisor itself was not scheduled for 200 ms: the first step after that does not judge
   // (the HEALTH sent meanwhile is still queued), the next one, after reading it, finds none hung.
-  t += 0.2;
-  f.sup->step(t);
+  clock.t += 0.2;
+  f.sup->step(clock.t);
   EXPECT_FALSE(f.st("controller").hung) << "the supervisor's own gap was taken for the node's silence";
-  health("controller", t - t0);
-  advance(t - t0 + 0.01);
+  clock.health("controller", clock.t - clock.t0);
+  clock.advance(clock.t - clock.t0 + 0.01);
   EXPECT_FALSE(f.st("controller").hung);
   // The watched node was asked for HEALTH at 4 per hung_after: 80 Hz.
   std::string rate;

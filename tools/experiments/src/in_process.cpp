@@ -2,6 +2,7 @@
 // run_trial, the same evaluation from the same messages, the stack's libraries stepping in one
 // thread instead of processes over LCM.
 #include <fmt/format.h>
+#include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -150,6 +151,7 @@ TrialResult PrePushCheckpoint::run(const TrialSpec& spec) const {
   int fds[2];
   if (::pipe(fds) != 0) throw std::runtime_error(fmt::format("pipe: {}", std::strerror(errno)));
   const auto wall0 = std::chrono::steady_clock::now();
+  const pid_t parent = ::getpid();
   const pid_t pid = ::fork();
   if (pid < 0) {
     ::close(fds[0]);
@@ -160,6 +162,9 @@ TrialResult PrePushCheckpoint::run(const TrialSpec& spec) const {
     // The copy: continue with this push, hand the result over, and leave without running the
     // parent's exit handlers or flushing its buffers. It keeps no other descriptor: a pipe another
     // thread of the parent opened for its own copy must see its end of file when that copy ends.
+    // It ends with the sweep or tune that forked it (interrupted, killed), not seconds later.
+    ::prctl(PR_SET_PDEATHSIG, SIGKILL);
+    if (::getppid() != parent) ::_exit(1);
     const auto fd = static_cast<unsigned>(fds[1]);
     if (fd > 3) ::close_range(3, fd - 1, 0);
     ::close_range(fd + 1, ~0U, 0);
