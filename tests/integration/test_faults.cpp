@@ -1,7 +1,8 @@
 // Faults injected into a running group, as an operator or an attacker would: forged ticks far in
 // the future, a simulator restarted under the running chain, a control process stopped with
 // SIGSTOP, optional components killed. The chain must run on, follow the restarted clock, damp
-// within 100 ms of a hang, and run the wbc's own reference at full rate without the optimiser.
+// once a critical process is hung (within 100 ms in the real-time group), and run the wbc's own
+// reference at full rate without the optimiser.
 //
 // Built twice: test_faults runs the sim-lockstep group (label integration: every deadline is a
 // tick, so it holds on a loaded machine); test_faults_realtime runs the same checks on the
@@ -193,17 +194,33 @@ FAULTS_TEST(ForgedFutureTicksAreHeldAndARestartedSimulatorIsFollowed) {
   }
 }
 
-#ifndef HPR_FAULTS_REALTIME
-// On the real-time group in both builds: its control processes run with real-time priorities and
-// are watched with hung_after 50 ms (the lockstep groups run without priorities and judge hangs
-// after 0.5 s). The chain only has to run; the robot's balance is not asserted here.
-TEST(Faults, AStoppedWbcIsHungAndTheSupervisorDampsWithin100Milliseconds) {
+// The group's hang watch for the wbc: 0.05 s in the real-time group, 0.5 s in the lockstep group
+// (config/groups.yaml), and a watched node sends HEALTH four times per hung_after. A hang is silence
+// longer than hung_after since the last HEALTH, which left a quarter of it (a period) or, late,
+// somewhat more before the stop.
+#ifdef HPR_FAULTS_REALTIME
+constexpr double kWbcHungAfterS = 0.05;
+#else
+constexpr double kWbcHungAfterS = 0.5;
+#endif
+
+/// What the chain last said, for a failure message.
+std::string chain_said(const Watch& w) {
+  return "last JOINT_COMMAND tick " + std::to_string(w.command.tick) + " mode " + std::to_string(int{w.command.mode}) +
+         (w.first_damp ? "; damped by the supervisor: " + w.damp_reason : "; no damp");
+}
+
+// A SIGSTOPped wbc sends no HEALTH: the supervisor judges it hung after hung_after and damps, not
+// before half of hung_after (a premature damp is as wrong as a late one) and within 2 hung_after. The
+// lockstep build checks the mechanism end to end on any machine; the real-time build (label hil)
+// checks the 100 ms of the real-time group, which needs the chain's two cores to itself.
+FAULTS_TEST(AStoppedWbcIsHungAndTheSupervisorDampsWithinTwiceItsHangTime) {
   const std::string url = hpr::test::unique_lcm_url();
   Watch w(url);
-  Group g(url, "sim");
+  Group g(url);
   ASSERT_TRUE(g.up()) << g.up_text();
-  ASSERT_TRUE(chain_runs(w, 0, 500, 30s));
-  ASSERT_FALSE(w.first_damp.has_value());
+  ASSERT_TRUE(chain_runs(w, 0, 500, 30s)) << "the chain did not start: " << chain_said(w) << "\nsupervisor log:\n" << g.log("supervisor");
+  ASSERT_FALSE(w.first_damp.has_value()) << chain_said(w);
   const int wbc = g.pid("wbc");
   ASSERT_GT(wbc, 0);
   const auto stopped = Clock::now();
@@ -211,17 +228,17 @@ TEST(Faults, AStoppedWbcIsHungAndTheSupervisorDampsWithin100Milliseconds) {
   const bool damped = w.wait_for([&] { return w.first_damp.has_value(); }, 5s);
   ::kill(wbc, SIGCONT);
   ASSERT_TRUE(damped) << "no OPERATOR damp after SIGSTOP of the wbc";
-  const double ms = std::chrono::duration<double, std::milli>(*w.first_damp - stopped).count();
-  std::cout << "SIGSTOP of the wbc to OPERATOR damp: " << ms << " ms\n";
-  EXPECT_LT(ms, 100.0);
+  const double s = std::chrono::duration<double>(*w.first_damp - stopped).count();
+  std::cout << "SIGSTOP of the wbc to OPERATOR damp: " << s * 1e3 << " ms (hung_after " << kWbcHungAfterS * 1e3 << " ms)\n";
+  EXPECT_GE(s, 0.5 * kWbcHungAfterS);
+  EXPECT_LT(s, 2.0 * kWbcHungAfterS);
   EXPECT_NE(w.damp_reason.find("wbc (critical) hung"), std::string::npos) << w.damp_reason;
   // Once running again the wbc obeys the damp: its commands damp, and its lifecycle says so.
-  EXPECT_TRUE(w.wait_for([&] { return w.command.mode == humanoid::joint_command_t::MODE_DAMP; }, 10s));
+  EXPECT_TRUE(w.wait_for([&] { return w.command.mode == humanoid::joint_command_t::MODE_DAMP; }, 10s)) << chain_said(w);
   EXPECT_TRUE(w.wait_for([&] { return w.health["wbc"].lifecycle == humanoid::health_t::LIFECYCLE_DAMPING; }, 5s))
       << "wbc lifecycle " << static_cast<int>(w.health["wbc"].lifecycle);
   EXPECT_EQ(static_cast<int>(w.health["estimator"].lifecycle), int{humanoid::health_t::LIFECYCLE_RUNNING});
 }
-#endif
 
 FAULTS_TEST(WithoutItsOptionalComponentsTheChainRunsOnAtFullRate) {
   const std::string url = hpr::test::unique_lcm_url();
