@@ -1,5 +1,6 @@
 // Stepping in closed loop: the simulator, the estimator in the loop and the CAM strategy in one
-// process (hpr/pipeline), with config/overlays/toro_stepping.yaml.
+// process (hpr/pipeline), with config/overlays/toro_stepping.yaml (and H1-2's own,
+// config/overlays/h1_2_stepping.yaml).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -16,8 +17,8 @@ namespace {
 
 using hpr::test::ClosedLoop;
 
-std::vector<std::string> stepping_overlay() {
-  return hpr::experiments::overlay_overrides(hpr::test::source_dir() + "/config/overlays/toro_stepping.yaml");
+std::vector<std::string> stepping_overlay(const std::string& robot = "toro") {
+  return hpr::experiments::overlay_overrides(hpr::test::source_dir() + "/config/overlays/" + robot + "_stepping.yaml");
 }
 
 struct Outcome {
@@ -116,16 +117,23 @@ TEST(SteppingClosedLoop, ASagittalPushTheHipStrategyHoldsTakesNoStep) {
   }
 }
 
-TEST(SteppingClosedLoop, H1StepsOutOfAPushItCannotHoldStanding) {
-  // The second robot with the same overlay: 60 N s from behind, 1.7 times what its CAM strategy
-  // holds standing (35.3 N s), falls without steps and is recovered with them.
-  const Outcome standing = push_from_behind(60.0, {}, Eigen::Vector3d::UnitX(), "h1_2");
+TEST(SteppingClosedLoop, H1StepsOutOfAPushItCannotHoldStandingLandingBeyondTheCapturePoint) {
+  // The second robot: its CAM strategy holds 35.1 N s from behind standing. 45 N s falls standing,
+  // and falls stepping with the TORO-like robot's overlay, whose step lands at the predicted DCM: the
+  // DCM drifts further to the swing side than predicted and walks the robot sideways. H1-2's overlay
+  // lands 9 cm beyond it and recovers with steps, and takes none for 35 N s.
+  const Outcome standing = push_from_behind(45.0, {}, Eigen::Vector3d::UnitX(), "h1_2");
   EXPECT_TRUE(standing.fallen) << "the hip strategy alone loses this push";
-  const Outcome stepping = push_from_behind(60.0, stepping_overlay(), Eigen::Vector3d::UnitX(), "h1_2");
+  const Outcome at_the_dcm = push_from_behind(45.0, stepping_overlay("toro"), Eigen::Vector3d::UnitX(), "h1_2");
+  EXPECT_TRUE(at_the_dcm.fallen) << "landing at the predicted DCM recovers too: the landing offset is not what recovers";
+  const Outcome stepping = push_from_behind(45.0, stepping_overlay("h1_2"), Eigen::Vector3d::UnitX(), "h1_2");
   EXPECT_FALSE(stepping.fallen);
   EXPECT_GE(stepping.steps, 1);
   EXPECT_GT(stepping.max_foot_travel, 0.1) << "a sole moved: a step, not a slide";
   EXPECT_LT(stepping.final_speed, 0.05) << "at rest again";
+  const Outcome inside = push_from_behind(35.0, stepping_overlay("h1_2"), Eigen::Vector3d::UnitX(), "h1_2");
+  EXPECT_FALSE(inside.fallen);
+  EXPECT_EQ(inside.steps, 0) << "a push the hip strategy holds standing takes no step";
 }
 
 TEST(SteppingClosedLoop, WhileNoStepIsDueTheStackComputesWhatItComputesWithoutStepping) {
