@@ -195,9 +195,10 @@ FAULTS_TEST(ForgedFutureTicksAreHeldAndARestartedSimulatorIsFollowed) {
 }
 
 // The group's hang watch for the wbc: 0.05 s in the real-time group, 0.5 s in the lockstep group
-// (config/groups.yaml), and a watched node sends HEALTH four times per hung_after. A hang is silence
-// longer than hung_after since the last HEALTH, which left a quarter of it (a period) or, late,
-// somewhat more before the stop.
+// (config/groups.yaml), and a watched node sends HEALTH four times per hung_after. A hang is a
+// silence longer than hung_after since the last HEALTH, which left up to one period (a quarter of
+// hung_after) before the stop, or more when it was late: the damp follows the stop by about 3/4 to
+// 1 hung_after, plus the supervisor's reaction.
 #ifdef HPR_FAULTS_REALTIME
 constexpr double kWbcHungAfterS = 0.05;
 #else
