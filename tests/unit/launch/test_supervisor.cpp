@@ -198,10 +198,11 @@ struct SteppedClock {
 TEST(Supervisor, HangsAreJudgedOnceTheGroupIsUpTheSilenceCountedFromThen) {
   // A watched controller ready early, then silent while another process of the group starts (on a
   // machine whose cores the others' start-up holds): no hang before the group is up, and its
-  // silence counts from the moment it is.
+  // silence counts from the moment it is. (hung_after 55 ms: the 10 ms steps from an arbitrary t0
+  // never land on its boundary, where rounding would decide.)
   ProcessSpec c = proc("controller", "exec sleep 30"), s = proc("simulator", "exec sleep 30");
   c.critical = true;
-  c.hung_after_s = 0.05;
+  c.hung_after_s = 0.055;
   Fixture f({c, s});
   SteppedClock clock(*f.sup);
   clock.health("controller", 0.01);
@@ -211,7 +212,7 @@ TEST(Supervisor, HangsAreJudgedOnceTheGroupIsUpTheSilenceCountedFromThen) {
   clock.health("simulator", 0.3);
   clock.advance(0.31);
   ASSERT_EQ(f.sup->state(), GroupState::kUp);
-  clock.advance(0.35);  // 40 ms after the group came up
+  clock.advance(0.36);  // 50 ms after the group came up
   EXPECT_FALSE(f.st("controller").hung);
   clock.advance(0.37);  // 60 ms
   EXPECT_TRUE(f.st("controller").hung);
