@@ -44,14 +44,15 @@ WbcNode::WbcNode(node::Runtime& rt, const model::RobotSpec& robot, WbcComponent&
     state_in_ = &rt.subscribe<humanoid::robot_state_t>(
         "ROBOT_STATE", [this](const humanoid::robot_state_t& m) { return msg::from_message(m, names_, state_); });
   }
-  // The motion optimiser's command of the tick, unless this tick only damps (operator damp, or an
-  // estimate nothing may act on: motion_opt then publishes nothing).
+  // The motion optimiser's command of the tick, unless this tick only damps (operator damp, no
+  // estimate yet to start from, or one unusable for bad_state_ticks): whenever the controller
+  // balances it uses the command of this tick, as in the composed pipeline.
   if (options_.wait_for_wholebody) {
     // Optional: with the motion optimiser gone, the wbc runs its own posture reference (the ankle
     // strategy) at full rate.
     const msg::Read& w = msg::read_of("wbc", "WHOLEBODY_COMMAND");
     sync.push_back({wholebody_in_, w.tick_offset,
-                    [this] { return !wbc_.damping() && (options_.use_sim_truth || state_.usable()); }, w.optional});
+                    [this] { return options_.use_sim_truth ? !wbc_.damping() : wbc_.uses_wholebody(state_); }, w.optional});
   }
   node::InputBase& primary = options_.use_sim_truth ? static_cast<node::InputBase&>(*sensors_in_) : *state_in_;
   rt.on_restart(primary, [this] {

@@ -25,6 +25,11 @@ void WbcComponent::damp(std::int64_t tick, Mode why, Outputs& out) const {
   out.mode = why;
 }
 
+bool WbcComponent::uses_wholebody(const EstimatedState& s) const {
+  if (damping_ || !(reference_.started() || s.usable())) return false;
+  return s.usable() || bad_state_count_ + 1 < bad_state_ticks_;
+}
+
 void WbcComponent::step(const Inputs& in, Outputs& out) {
   if (in.state == nullptr) throw std::invalid_argument("WbcComponent::step: no state");
   const EstimatedState& s = *in.state;

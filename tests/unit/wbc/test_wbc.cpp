@@ -4,8 +4,11 @@
 
 #include <Eigen/Dense>
 #include <random>
+#include <tuple>
+#include <vector>
 
 #include "hpr/model/centroidal.hpp"
+#include "hpr/wbc/component.hpp"
 #include "hpr/wbc/controller.hpp"
 #include "model_fixture.hpp"
 
@@ -321,6 +324,48 @@ TEST(Wbc, CommandsStayWithinTheJointLimits) {
     at_limit += std::abs(c.qd_des(j)) >= m.v_max[ju] - 1e-12 ? 1 : 0;
   }
   EXPECT_GT(at_limit, 0) << "some joint was asked for more than its velocity limit";
+}
+
+// The wbc process waits for the motion optimiser's command exactly when the component will use it
+// (uses_wholebody), so the processes and the composed pipeline step on the same inputs: the
+// predicate must agree with what step() then does, tick by tick, over a start without an estimate,
+// balancing, a run of unusable estimates up to the bad-state damp, recovery and an operator damp.
+TEST(WbcComponent, UsesTheMotionOptimisersCommandExactlyWhenItBalances) {
+  const auto robot = test::load_robot("toro");
+  const Config cfg = Config::load(test::source_dir() + "/config/toro.yaml");
+  constexpr int kBadStateTicks = 3;
+  wbc::WbcComponent wbc(robot, wbc::WbcConfig::load(cfg.section("wbc"), robot), balance::PostureReferenceConfig{}, kBadStateTicks);
+  balance::PostureReference pref(robot, {});
+  pref.start(robot.standing_configuration(), 0.0);
+  const balance::TaskReference wholebody = pref.update(0.0);
+  EstimatedState s;
+  s.q = robot.standing_configuration();
+  s.v = VectorXd::Zero(robot.model.nv);
+  wbc::WbcComponent::Outputs out;
+  // Per tick: the estimate's status, whether the operator damps, and whether the wbc balances.
+  const std::vector<std::tuple<std::int32_t, bool, bool>> ticks{
+      {EstimatedState::kImplausible, false, false},  // nothing to start the posture from
+      {0, false, true},
+      {EstimatedState::kNoContact, false, true},  // usable: no contact is the estimate's news, not a fault
+      {EstimatedState::kImplausible, false, true},
+      {EstimatedState::kSensorStale, false, true},
+      {EstimatedState::kCovariance, false, false},  // the third unusable estimate in a row: damp
+      {EstimatedState::kImplausible, false, false},
+      {0, false, true},
+      {0, true, false},  // the operator's damp
+      {0, false, true},
+  };
+  for (size_t k = 0; k < ticks.size(); ++k) {
+    const auto [status, damp, balances] = ticks[k];
+    s.tick = static_cast<std::int64_t>(k);
+    s.time = 0.001 * static_cast<double>(k);
+    s.status = status;
+    wbc.set_damping(damp);
+    const bool uses = wbc.uses_wholebody(s);
+    wbc.step({&s, uses ? &wholebody : nullptr}, out);
+    EXPECT_EQ(out.mode == wbc::WbcComponent::Mode::kBalance, balances) << "tick " << k;
+    EXPECT_EQ(uses, balances) << "tick " << k;
+  }
 }
 
 }  // namespace
