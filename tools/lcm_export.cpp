@@ -159,6 +159,7 @@ void fill(Row& r, const humanoid::wholebody_command_t& m) {
   r.arr("step_target_W", m.step_target_W);
   r.add("step_time_left", m.step_time_left);
   r.add("steps_taken", m.steps_taken);
+  r.add("follow_steps", m.follow_steps);
   r.add("posture_error", m.posture_error);
   r.add("qp_status", m.qp_status);
   r.add("qp_iterations", m.qp_iterations);

@@ -24,6 +24,7 @@ std::vector<std::string> stepping_overlay(const std::string& robot = "toro") {
 struct Outcome {
   bool fallen = true;
   int steps = 0;
+  int follow_steps = 0;          ///< of `steps`, a trailing foot closing up
   double max_foot_travel = 0.0;  ///< [m] farthest a sole moved from where it stood
   double final_speed = 1e9;      ///< [m/s] of the CoM at the end
   int steps_shown = 0;           ///< steps the published reference announced (stepping.swing ≥ 0)
@@ -53,20 +54,24 @@ Outcome push_from_behind(double impulse, const std::vector<std::string>& overrid
   });
   o.fallen = loop.sim.truth().fallen;
   o.steps = loop.optimizer->posture_reference().reference().stepping.steps_taken;
+  o.follow_steps = loop.optimizer->posture_reference().reference().stepping.follow_steps;
   o.final_speed = loop.sim.truth().v_WCom.norm();
   return o;
 }
 
-TEST(SteppingClosedLoop, APushBeyondTheHipStrategysEnvelopeIsRecoveredByStepping) {
-  // 40 N s from behind is 1.4 times what the CAM strategy recovers standing (28.1 N s,
-  // docs/RESULTS.md): it falls without steps, and with the third strategy it steps and stands.
-  const Outcome standing = push_from_behind(40.0, {});
+TEST(SteppingClosedLoop, APushBeyondTheHipStrategysEnvelopeIsRecoveredByOneStep) {
+  // 42 N s from behind is 1.5 times what the CAM strategy recovers standing (28.1 N s,
+  // docs/RESULTS.md): it falls without steps, and with the third strategy it takes one step, the
+  // trailing foot closes up, and it stands.
+  const Outcome standing = push_from_behind(42.0, {});
   EXPECT_TRUE(standing.fallen) << "the hip strategy alone loses this push";
   EXPECT_EQ(standing.steps, 0);
-  const Outcome stepping = push_from_behind(40.0, stepping_overlay());
-  std::printf("40 N s from behind: %d touchdowns, landing miss %.3f m\n", stepping.steps, stepping.landing_miss);
+  const Outcome stepping = push_from_behind(42.0, stepping_overlay());
+  std::printf("42 N s from behind: %d steps (%d closing up), landing miss %.3f m\n", stepping.steps, stepping.follow_steps,
+              stepping.landing_miss);
   EXPECT_FALSE(stepping.fallen);
-  EXPECT_GE(stepping.steps, 1);
+  EXPECT_EQ(stepping.steps - stepping.follow_steps, 1) << "one step the capture point asked for";
+  EXPECT_LE(stepping.follow_steps, 1) << "the trailing foot closes up once";
   EXPECT_EQ(stepping.steps_shown, stepping.steps) << "every step announced in the wholebody command";
   // The first step is declared down 8.5 cm short of its announced landing: the stance sole has
   // rolled 30° onto its toe, the kinematics put the swing sole (still 1.6 cm up, moving forward at
@@ -79,13 +84,16 @@ TEST(SteppingClosedLoop, APushBeyondTheHipStrategysEnvelopeIsRecoveredByStepping
 
 TEST(SteppingClosedLoop, APushFromTheFrontIsRecoveredByStepsBackwards) {
   // 60 N s from the front, 1.4 times what the CAM strategy recovers standing (42.5 N s): it falls
-  // without steps; with them it steps back and stands.
+  // without steps; with them it steps back and stands. (At 1.5 times, 64 N s, the outcome is not
+  // robust: pushes of 64.5, 67 and 68 N s fall; docs/RESULTS.md, "Stepping".)
   const Eigen::Vector3d from_the_front = -Eigen::Vector3d::UnitX();
   const Outcome standing = push_from_behind(60.0, {}, from_the_front);
   EXPECT_TRUE(standing.fallen) << "the hip strategy alone loses this push";
   const Outcome stepping = push_from_behind(60.0, stepping_overlay(), from_the_front);
+  std::printf("60 N s from the front: %d steps (%d closing up)\n", stepping.steps, stepping.follow_steps);
   EXPECT_FALSE(stepping.fallen);
-  EXPECT_GE(stepping.steps, 1);
+  EXPECT_EQ(stepping.steps - stepping.follow_steps, 1) << "one step the capture point asked for";
+  EXPECT_LE(stepping.follow_steps, 1) << "the trailing foot closes up once";
   EXPECT_GT(stepping.max_foot_travel, 0.1) << "a sole moved: a step, not a slide";
   EXPECT_LT(stepping.final_speed, 0.05) << "at rest again";
 }
@@ -128,7 +136,8 @@ TEST(SteppingClosedLoop, H1StepsOutOfAPushItCannotHoldStandingLandingBeyondTheCa
   EXPECT_TRUE(at_the_dcm.fallen) << "landing at the predicted DCM recovers too: the landing offset is not what recovers";
   const Outcome stepping = push_from_behind(45.0, stepping_overlay("h1_2"), Eigen::Vector3d::UnitX(), "h1_2");
   EXPECT_FALSE(stepping.fallen);
-  EXPECT_GE(stepping.steps, 1);
+  EXPECT_EQ(stepping.steps - stepping.follow_steps, 1) << "one step the capture point asked for";
+  EXPECT_LE(stepping.follow_steps, 1) << "the trailing foot closes up once";
   EXPECT_GT(stepping.max_foot_travel, 0.1) << "a sole moved: a step, not a slide";
   EXPECT_LT(stepping.final_speed, 0.05) << "at rest again";
   const Outcome inside = push_from_behind(35.0, stepping_overlay("h1_2"), Eigen::Vector3d::UnitX(), "h1_2");

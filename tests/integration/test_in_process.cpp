@@ -193,7 +193,8 @@ void expect_same_messages(TrialSpec spec, const std::string& name, int min_steps
                          differ("step_foot", rec.step_foot, w_in.step_foot),
                          differ("step_target_W", rec.step_target_W, w_in.step_target_W, 3),
                          differ("step_time_left", rec.step_time_left, w_in.step_time_left),
-                         differ("steps_taken", rec.steps_taken, w_in.steps_taken)}));
+                         differ("steps_taken", rec.steps_taken, w_in.steps_taken),
+                         differ("follow_steps", rec.follow_steps, w_in.follow_steps)}));
       }
     }
     hpr::msg::to_message(loop.wbc_out.command, names, command);

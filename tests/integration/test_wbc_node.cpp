@@ -53,8 +53,9 @@ TEST(WbcNode, StandsAndRecoversAPushInLockstep) {
 }
 
 // In lockstep the wbc steps with the motion optimiser's command of the same tick, except when the
-// tick only damps: an estimate flagged unusable (motion_opt then publishes nothing) is answered at
-// once, not after the wholebody timeout, so the chain runs on at full rate while the robot goes limp.
+// tick only damps: an estimate flagged unusable before any usable one started the posture
+// (motion_opt then publishes nothing) is answered at once, not after the wholebody timeout, so the
+// chain runs on at full rate while the robot goes limp.
 TEST(WbcNode, AnUnusableEstimateIsAnsweredWithoutWaitingForTheMotionOptimiser) {
   ProcessGroup group;
   LcmListener lcm(group.lcm_url());

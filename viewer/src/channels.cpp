@@ -114,7 +114,7 @@ json to_json(const humanoid::wholebody_command_t& m) {
           {"p_WCom", arr(m.p_WCom)}, {"l_cmd_W", arr(m.l_cmd_W)}, {"l_ref_W", arr(m.l_ref_W)},
           {"posture_error", num(m.posture_error)}, {"stepping", m.stepping != 0}, {"xi_W", arr(m.xi_W)},
           {"xi_excess", num(m.xi_excess)}, {"step_foot", m.step_foot}, {"step_target_W", arr(m.step_target_W)},
-          {"step_time_left", num(m.step_time_left)}, {"steps_taken", m.steps_taken}};
+          {"step_time_left", num(m.step_time_left)}, {"steps_taken", m.steps_taken}, {"follow_steps", m.follow_steps}};
 }
 
 json to_json(const humanoid::health_t& m) {

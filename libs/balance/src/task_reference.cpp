@@ -156,6 +156,7 @@ void PostureReference::start(const Eigen::VectorXd& q, double t) {
   omega_ = lip_omega(com_height_);
   step_ = StepPlan{};
   steps_taken_ = 0;
+  follow_steps_ = 0;
   last_t_ = t;
   t_prev_state_ = -1.0;
   f_ext_.setZero();
@@ -215,7 +216,8 @@ void PostureReference::check_step(double t, const EstimatedState& state) {
     }
     follow = unloaded_since_ >= 0.0 && t - unloaded_since_ >= config_.step.follow_delay;
   }
-  if (!follow && !planner_.step_needed(sole, both, xi_)) return;
+  const bool needed = planner_.step_needed(sole, both, xi_);
+  if (!follow && !needed) return;
   int swing = -1;
   if (stage_ == Stage::kHold || last_swing_ < 0) {
     const double fz = state.foot_force_z[0] + state.foot_force_z[1];
@@ -227,6 +229,7 @@ void PostureReference::check_step(double t, const EstimatedState& state) {
   }
   step_ = planner_.plan(sole, swing, xi_, omega_);
   begin_step(t);
+  if (!needed) ++follow_steps_;
 }
 
 void PostureReference::begin_step(double t) {
@@ -601,6 +604,7 @@ const TaskReference& PostureReference::update(double t, const EstimatedState* st
   st.target_yaw = step_.yaw;
   st.time_left = step_.swing >= 0 ? std::max(step_start_ + config_.step.unload_time + swing_time_ - t, 0.0) : 0.0;
   st.steps_taken = steps_taken_;
+  st.follow_steps = follow_steps_;
   return ref_;
 }
 

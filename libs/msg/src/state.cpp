@@ -178,6 +178,7 @@ void to_message(const balance::WholebodyCommand& c, const std::vector<std::strin
   m.step_target_W[2] = st.target_yaw;
   m.step_time_left = st.time_left;
   m.steps_taken = st.steps_taken;
+  m.follow_steps = st.follow_steps;
   m.posture_error = c.posture_error;
   m.qp_status = c.qp_status;
   m.qp_iterations = c.qp_iterations;
@@ -268,6 +269,7 @@ std::string from_message(const humanoid::wholebody_command_t& m, const std::vect
   st.target_yaw = m.step_target_W[2];
   st.time_left = m.step_time_left;
   st.steps_taken = m.steps_taken;
+  st.follow_steps = m.follow_steps;
   c.posture_error = m.posture_error;
   c.qp_status = m.qp_status;
   c.qp_iterations = m.qp_iterations;

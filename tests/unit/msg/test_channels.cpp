@@ -196,6 +196,7 @@ TEST_F(Channels, WholebodyCommandArrivesUnchanged) {
   st.target_yaw = 0.3;
   st.time_left = 0.21;
   st.steps_taken = 2;
+  st.follow_steps = 1;
   c.posture_error = 0.25;
   c.qp_status = 3;
   c.qp_iterations = 4;
@@ -248,6 +249,7 @@ TEST_F(Channels, WholebodyCommandArrivesUnchanged) {
   EXPECT_EQ(g.stepping.target_yaw, st.target_yaw);
   EXPECT_EQ(g.stepping.time_left, st.time_left);
   EXPECT_EQ(g.stepping.steps_taken, st.steps_taken);
+  EXPECT_EQ(g.stepping.follow_steps, st.follow_steps);
   EXPECT_EQ(got.posture_error, c.posture_error);
   EXPECT_EQ(got.qp_status, c.qp_status);
   EXPECT_EQ(got.qp_iterations, c.qp_iterations);

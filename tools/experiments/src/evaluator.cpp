@@ -59,6 +59,8 @@ void TrialEvaluator::on_sensors(const humanoid::robot_sensors_t& s) {
 void TrialEvaluator::on_wholebody(const humanoid::wholebody_command_t& w) {
   const double t = static_cast<double>(w.utime) * 1e-6;
   if (t < push_start_) return;
+  r_.steps_started = w.steps_taken;
+  r_.follow_steps = w.follow_steps;
   for (int i = 0; i < 3; ++i) r_.peak_cam_cmd(i) = std::max(r_.peak_cam_cmd(i), std::abs(w.l_cmd_W[i]));
 }
 
@@ -188,6 +190,8 @@ std::string TrialResult::to_json(const TrialSpec& spec) const {
   j["max_foot_tilt_deg"] = max_tilt_deg;
   j["max_sole_slip_m"] = max_slip;
   j["steps"] = steps;
+  j["steps_started"] = steps_started;
+  j["follow_steps"] = follow_steps;
   j["peak_cam_Nms"] = {peak_cam.x(), peak_cam.y(), peak_cam.z()};
   j["peak_cam_commanded_Nms"] = {peak_cam_cmd.x(), peak_cam_cmd.y(), peak_cam_cmd.z()};
   j["min_cop_margin_m"] = min_cop_margin;
@@ -223,6 +227,8 @@ TrialResult TrialResult::from_json(const std::string& json) {
   r.max_tilt_deg = j.at("max_foot_tilt_deg").get<double>();
   r.max_slip = j.at("max_sole_slip_m").get<double>();
   r.steps = j.at("steps").get<int>();
+  r.steps_started = j.value("steps_started", 0);  // absent from results files written before these counts
+  r.follow_steps = j.value("follow_steps", 0);
   r.peak_cam = vec("peak_cam_Nms");
   r.peak_cam_cmd = vec("peak_cam_commanded_Nms");
   r.min_cop_margin = j.at("min_cop_margin_m").get<double>();

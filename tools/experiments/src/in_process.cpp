@@ -58,6 +58,8 @@ struct InProcessRun {
       wholebody.utime = static_cast<std::int64_t>(std::llround(t * 1e6));
       const Eigen::Vector3d& l_cmd = loop.wholebody.l_cmd;
       for (int k = 0; k < 3; ++k) wholebody.l_cmd_W[k] = l_cmd(k);
+      wholebody.steps_taken = loop.wholebody.command.stepping.steps_taken;
+      wholebody.follow_steps = loop.wholebody.command.stepping.follow_steps;
       eval.on_wholebody(wholebody);
     }
     return true;

@@ -380,7 +380,7 @@ function drawStatus() {
   if (truth?.push_active) parts.push(`push ${fmt(Math.hypot(...truth.push_force_W), 0)} N`);
   const wb = ch.WHOLEBODY_COMMAND;
   if (wb?.stepping) {
-    parts.push(`steps ${wb.steps_taken}`);
+    parts.push(wb.follow_steps ? `steps ${wb.steps_taken} (${wb.follow_steps} closing up)` : `steps ${wb.steps_taken}`);
     if (wb.step_foot >= 0) parts.push(`${info.feet[wb.step_foot]?.side ?? wb.step_foot} foot lands in ${fmt(wb.step_time_left, 2)} s`);
   }
   if (truth?.fallen) parts.push('FALLEN');

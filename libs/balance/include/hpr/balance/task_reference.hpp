@@ -43,6 +43,8 @@ struct StepStatus {
   double target_yaw = 0.0;        ///< [rad] its yaw
   double time_left = 0.0;         ///< [s] to the planned touchdown
   int steps_taken = 0;            ///< since start
+  int follow_steps = 0;           ///< of those, a trailing foot that carried almost nothing closing up
+                                  ///< (steps_taken − follow_steps: the steps the capture point asked for)
 };
 
 struct TaskReference {
@@ -175,7 +177,7 @@ class PostureReference {
   model::Matrix3d swing_R0_ = model::Matrix3d::Identity();  ///< the swing sole's orientation at lift-off
   double swing_z0_ = 0.0;  ///< its height above the ground then [m]
   std::optional<model::Data> fk_;  ///< kinematics workspace (the sole at lift-off)
-  int steps_taken_ = 0;
+  int steps_taken_ = 0, follow_steps_ = 0;
 };
 
 /// One axis of a quintic from (p0, v0, a0) to (p1, 0, 0) over T, at time t ∈ [0, T]; returns

@@ -94,6 +94,10 @@ struct TrialResult {
   /// With stepping on (balance.stepping.enabled): touchdowns of a sole after at least 20 ms in the
   /// air, from the push on.
   int steps = 0;
+  /// The controller's count of the steps it started (WHOLEBODY_COMMAND steps_taken) and, of them,
+  /// a trailing foot closing up because it carried almost nothing (follow_steps): the steps the
+  /// capture point asked for are the difference.
+  int steps_started = 0, follow_steps = 0;
   std::string log_file;
 
   /// One JSON object (the fields above, units in the names).
