@@ -177,7 +177,7 @@ void expect_same_messages(TrialSpec spec, const std::string& name, int min_steps
         const auto& o = loop.wholebody;
         hpr::msg::to_message(o, free_names, names, wholebody);
         const auto& rec = w->second;
-        const auto& w_in = wholebody;
+        const auto& w_in = wholebody;  // the in-process command as its message
         wholebody_cmp.add(
             k, first_of({differ("support", rec.support, w_in.support), differ("l_cmd_W", rec.l_cmd_W, o.l_cmd.data(), 3),
                          differ("p_WCom", rec.p_WCom, w_in.p_WCom, 3), differ("v_WCom", rec.v_WCom, w_in.v_WCom, 3),

@@ -25,22 +25,23 @@ void WbcComponent::damp(std::int64_t tick, Mode why, Outputs& out) const {
   out.mode = why;
 }
 
-bool WbcComponent::uses_wholebody(const EstimatedState& s) const {
-  if (damping_ || !(reference_.started() || s.usable())) return false;
-  return s.usable() || bad_state_count_ + 1 < bad_state_ticks_;
+WbcComponent::Mode WbcComponent::mode_for(const EstimatedState& s) const {
+  if (!reference_.started() && !s.usable()) return Mode::kDampNoState;
+  if (damping_) return Mode::kDampOperator;
+  if (!s.usable() && bad_state_count_ + 1 >= bad_state_ticks_) return Mode::kDampBadState;
+  return Mode::kBalance;
 }
 
 void WbcComponent::step(const Inputs& in, Outputs& out) {
   if (in.state == nullptr) throw std::invalid_argument("WbcComponent::step: no state");
   const EstimatedState& s = *in.state;
-  if (!reference_.started()) {
-    if (!s.usable()) return damp(s.tick, Mode::kDampNoState, out);
-    reference_.start(s.q, s.time);
-  }
+  const Mode mode = mode_for(s);
+  if (mode == Mode::kDampNoState) return damp(s.tick, mode, out);
+  if (!reference_.started()) reference_.start(s.q, s.time);
   const balance::TaskReference& own = reference_.update(s.time, s.usable() ? &s : nullptr);
-  if (damping_) return damp(s.tick, Mode::kDampOperator, out);
+  if (mode == Mode::kDampOperator) return damp(s.tick, mode, out);
   bad_state_count_ = s.usable() ? 0 : bad_state_count_ + 1;
-  if (bad_state_count_ >= bad_state_ticks_) return damp(s.tick, Mode::kDampBadState, out);
+  if (mode == Mode::kDampBadState) return damp(s.tick, mode, out);
   robot_state_.tick = s.tick;
   robot_state_.time = s.time;
   robot_state_.q = s.q;

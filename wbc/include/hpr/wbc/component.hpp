@@ -42,11 +42,13 @@ class WbcComponent {
 
   /// One tick.
   void step(const Inputs& in, Outputs& out);
-  /// Whether step() with state `s` would balance, and so use the motion optimiser's command: not
-  /// damping, the posture started (or `s` can start it), and `s` usable or within the bad-state
-  /// ticks tolerated. A node waits for WHOLEBODY_COMMAND exactly when this holds, so that the
-  /// processes step on the same inputs as the composed pipeline.
-  [[nodiscard]] bool uses_wholebody(const EstimatedState& s) const;
+  /// The mode step() takes with state `s`: no posture started and `s` cannot start it, the
+  /// operator's damp, `s` unusable for bad_state_ticks in a row, else balancing.
+  [[nodiscard]] Mode mode_for(const EstimatedState& s) const;
+  /// Whether step() with state `s` uses the motion optimiser's command (it balances). A node waits
+  /// for WHOLEBODY_COMMAND exactly then, so that the processes step on the same inputs as the
+  /// composed pipeline.
+  [[nodiscard]] bool uses_wholebody(const EstimatedState& s) const { return mode_for(s) == Mode::kBalance; }
   /// A damping command for `tick` (every joint: zero torque, damping gain kDampGain) without
   /// stepping, for a tick whose inputs are unusable.
   void damp(std::int64_t tick, Mode why, Outputs& out) const;
