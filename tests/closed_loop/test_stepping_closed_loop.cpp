@@ -125,7 +125,7 @@ TEST(SteppingClosedLoop, ADiagonalPushBeyondTheStandingEnvelopeIsHeld) {
     spec.impulse = 70.0;
     spec.overrides = overrides;
     spec.in_process = true;
-    return hpr::experiments::run_trial_in_process(spec);
+    return hpr::experiments::run_trial(spec);
   };
   const auto configured = trial({});
   EXPECT_TRUE(configured.fallen) << "the configured hip strategy loses this push";
