@@ -127,8 +127,11 @@ TEST(SteppingClosedLoop, ADiagonalPushBeyondTheStandingEnvelopeIsHeld) {
     spec.in_process = true;
     return hpr::experiments::run_trial(spec);
   };
+  // Not recovered rather than fallen: whether the configured robot falls over its tipped sole or
+  // ends standing on it (11.5° of tilt, 43 mm of slip) turns on the push force's seventh digit,
+  // which the trial rounds to the scenario file's six decimals (docs/RESULTS.md, "Stepping").
   const auto configured = trial({});
-  EXPECT_TRUE(configured.fallen) << "the configured hip strategy loses this push";
+  EXPECT_FALSE(configured.recovered) << "the configured hip strategy loses this push";
   std::vector<std::string> no_budget = stepping_overlay();
   no_budget.emplace_back("reference_gen.y.lean_budget_positive=.inf");
   const auto unbounded = trial(no_budget);
