@@ -111,6 +111,32 @@ TEST(SteppingClosedLoop, APushFromTheFrontIsRecoveredByStepsBackwards) {
   EXPECT_LT(stepping.max_velocity_error, 0.2) << "the estimate followed the steps";
 }
 
+TEST(SteppingClosedLoop, APushFromTheFrontTwiceTheStandingLimitIsRecoveredHoldingTheHeight) {
+  // 85 N s from the front, twice what the CAM strategy recovers standing (42.5 N s), lasts 2.05 s:
+  // it goes on pushing long after the first step backwards lands. With the CoM sinking 4 cm from
+  // that step, as it does for steps forwards (balance.stepping.com_drop), the stance knees reach
+  // their 165 N m effort limit, give way and the robot sinks to the ground; the configuration holds
+  // the height for a step backwards (com_drop_backward 0) and the robot recovers with one step and
+  // the trailing foot closing up (docs/RESULTS.md, "Stepping"). As push_trial --in-process runs it.
+  auto trial = [](const std::vector<std::string>& overrides) {
+    hpr::experiments::TrialSpec spec;
+    spec.config = hpr::test::source_dir() + "/config/toro.yaml";
+    spec.direction_deg = 180.0;
+    spec.impulse = 85.0;
+    spec.overrides = overrides;
+    spec.in_process = true;
+    return hpr::experiments::run_trial(spec);
+  };
+  const auto holding = trial(stepping_overlay());
+  EXPECT_TRUE(holding.recovered) << holding.failure;
+  EXPECT_EQ(holding.steps_started - holding.follow_steps, 1) << "one step the capture point asked for";
+  EXPECT_LE(holding.follow_steps, 1) << "the trailing foot closes up once";
+  std::vector<std::string> sinking = stepping_overlay();
+  sinking.emplace_back("balance.stepping.com_drop_backward=0.04");
+  const auto sunk = trial(sinking);
+  EXPECT_TRUE(sunk.fallen) << "4 cm lower the knees give way";
+}
+
 TEST(SteppingClosedLoop, ADiagonalPushBeyondTheStandingEnvelopeIsHeld) {
   // 70 N s from behind and the right (45°) lies beyond what the configured CAM strategy holds
   // standing (58.1 N s): leaning forward into its pitch bound at speed, the base tips the robot over

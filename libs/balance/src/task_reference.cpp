@@ -61,6 +61,7 @@ PostureReferenceConfig PostureReferenceConfig::load(const Config& c) {
     e.touchdown_depth = st.real_or("touchdown_depth", e.touchdown_depth, 0.0, 0.1);
     e.follow_load = st.real_or("follow_load", e.follow_load, 0.0, 0.5);
     e.com_drop = st.real_or("com_drop", e.com_drop, 0.0, 0.3);
+    e.com_drop_backward = st.real_or("com_drop_backward", e.com_drop, 0.0, 0.3);
     e.drop_time = st.real_or("drop_time", e.drop_time, 0.01, 5.0);
     e.touchdown_height = st.real_or("touchdown_height", e.touchdown_height, 0.0, 0.2);
     e.transfer_time = st.real_or("transfer_time", e.transfer_time, 0.0, 2.0);
@@ -156,6 +157,7 @@ void PostureReference::start(const Eigen::VectorXd& q, double t) {
   omega_ = lip_omega(com_height_);
   step_ = StepPlan{};
   steps_taken_ = 0;
+  drop_ = 0.0;
   follow_steps_ = 0;
   last_t_ = t;
   t_prev_state_ = -1.0;
@@ -236,6 +238,10 @@ void PostureReference::begin_step(double t) {
   if (!stepped_ && stage_ == Stage::kHold) {
     drop_start_ = t;
     drop_z0_ = ref_.p_com.z();
+    // Backwards: the landing behind the stance sole, along its heading.
+    const Sole stance = soles()[static_cast<size_t>(1 - step_.swing)];
+    const bool backward = (step_.target - stance.centre).dot(Eigen::Vector2d(std::cos(stance.yaw), std::sin(stance.yaw))) < 0.0;
+    drop_ = backward ? config_.step.com_drop_backward : config_.step.com_drop;
   }
   moving_foot_ = step_.swing;
   last_swing_ = step_.swing;
@@ -252,8 +258,9 @@ void PostureReference::follow_lip(const EstimatedState& state, const Eigen::Vect
   ref_.p_com.head<2>() = state.p_com.head<2>();
   ref_.v_com.head<2>() = state.v_com.head<2>();
   ref_.a_com.head<2>() = omega_ * omega_ * (state.p_com.head<2>() - p);
-  // The height sinks by com_drop over drop_time from the first step on: bent knees reach further.
-  const double z1 = com_target(Support::kDouble).z() - config_.step.com_drop;
+  // The height sinks by com_drop (com_drop_backward) over drop_time from the first step on: bent
+  // knees reach further.
+  const double z1 = com_target(Support::kDouble).z() - drop_;
   const double T = std::max(config_.step.drop_time, 1e-3);
   const Vector3d sz = quintic((state.time - drop_start_) / T);
   ref_.p_com.z() = drop_z0_ + sz(0) * (z1 - drop_z0_);

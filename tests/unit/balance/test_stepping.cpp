@@ -11,6 +11,7 @@
 #include <cmath>
 
 #include "hpr/balance/stepping.hpp"
+#include "hpr/balance/task_reference.hpp"
 #include "hpr/common/config.hpp"
 #include "hpr/model/robot.hpp"
 
@@ -282,6 +283,11 @@ TEST(SteppingConfig, LoadsAndRefusesOutOfRangeValuesNamingTheKey) {
   EXPECT_EQ(c.cmp_reach_backward, 0.03) << "unset, the reach behind is the reach ahead";
   const auto behind = hpr::Config::parse("stepping: {cmp_reach: 0.03, cmp_reach_backward: 0.05}", "test.yaml");
   EXPECT_EQ(SteppingConfig::load(behind.section("stepping")).cmp_reach_backward, 0.05);
+  // The CoM's drop for a first step backwards is the drop forwards unless it is set.
+  const auto drops = hpr::Config::parse("balance: {stepping: {com_drop: 0.03}}", "test.yaml");
+  EXPECT_EQ(hpr::balance::PostureReferenceConfig::load(drops.section("balance")).step.com_drop_backward, 0.03);
+  const auto backward = hpr::Config::parse("balance: {stepping: {com_drop: 0.03, com_drop_backward: 0.0}}", "test.yaml");
+  EXPECT_EQ(hpr::balance::PostureReferenceConfig::load(backward.section("balance")).step.com_drop_backward, 0.0);
   const auto bad = hpr::Config::parse("stepping: {t_min: 0.4, t_max: 0.3}", "test.yaml");
   try {
     (void)SteppingConfig::load(bad.section("stepping"));

@@ -83,6 +83,9 @@ struct PostureReferenceConfig {
     double transfer_time = 0.15;      ///< [s] after touchdown the CMP moves from the stance foot to where
                                       ///< the DCM regulation wants it
     double com_drop = 0.04;           ///< [m] the CoM sinks this much while stepping (the legs reach further)
+    /// [m] the same when the first step goes backwards (a push from the front, which goes on
+    /// pushing the robot onto a stance knee the drop bends further)
+    double com_drop_backward = 0.04;
     double drop_time = 0.3;           ///< [s] over this time from the first step
     double follow_load = 0.1;         ///< after a step, the trailing foot steps too when its share of the
                                       ///< weight stays below this
@@ -170,6 +173,7 @@ class PostureReference {
   bool stepped_ = false;    ///< a step landed and the robot has not come to rest since
   double land_time_ = 0.0;  ///< the last touchdown
   double drop_start_ = 0.0, drop_z0_ = 0.0;  ///< when the CoM started to sink, from which height
+  double drop_ = 0.0;                          ///< [m] by how much (com_drop or com_drop_backward)
   double unloaded_since_ = -1.0;  ///< since when the trailing foot carries less than follow_load (−1: it does not)
   double omega_ = 0.0, step_start_ = 0.0, swing_start_ = 0.0, swing_time_ = 0.0, last_t_ = 0.0;
   Eigen::Vector3d swing_p_ = Eigen::Vector3d::Zero(), swing_v_ = Eigen::Vector3d::Zero(), swing_a_ = Eigen::Vector3d::Zero();
