@@ -66,6 +66,18 @@ Outcome push_from_behind(double impulse, const std::vector<std::string>& overrid
   return o;
 }
 
+/// The TORO-like robot's trial of `impulse` N s from `direction_deg` as push_trial --in-process
+/// runs it (the figures of docs/RESULTS.md).
+hpr::experiments::TrialResult push_trial(double direction_deg, double impulse, const std::vector<std::string>& overrides) {
+  hpr::experiments::TrialSpec spec;
+  spec.config = hpr::test::source_dir() + "/config/toro.yaml";
+  spec.direction_deg = direction_deg;
+  spec.impulse = impulse;
+  spec.overrides = overrides;
+  spec.in_process = true;
+  return hpr::experiments::run_trial(spec);
+}
+
 TEST(SteppingClosedLoop, APushBeyondTheHipStrategysEnvelopeIsRecoveredByOneStep) {
   // 42 N s from behind is 1.5 times what the CAM strategy recovers standing (28.1 N s,
   // docs/RESULTS.md): it falls without steps, and with the third strategy it takes one step, the
@@ -118,15 +130,7 @@ TEST(SteppingClosedLoop, APushFromTheFrontTwiceTheStandingLimitIsRecoveredHoldin
   // their 165 N m effort limit, give way and the robot sinks to the ground; the configuration holds
   // the height for a step backwards (com_drop_backward 0) and the robot recovers with one step and
   // the trailing foot closing up (docs/RESULTS.md, "Stepping"). As push_trial --in-process runs it.
-  auto trial = [](const std::vector<std::string>& overrides) {
-    hpr::experiments::TrialSpec spec;
-    spec.config = hpr::test::source_dir() + "/config/toro.yaml";
-    spec.direction_deg = 180.0;
-    spec.impulse = 85.0;
-    spec.overrides = overrides;
-    spec.in_process = true;
-    return hpr::experiments::run_trial(spec);
-  };
+  auto trial = [](const std::vector<std::string>& overrides) { return push_trial(180.0, 85.0, overrides); };
   const auto holding = trial(stepping_overlay());
   EXPECT_TRUE(holding.recovered) << holding.failure;
   EXPECT_EQ(holding.steps_started - holding.follow_steps, 1) << "one step the capture point asked for";
@@ -144,15 +148,7 @@ TEST(SteppingClosedLoop, ADiagonalPushBeyondTheStandingEnvelopeIsHeld) {
   // stays within the reach the step decision leaves the hip strategy: no step, and it stands.
   // Without the budget the decision stepped while the sole tipped, and the robot fell. As
   // push_trial --in-process runs it (the figures of docs/RESULTS.md).
-  auto trial = [](const std::vector<std::string>& overrides) {
-    hpr::experiments::TrialSpec spec;
-    spec.config = hpr::test::source_dir() + "/config/toro.yaml";
-    spec.direction_deg = 45.0;
-    spec.impulse = 70.0;
-    spec.overrides = overrides;
-    spec.in_process = true;
-    return hpr::experiments::run_trial(spec);
-  };
+  auto trial = [](const std::vector<std::string>& overrides) { return push_trial(45.0, 70.0, overrides); };
   // Not recovered rather than fallen: whether the configured robot falls over its tipped sole or
   // ends standing on it (11.5° of tilt, 43 mm of slip) turns on the push force's seventh digit,
   // which the trial rounds to the scenario file's six decimals (docs/RESULTS.md, "Stepping").
