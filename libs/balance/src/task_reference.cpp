@@ -238,9 +238,8 @@ void PostureReference::begin_step(double t) {
   if (!stepped_ && stage_ == Stage::kHold) {
     drop_start_ = t;
     drop_z0_ = ref_.p_com.z();
-    // Backwards: the landing behind the stance sole, along its heading.
-    const Sole stance = soles()[static_cast<size_t>(1 - step_.swing)];
-    const bool backward = (step_.target - stance.centre).dot(Eigen::Vector2d(std::cos(stance.yaw), std::sin(stance.yaw))) < 0.0;
+    // Backwards: the landing behind the stance sole (x < 0 in its frame).
+    const bool backward = soles()[static_cast<size_t>(1 - step_.swing)].to_local(step_.target).x() < 0.0;
     drop_ = backward ? config_.step.com_drop_backward : config_.step.com_drop;
   }
   moving_foot_ = step_.swing;
