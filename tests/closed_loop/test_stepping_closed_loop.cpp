@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <deque>
 #include <utility>
 #include <string>
 #include <vector>
@@ -30,6 +31,7 @@ struct Outcome {
   int steps_shown = 0;           ///< steps the published reference announced (stepping.swing ≥ 0)
   double landing_miss = 0.0;     ///< [m] farthest a sole came down from the landing last announced
   double max_velocity_error = 0.0;  ///< [m/s] largest |v_WCom estimated − true| (horizontal) after the push began
+  double max_lasting_velocity_error = 0.0;  ///< [m/s] the largest that lasted 20 ms (every tick of the window above it)
   int implausible_ticks = 0;     ///< estimates flagged implausible (a sample refused)
 };
 
@@ -43,6 +45,7 @@ Outcome push_from_behind(double impulse, const std::vector<std::string>& overrid
   Outcome o;
   int swing = -1;
   Eigen::Vector2d target = Eigen::Vector2d::Zero();
+  std::deque<std::pair<double, double>> window;  // (t, velocity error) of the last 20 ms
   loop.run(6.0, [&] {
     for (size_t k = 0; k < 2; ++k) o.max_foot_travel = std::max(o.max_foot_travel, (loop.sim.truth().p_WF[k] - p0[k]).head<2>().norm());
     // What the wholebody command publishes for display: the step under way until touchdown.
@@ -55,7 +58,15 @@ Outcome push_from_behind(double impulse, const std::vector<std::string>& overrid
     target = st.target_W;
     if (loop.estimator && loop.sim.time() >= 2.0) {
       const hpr::EstimatedState& est = loop.estimator->state();
-      o.max_velocity_error = std::max(o.max_velocity_error, (est.v_com - loop.sim.truth().v_WCom).head<2>().norm());
+      const double t = loop.sim.time(), e = (est.v_com - loop.sim.truth().v_WCom).head<2>().norm();
+      o.max_velocity_error = std::max(o.max_velocity_error, e);
+      window.emplace_back(t, e);
+      while (t - window.front().first > 0.02) window.pop_front();
+      if (t - window.front().first >= 0.0195) {
+        double lasting = e;
+        for (const auto& w : window) lasting = std::min(lasting, w.second);
+        o.max_lasting_velocity_error = std::max(o.max_lasting_velocity_error, lasting);
+      }
       if ((est.status & hpr::estimator::kStatusImplausible) != 0) ++o.implausible_ticks;
     }
   });
@@ -92,11 +103,11 @@ TEST(SteppingClosedLoop, APushBeyondTheHipStrategysEnvelopeIsRecoveredByOneStep)
   EXPECT_EQ(stepping.steps - stepping.follow_steps, 1) << "one step the capture point asked for";
   EXPECT_LE(stepping.follow_steps, 1) << "the trailing foot closes up once";
   EXPECT_EQ(stepping.steps_shown, stepping.steps) << "every step announced in the wholebody command";
-  // The first step is declared down 8.5 cm short of its announced landing: the stance sole has
-  // rolled 30° onto its toe, the kinematics put the swing sole (still 1.6 cm up, moving forward at
-  // 2 m/s) within touchdown_height of the ground, and its sensor reads its own inertia (3.5 cm
-  // with the simulator's true state in the loop). docs/RESULTS.md, "Stepping".
-  EXPECT_LT(stepping.landing_miss, 0.10) << "each sole came down near where the announced step said";
+  // A sole is declared down within 2 cm of its announced landing. With the contact QP's torque
+  // weighed ten times its force it was 8.5 cm short: the stance sole had rolled 30° onto its toe,
+  // the kinematics put the swing sole (still 1.6 cm up, moving forward at 2 m/s) within
+  // touchdown_height of the ground, and its sensor read its own inertia. docs/RESULTS.md, "Stepping".
+  EXPECT_LT(stepping.landing_miss, 0.05) << "each sole came down near where the announced step said";
   EXPECT_GT(stepping.max_foot_travel, 0.1) << "a sole moved: a step, not a slide";
   EXPECT_LT(stepping.final_speed, 0.05) << "at rest again";
 }
@@ -106,21 +117,25 @@ TEST(SteppingClosedLoop, APushFromTheFrontIsRecoveredByStepsBackwards) {
   // without steps; with them it steps back once, the trailing foot closes up, and it stands. The
   // landing soles' impacts reach the simulated IMU and force sensors at tens of g and kilonewtons;
   // the overlay's sensor ranges take them, so no sample is refused and the estimated CoM velocity
-  // follows the truth through the steps (refusing them left it up to 0.45 m/s off, and pushes of
-  // 55-82 N s fell; docs/RESULTS.md, "Stepping").
+  // follows the truth through the steps (refusing them left it up to 0.45 m/s off for hundreds of
+  // milliseconds, and pushes of 55-82 N s fell; docs/RESULTS.md, "Stepping"). The first landing's
+  // impact itself puts the estimate up to 0.38 m/s off for about 12 ms.
   const Eigen::Vector3d from_the_front = -Eigen::Vector3d::UnitX();
   const Outcome standing = push_from_behind(64.0, {}, from_the_front);
   EXPECT_TRUE(standing.fallen) << "the hip strategy alone loses this push";
   const Outcome stepping = push_from_behind(64.0, stepping_overlay(), from_the_front);
-  std::printf("64 N s from the front: %d steps (%d closing up), largest velocity error %.3f m/s, %d samples refused\n",
-              stepping.steps, stepping.follow_steps, stepping.max_velocity_error, stepping.implausible_ticks);
+  std::printf("64 N s from the front: %d steps (%d closing up), velocity error %.3f m/s at most, %.3f m/s for 20 ms, "
+              "%d samples refused\n",
+              stepping.steps, stepping.follow_steps, stepping.max_velocity_error, stepping.max_lasting_velocity_error,
+              stepping.implausible_ticks);
   EXPECT_FALSE(stepping.fallen);
   EXPECT_EQ(stepping.steps - stepping.follow_steps, 1) << "one step the capture point asked for";
   EXPECT_LE(stepping.follow_steps, 1) << "the trailing foot closes up once";
   EXPECT_GT(stepping.max_foot_travel, 0.1) << "a sole moved: a step, not a slide";
   EXPECT_LT(stepping.final_speed, 0.05) << "at rest again";
   EXPECT_EQ(stepping.implausible_ticks, 0) << "no landing's sample refused";
-  EXPECT_LT(stepping.max_velocity_error, 0.2) << "the estimate followed the steps";
+  EXPECT_LT(stepping.max_velocity_error, 0.5) << "no landing threw the estimate off";
+  EXPECT_LT(stepping.max_lasting_velocity_error, 0.1) << "the estimate followed the steps";
 }
 
 TEST(SteppingClosedLoop, APushFromTheFrontTwiceTheStandingLimitIsRecoveredHoldingTheHeight) {
@@ -139,6 +154,43 @@ TEST(SteppingClosedLoop, APushFromTheFrontTwiceTheStandingLimitIsRecoveredHoldin
   sinking.emplace_back("balance.stepping.com_drop_backward=0.04");
   const auto sunk = trial(sinking);
   EXPECT_TRUE(sunk.fallen) << "4 cm lower the knees give way";
+}
+
+TEST(SteppingClosedLoop, AStepLandsNoNarrowerThanTheRobotStands) {
+  // 54 N s from behind: during the first step's swing the stance sole slides 5 cm outwards and the
+  // CoM picks up 0.2 m/s towards the swing side. Landed where the pendulum predicts the capture
+  // point (balance.stepping.min_width 0.16 lets it land 0.07 m from the centre line), the swing sole
+  // leaves the capture point beyond its outer edge, the trailing foot steps and the robot walks
+  // sideways until it falls; landed no narrower than it stands (0.20, as configured) it recovers
+  // with one step and the trailing foot closing up (docs/RESULTS.md, "Stepping"). As push_trial
+  // --in-process runs it.
+  auto trial = [](const std::vector<std::string>& overrides) { return push_trial(0.0, 54.0, overrides); };
+  const auto wide = trial(stepping_overlay());
+  EXPECT_TRUE(wide.recovered) << wide.failure;
+  EXPECT_EQ(wide.steps_started - wide.follow_steps, 1) << "one step the capture point asked for";
+  EXPECT_LE(wide.follow_steps, 1) << "the trailing foot closes up once";
+  std::vector<std::string> narrow = stepping_overlay();
+  narrow.emplace_back("balance.stepping.min_width=0.16");
+  const auto walked = trial(narrow);
+  EXPECT_FALSE(walked.recovered);
+  EXPECT_GT(walked.steps_started, 2) << "it walked sideways";
+}
+
+TEST(SteppingClosedLoop, TheContactQpGivingUpTorqueAsReadilyAsForceHoldsADiagonalPushWithoutAStep) {
+  // 84 N s from behind and the left (315°). With the contact QP's torque error weighed ten times its
+  // force error (the configuration's wbc.qp.torque_weight), the hip strategy builds 23 N m s and a
+  // step is taken late and fails; weighed as the force (the overlay) the soles keep the moment they
+  // can, the CAM peaks near 5 N m s and the robot stands without a step (docs/RESULTS.md, "Stepping").
+  auto trial = [](const std::vector<std::string>& overrides) { return push_trial(315.0, 84.0, overrides); };
+  const auto overlay = trial(stepping_overlay());
+  EXPECT_TRUE(overlay.recovered) << overlay.failure;
+  EXPECT_EQ(overlay.steps_started, 0);
+  std::vector<std::string> torque_first = stepping_overlay();
+  torque_first.emplace_back("wbc.qp.torque_weight=10");
+  const auto stepped = trial(torque_first);
+  EXPECT_FALSE(stepped.recovered);
+  EXPECT_GT(stepped.steps_started, 0);
+  EXPECT_GT(stepped.peak_cam.norm(), 3.0 * overlay.peak_cam.norm()) << "the hip strategy spent its range";
 }
 
 TEST(SteppingClosedLoop, ADiagonalPushBeyondTheStandingEnvelopeIsHeld) {
@@ -176,12 +228,13 @@ TEST(SteppingClosedLoop, ASidewaysPushTheHipStrategyHoldsTakesNoStep) {
 }
 
 TEST(SteppingClosedLoop, ASagittalPushTheHipStrategyHoldsTakesNoStep) {
-  // 20 N s from behind and 30 N s from the front lie inside what the CAM strategy holds standing
-  // (28.1 and 42.5 N s, docs/RESULTS.md): the capture point leaves the double support by less than
-  // what the hip strategy holds beyond it (balance.stepping.cmp_reach ahead, cmp_reach_backward
-  // behind), and the robot takes no step. With the reach ahead behind the heels as well (0.025 m)
-  // it stepped from 25 N s from the front, three times at 30 N s.
-  for (const auto& [direction, impulse] : {std::pair{Eigen::Vector3d(Eigen::Vector3d::UnitX()), 20.0},
+  // 28 N s from behind, just inside what the configured CAM strategy holds standing (28.1 N s), and
+  // 30 N s from the front (42.5 N s; docs/RESULTS.md): the capture point leaves the double support by
+  // less than what the hip strategy holds beyond it (balance.stepping.cmp_reach ahead,
+  // cmp_reach_backward behind), and the robot takes no step. With a reach ahead of 0.025 m it
+  // stepped from 24 N s from behind; with that reach behind the heels as well, from 25 N s from the
+  // front, three times at 30 N s.
+  for (const auto& [direction, impulse] : {std::pair{Eigen::Vector3d(Eigen::Vector3d::UnitX()), 28.0},
                                            std::pair{Eigen::Vector3d(-Eigen::Vector3d::UnitX()), 30.0}}) {
     const Outcome stepping = push_from_behind(impulse, stepping_overlay(), direction);
     EXPECT_FALSE(stepping.fallen) << direction.x();
@@ -198,10 +251,13 @@ TEST(SteppingClosedLoop, H1StepsOutOfAPushItCannotHoldStandingLandingBeyondTheCa
   // lands 9 cm beyond it and recovers with steps, and takes none for 35 N s.
   const Outcome standing = push_from_behind(45.0, {}, Eigen::Vector3d::UnitX(), "h1_2");
   EXPECT_TRUE(standing.fallen) << "the hip strategy alone loses this push";
-  // The TORO-like robot's stepping keys (its lean budget and sensor ranges are that robot's).
+  // The TORO-like robot's stepping keys (its lean budget, contact QP weights and sensor ranges
+  // are that robot's).
   std::vector<std::string> at_the_dcm_overlay;
   for (const std::string& o : stepping_overlay("toro")) {
-    if (o.rfind("reference_gen.", 0) != 0 && o.rfind("estimator.max_", 0) != 0) at_the_dcm_overlay.push_back(o);
+    if (o.rfind("reference_gen.", 0) != 0 && o.rfind("wbc.qp.", 0) != 0 && o.rfind("estimator.max_", 0) != 0) {
+      at_the_dcm_overlay.push_back(o);
+    }
   }
   const Outcome at_the_dcm = push_from_behind(45.0, at_the_dcm_overlay, Eigen::Vector3d::UnitX(), "h1_2");
   EXPECT_TRUE(at_the_dcm.fallen) << "landing at the predicted DCM recovers too: the landing offset is not what recovers";
