@@ -22,6 +22,13 @@ std::vector<std::string> stepping_overlay(const std::string& robot = "toro") {
   return hpr::experiments::overlay_overrides(hpr::test::source_dir() + "/config/overlays/" + robot + "_stepping.yaml");
 }
 
+/// The TORO-like overlay with one key more (`key=value`), after the overlay's own.
+std::vector<std::string> stepping_overlay_and(const std::string& override) {
+  std::vector<std::string> o = stepping_overlay();
+  o.push_back(override);
+  return o;
+}
+
 struct Outcome {
   bool fallen = true;
   int steps = 0;
@@ -89,6 +96,13 @@ hpr::experiments::TrialResult push_trial(double direction_deg, double impulse, c
   return hpr::experiments::run_trial(spec);
 }
 
+/// A push_trial recovered by one step the capture point asked for and at most one closing up.
+void expect_one_step_then_closing_up(const hpr::experiments::TrialResult& r) {
+  EXPECT_TRUE(r.recovered) << r.failure;
+  EXPECT_EQ(r.steps_started - r.follow_steps, 1) << "one step the capture point asked for";
+  EXPECT_LE(r.follow_steps, 1) << "the trailing foot closes up once";
+}
+
 TEST(SteppingClosedLoop, APushBeyondTheHipStrategysEnvelopeIsRecoveredByOneStep) {
   // 42 N s from behind is 1.5 times what the CAM strategy recovers standing (28.1 N s,
   // docs/RESULTS.md): it falls without steps, and with the third strategy it takes one step, the
@@ -146,13 +160,8 @@ TEST(SteppingClosedLoop, APushFromTheFrontTwiceTheStandingLimitIsRecoveredHoldin
   // the height for a step backwards (com_drop_backward 0) and the robot recovers with one step and
   // the trailing foot closing up (docs/RESULTS.md, "Stepping"). As push_trial --in-process runs it.
   auto trial = [](const std::vector<std::string>& overrides) { return push_trial(180.0, 85.0, overrides); };
-  const auto holding = trial(stepping_overlay());
-  EXPECT_TRUE(holding.recovered) << holding.failure;
-  EXPECT_EQ(holding.steps_started - holding.follow_steps, 1) << "one step the capture point asked for";
-  EXPECT_LE(holding.follow_steps, 1) << "the trailing foot closes up once";
-  std::vector<std::string> sinking = stepping_overlay();
-  sinking.emplace_back("balance.stepping.com_drop_backward=0.04");
-  const auto sunk = trial(sinking);
+  expect_one_step_then_closing_up(trial(stepping_overlay()));
+  const auto sunk = trial(stepping_overlay_and("balance.stepping.com_drop_backward=0.04"));
   EXPECT_TRUE(sunk.fallen) << "4 cm lower the knees give way";
 }
 
@@ -165,13 +174,8 @@ TEST(SteppingClosedLoop, AStepLandsNoNarrowerThanTheRobotStands) {
   // with one step and the trailing foot closing up (docs/RESULTS.md, "Stepping"). As push_trial
   // --in-process runs it.
   auto trial = [](const std::vector<std::string>& overrides) { return push_trial(0.0, 54.0, overrides); };
-  const auto wide = trial(stepping_overlay());
-  EXPECT_TRUE(wide.recovered) << wide.failure;
-  EXPECT_EQ(wide.steps_started - wide.follow_steps, 1) << "one step the capture point asked for";
-  EXPECT_LE(wide.follow_steps, 1) << "the trailing foot closes up once";
-  std::vector<std::string> narrow = stepping_overlay();
-  narrow.emplace_back("balance.stepping.min_width=0.16");
-  const auto walked = trial(narrow);
+  expect_one_step_then_closing_up(trial(stepping_overlay()));
+  const auto walked = trial(stepping_overlay_and("balance.stepping.min_width=0.16"));
   EXPECT_FALSE(walked.recovered);
   EXPECT_GT(walked.steps_started, 2) << "it walked sideways";
 }
@@ -185,9 +189,7 @@ TEST(SteppingClosedLoop, TheContactQpGivingUpTorqueAsReadilyAsForceHoldsADiagona
   const auto overlay = trial(stepping_overlay());
   EXPECT_TRUE(overlay.recovered) << overlay.failure;
   EXPECT_EQ(overlay.steps_started, 0);
-  std::vector<std::string> torque_first = stepping_overlay();
-  torque_first.emplace_back("wbc.qp.torque_weight=10");
-  const auto stepped = trial(torque_first);
+  const auto stepped = trial(stepping_overlay_and("wbc.qp.torque_weight=10"));
   EXPECT_FALSE(stepped.recovered);
   EXPECT_GT(stepped.steps_started, 0);
   EXPECT_GT(stepped.peak_cam.norm(), 3.0 * overlay.peak_cam.norm()) << "the hip strategy spent its range";
@@ -206,9 +208,7 @@ TEST(SteppingClosedLoop, ADiagonalPushBeyondTheStandingEnvelopeIsHeld) {
   // which the trial rounds to the scenario file's six decimals (docs/RESULTS.md, "Stepping").
   const auto configured = trial({});
   EXPECT_FALSE(configured.recovered) << "the configured hip strategy loses this push";
-  std::vector<std::string> no_budget = stepping_overlay();
-  no_budget.emplace_back("reference_gen.y.lean_budget_positive=.inf");
-  const auto unbounded = trial(no_budget);
+  const auto unbounded = trial(stepping_overlay_and("reference_gen.y.lean_budget_positive=.inf"));
   EXPECT_FALSE(unbounded.recovered) << "steps alone do not save it";
   EXPECT_GT(unbounded.steps_started, 0);
   const auto stepping = trial(stepping_overlay());
