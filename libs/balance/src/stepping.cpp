@@ -128,6 +128,7 @@ SteppingConfig SteppingConfig::load(const Config& c) {
   s.margin = c.real_or("margin", s.margin, -0.1, 0.2);
   s.cmp_reach = c.real_or("cmp_reach", s.cmp_reach, 0.0, 0.5);
   s.cmp_reach_backward = c.real_or("cmp_reach_backward", s.cmp_reach, 0.0, 0.5);
+  s.lean_range = c.real_or("lean_range", s.lean_range, 0.0, 1.5);
   s.t_min = c.real_or("t_min", s.t_min, 0.05, 2.0);
   s.t_max = c.real_or("t_max", s.t_max, s.t_min, 3.0);
   s.t_nominal = c.real_or("t_nominal", s.t_nominal, s.t_min, s.t_max);
@@ -150,30 +151,36 @@ Vector2d stance_cmp(const Sole& stance, const Vector2d& xi) {
   return stance.to_world(p);
 }
 
-double StepPlanner::excess(const std::array<Sole, 2>& soles, const std::array<bool, 2>& contact, const Vector2d& xi) const {
+double StepPlanner::excess(const std::array<Sole, 2>& soles, const std::array<bool, 2>& contact, const Vector2d& xi,
+                           const Vector2d& lean) const {
+  // The direction of ξ from the centre of the soles in contact, and their mean heading.
+  Vector2d centre = Vector2d::Zero(), heading = Vector2d::Zero();
+  int n = 0;
+  for (size_t k = 0; k < 2; ++k) {
+    if (!contact[k]) continue;
+    centre += soles[k].centre;
+    heading += Vector2d(std::cos(soles[k].yaw), std::sin(soles[k].yaw));
+    ++n;
+  }
+  const Vector2d d = xi - centre / std::max(n, 1);
+  const double norm = d.norm(), hnorm = heading.norm();
   double reach = config_.cmp_reach;
-  if (config_.cmp_reach_backward != config_.cmp_reach) {
-    // The direction of ξ from the centre of the soles in contact, in their mean heading.
-    Vector2d centre = Vector2d::Zero(), heading = Vector2d::Zero();
-    int n = 0;
-    for (size_t k = 0; k < 2; ++k) {
-      if (!contact[k]) continue;
-      centre += soles[k].centre;
-      heading += Vector2d(std::cos(soles[k].yaw), std::sin(soles[k].yaw));
-      ++n;
-    }
-    const Vector2d d = xi - centre / std::max(n, 1);
-    const double norm = d.norm(), hnorm = heading.norm();
-    if (n > 0 && norm > 0.0 && hnorm > 0.0) {
+  if (n > 0 && norm > 0.0) {
+    if (hnorm > 0.0) {
       const double behind = std::max(0.0, -d.dot(heading) / (norm * hnorm));  // cos of the angle to −x
       reach += (config_.cmp_reach_backward - config_.cmp_reach) * behind * behind;
+    }
+    if (config_.lean_range > 0.0) {
+      const double leaning = std::max(0.0, lean.dot(d) / norm);  // sin of the lean towards ξ
+      reach *= std::max(0.0, 1.0 - leaning / std::sin(config_.lean_range));
     }
   }
   return support_distance(soles, contact, xi) - reach + config_.margin;
 }
 
-bool StepPlanner::step_needed(const std::array<Sole, 2>& soles, const std::array<bool, 2>& contact, const Vector2d& xi) const {
-  return config_.enabled && excess(soles, contact, xi) > 0.0;
+bool StepPlanner::step_needed(const std::array<Sole, 2>& soles, const std::array<bool, 2>& contact, const Vector2d& xi,
+                              const Vector2d& lean) const {
+  return config_.enabled && excess(soles, contact, xi, lean) > 0.0;
 }
 
 int StepPlanner::choose_swing(const std::array<Sole, 2>& soles, const Vector2d& xi, const std::array<double, 2>& load) const {

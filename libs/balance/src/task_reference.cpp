@@ -218,7 +218,7 @@ void PostureReference::check_step(double t, const EstimatedState& state) {
     }
     follow = unloaded_since_ >= 0.0 && t - unloaded_since_ >= config_.step.follow_delay;
   }
-  const bool needed = planner_.step_needed(sole, both, xi_);
+  const bool needed = planner_.step_needed(sole, both, xi_, lean_);
   if (!follow && !needed) return;
   int swing = -1;
   if (stage_ == Stage::kHold || last_swing_ < 0) {
@@ -417,7 +417,10 @@ const TaskReference& PostureReference::update(double t, const EstimatedState* st
     // impacts of the landing feet and their sensors' transients are no push.
     xi_ = balance::capture_point(state->p_com.head<2>(), v, omega_);
     if (!stepped_) xi_ += f_ext_ / (m * omega_ * omega_);
-    excess_ = planner_.excess(soles(), {true, true}, xi_);
+    // The base's lean: the horizontal part of its z axis, from q = (p, quat (x, y, z, w), ...).
+    const Eigen::Vector4d quat = state->q.segment<4>(3);
+    lean_ = 2.0 * Eigen::Vector2d(quat(0) * quat(2) + quat(3) * quat(1), quat(1) * quat(2) - quat(3) * quat(0));
+    excess_ = planner_.excess(soles(), {true, true}, xi_, lean_);
   }
   if (state != nullptr && config_.stepping.enabled && target_ == Support::kDouble && current_ == Support::kDouble &&
       (stage_ == Stage::kHold || ((stage_ == Stage::kStepSettle || stage_ == Stage::kStepRecover) &&

@@ -189,6 +189,30 @@ TEST(StepDecision, BehindTheSupportTheBackwardReachHoldsBetweenTheDirectionsItBl
   }
 }
 
+TEST(StepDecision, TheReachShrinksWithTheTrunksLeanTowardsTheCapturePoint) {
+  SteppingConfig c;
+  c.enabled = true;
+  c.cmp_reach = 0.04;
+  c.lean_range = 0.3;
+  StepPlanner planner(c);
+  const auto soles = standing();
+  const std::array<bool, 2> both{true, true};
+  const Vector2d xi(0.13, 0.0);  // 3 cm ahead of the toes: inside the reach of an upright trunk
+  const double d = hpr::balance::support_distance(soles, both, xi);
+  const double s = std::sin(0.3);
+  EXPECT_NEAR(planner.excess(soles, both, xi), d - 0.04, 1e-12) << "upright: the whole reach";
+  EXPECT_NEAR(planner.excess(soles, both, xi, Vector2d(0.5 * s, 0.0)), d - 0.02, 1e-12) << "half the range spent";
+  EXPECT_NEAR(planner.excess(soles, both, xi, Vector2d(2.0 * s, 0.0)), d, 1e-12) << "beyond the range: no reach left";
+  EXPECT_NEAR(planner.excess(soles, both, xi, Vector2d(-0.5 * s, 0.0)), d - 0.04, 1e-12) << "leaning away spends none";
+  EXPECT_NEAR(planner.excess(soles, both, xi, Vector2d(0.0, 0.5 * s)), d - 0.04, 1e-12) << "nor across";
+  EXPECT_FALSE(planner.step_needed(soles, both, xi));
+  EXPECT_TRUE(planner.step_needed(soles, both, xi, Vector2d(0.5 * s, 0.0))) << "a trunk leaning into the push steps sooner";
+  // A lean at 45° to ξ counts with its component towards ξ.
+  EXPECT_NEAR(planner.excess(soles, both, xi, Vector2d(0.5 * s, 0.5 * s)), d - 0.04 * (1.0 - 0.5), 1e-12);
+  c.lean_range = 0.0;
+  EXPECT_NEAR(StepPlanner(c).excess(soles, both, xi, Vector2d(0.5, 0.0)), d - 0.04, 1e-12) << "0: the lean is not looked at";
+}
+
 TEST(StepDecision, TheFootOnTheSideTheDcmRunsToSwingsElseTheLessLoadedOne) {
   const StepPlanner planner(SteppingConfig{});
   const auto soles = standing();
@@ -283,6 +307,9 @@ TEST(SteppingConfig, LoadsAndRefusesOutOfRangeValuesNamingTheKey) {
   EXPECT_EQ(c.cmp_reach_backward, 0.03) << "unset, the reach behind is the reach ahead";
   const auto behind = hpr::Config::parse("stepping: {cmp_reach: 0.03, cmp_reach_backward: 0.05}", "test.yaml");
   EXPECT_EQ(SteppingConfig::load(behind.section("stepping")).cmp_reach_backward, 0.05);
+  EXPECT_EQ(c.lean_range, 0.0) << "unset, the lean is not looked at";
+  const auto lean = hpr::Config::parse("stepping: {lean_range: 0.25}", "test.yaml");
+  EXPECT_EQ(SteppingConfig::load(lean.section("stepping")).lean_range, 0.25);
   // The CoM's drop for a first step backwards is the drop forwards unless it is set.
   const auto drops = hpr::Config::parse("balance: {stepping: {com_drop: 0.03}}", "test.yaml");
   EXPECT_EQ(hpr::balance::PostureReferenceConfig::load(drops.section("balance")).step.com_drop_backward, 0.03);

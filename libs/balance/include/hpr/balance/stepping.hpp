@@ -13,7 +13,8 @@
 /// within the support polygon; the hip strategy (the paper's CAM reference, bounded by its torque
 /// and by the joint limits) moves the CMP beyond it for a while. When ξ lies outside the support
 /// polygon grown by what the hip strategy can add, no CoP inside the polygon and no CAM within its
-/// bounds can stop the divergence: the robot must step.
+/// bounds can stop the divergence: the robot must step. What the hip strategy can add shrinks as
+/// the trunk leans into ξ (SteppingConfig::lean_range): the range it turns through is spent.
 ///
 /// The step (Englsberger's DCM step adjustment): with the CMP held at the stance foot's p_st during a
 /// swing of duration T, the DCM at touchdown is ξ_T = p_st + (ξ_0 − p_st) e^{ωT}. Landing the swing
@@ -69,9 +70,14 @@ struct SteppingConfig {
   double cmp_reach = 0.025;    ///< [m] how far beyond the support the hip strategy holds the capture point
                                ///<     (shifted by F̂ / (m ω²)) without a step, ahead and to the sides
   /// [m] the same behind the support (a push from the front), where the hip strategy may hold more:
-  /// the trunk pitches forward to gain it, while ahead it has to lean back. Between the
-  /// directions the reach blends with the squares of the direction's components.
+  /// the trunk leans back to gain it, with more range than leaning forward, where stretched knees end
+  /// it early. Between the directions the reach blends with the squares of the direction's components.
   double cmp_reach_backward = 0.025;
+  /// [rad] what is left of the reach shrinks with the base's lean towards ξ, to nothing at this
+  /// lean: the hip strategy holds ξ beyond the support by turning the trunk through its range (the
+  /// flywheel of the capture-point literature), and a trunk already leaning into ξ has less of that
+  /// range left. 0: the reach holds whatever the lean.
+  double lean_range = 0.0;
   double t_min = 0.25, t_max = 0.6, t_nominal = 0.35;  ///< [s] swing duration bounds and nominal
   double dcm_offset = 0.0;     ///< [m] b: ξ_T − u wanted along the push, >0 lands short of the DCM
   /// Reachability of the swing sole centre in the stance sole's frame (x forward, y towards the
@@ -102,12 +108,14 @@ class StepPlanner {
   explicit StepPlanner(SteppingConfig config) : config_(config) {}
 
   /// How far ξ lies beyond the support polygon grown by the hip strategy's CMP reach (positive: a
-  /// step is needed; the margin already counted), for soles `soles` with `contact`.
+  /// step is needed; the margin already counted), for soles `soles` with `contact`. `lean` is the
+  /// horizontal part of the base's z axis in the world (sin of its tilt, in the tilt's direction);
+  /// its component towards ξ takes its share of lean_range off the reach.
   [[nodiscard]] double excess(const std::array<Sole, 2>& soles, const std::array<bool, 2>& contact,
-                              const Eigen::Vector2d& xi) const;
+                              const Eigen::Vector2d& xi, const Eigen::Vector2d& lean = Eigen::Vector2d::Zero()) const;
   /// Whether a step is needed now (stepping enabled and excess() > 0).
   [[nodiscard]] bool step_needed(const std::array<Sole, 2>& soles, const std::array<bool, 2>& contact,
-                                 const Eigen::Vector2d& xi) const;
+                                 const Eigen::Vector2d& xi, const Eigen::Vector2d& lean = Eigen::Vector2d::Zero()) const;
   /// The foot to swing: the one on the side the DCM runs to when it runs sideways (the push's
   /// lateral component), else the one carrying less of the weight (`load` fractions, summing to 1).
   [[nodiscard]] int choose_swing(const std::array<Sole, 2>& soles, const Eigen::Vector2d& xi,
