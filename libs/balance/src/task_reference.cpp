@@ -417,9 +417,11 @@ const TaskReference& PostureReference::update(double t, const EstimatedState* st
     // impacts of the landing feet and their sensors' transients are no push.
     xi_ = balance::capture_point(state->p_com.head<2>(), v, omega_);
     if (!stepped_) xi_ += f_ext_ / (m * omega_ * omega_);
-    // The base's lean: the horizontal part of its z axis, from q = (p, quat (x, y, z, w), ...).
+    // The base's lean from its standing orientation: the horizontal part of its z axis, from
+    // q = (p, quat (x, y, z, w), ...), less that of the standing base's.
     const Eigen::Vector4d quat = state->q.segment<4>(3);
-    lean_ = 2.0 * Eigen::Vector2d(quat(0) * quat(2) + quat(3) * quat(1), quat(1) * quat(2) - quat(3) * quat(0));
+    lean_ = 2.0 * Eigen::Vector2d(quat(0) * quat(2) + quat(3) * quat(1), quat(1) * quat(2) - quat(3) * quat(0)) -
+            R1_.col(2).head<2>();
     excess_ = planner_.excess(soles(), {true, true}, xi_, lean_);
   }
   if (state != nullptr && config_.stepping.enabled && target_ == Support::kDouble && current_ == Support::kDouble &&

@@ -165,7 +165,7 @@ class PostureReference {
   StepPlanner planner_;
   StepPlan step_;
   Eigen::Vector2d xi_ = Eigen::Vector2d::Zero(), f_ext_ = Eigen::Vector2d::Zero();
-  Eigen::Vector2d lean_ = Eigen::Vector2d::Zero();  ///< horizontal part of the base's z axis (world)
+  Eigen::Vector2d lean_ = Eigen::Vector2d::Zero();  ///< horizontal part of the base's z axis less the standing one's (world)
   Eigen::Vector2d v_prev_ = Eigen::Vector2d::Zero();  ///< the observer's initial CoM velocity
   Eigen::Vector2d momentum_integral_ = Eigen::Vector2d::Zero();  ///< ∫ (Σ f_ground + F̂) dt [N s]
   double t_prev_state_ = -1.0, excess_ = -1.0;
