@@ -203,7 +203,6 @@ std::array<Sole, 2> PostureReference::soles() const {
 
 void PostureReference::check_step(double t, const EstimatedState& state) {
   const auto sole = soles();
-  const std::array<bool, 2> both{true, true};
   // After a step the trailing foot follows when it stays nearly unloaded (the DCM came to rest
   // over the landed foot): a sole that carries almost nothing cannot hold the leg's torques.
   bool follow = false;
@@ -218,7 +217,7 @@ void PostureReference::check_step(double t, const EstimatedState& state) {
     }
     follow = unloaded_since_ >= 0.0 && t - unloaded_since_ >= config_.step.follow_delay;
   }
-  const bool needed = planner_.step_needed(sole, both, xi_, lean_);
+  const bool needed = excess_ > 0.0;  // update() computed it this tick, for these soles and ξ
   if (!follow && !needed) return;
   int swing = -1;
   if (stage_ == Stage::kHold || last_swing_ < 0) {

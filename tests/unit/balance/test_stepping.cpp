@@ -144,11 +144,17 @@ TEST(SupportPoint, InsideItIsThePointItselfOutsideTheNearestPointOfTheShrunkHull
   EXPECT_NEAR(p.y(), -0.1, 1e-12);
 }
 
-TEST(StepDecision, NoStepWhileTheAnkleAndHipStrategiesSufficeAndAStepBeyond) {
+/// A decision that steps, with the hip strategy's reach `cmp_reach` [m] ahead and to the sides.
+SteppingConfig deciding(double cmp_reach) {
   SteppingConfig c;
   c.enabled = true;
+  c.cmp_reach = cmp_reach;
+  return c;
+}
+
+TEST(StepDecision, NoStepWhileTheAnkleAndHipStrategiesSufficeAndAStepBeyond) {
+  SteppingConfig c = deciding(0.04);
   c.margin = 0.01;
-  c.cmp_reach = 0.04;
   StepPlanner planner(c);
   const auto soles = standing();
   const std::array<bool, 2> both{true, true};
@@ -162,9 +168,7 @@ TEST(StepDecision, NoStepWhileTheAnkleAndHipStrategiesSufficeAndAStepBeyond) {
 }
 
 TEST(StepDecision, BehindTheSupportTheBackwardReachHoldsBetweenTheDirectionsItBlends) {
-  SteppingConfig c;
-  c.enabled = true;
-  c.cmp_reach = 0.02;
+  SteppingConfig c = deciding(0.02);
   c.cmp_reach_backward = 0.05;
   StepPlanner planner(c);
   const std::array<bool, 2> both{true, true};
@@ -190,9 +194,7 @@ TEST(StepDecision, BehindTheSupportTheBackwardReachHoldsBetweenTheDirectionsItBl
 }
 
 TEST(StepDecision, TheReachShrinksWithTheTrunksLeanTowardsTheCapturePoint) {
-  SteppingConfig c;
-  c.enabled = true;
-  c.cmp_reach = 0.04;
+  SteppingConfig c = deciding(0.04);
   c.lean_range = 0.3;
   StepPlanner planner(c);
   const auto soles = standing();
