@@ -32,7 +32,7 @@ EstimatorConfig EstimatorConfig::load(const Config& c) {
   c.reject_unknown({"sensor_timeout", "joint_accel_noise", "encoder_noise", "filter_joints", "gyro_noise", "gyro_bias_walk",
                     "gyro_bias_initial", "angular_accel_noise", "kinematic_orientation_noise", "kinematic_rate_noise",
                     "accel_orientation_noise", "level_ground", "accel_noise", "foot_contact_noise", "foot_swing_noise",
-                    "kinematic_position_noise", "kinematic_velocity_noise", "contact_on", "contact_off", "cop_edge_margin", "anchor_max_rate", "edge_velocity_noise", "edge_min_load", "anchor_velocity_gate", "contact_max_height",
+                    "kinematic_position_noise", "kinematic_velocity_noise", "contact_on", "contact_off", "cop_edge_margin", "anchor_max_rate", "edge_velocity_noise", "edge_min_load", "settle_after_roll", "anchor_velocity_gate", "contact_max_height",
                     "cam_observer_gain", "initialisation_time", "max_position_std", "max_accel", "max_gyro",
                     "max_ft_force", "joint_limit_margin"});
   EstimatorConfig e;
@@ -61,6 +61,7 @@ EstimatorConfig EstimatorConfig::load(const Config& c) {
   e.anchor_max_rate = c.real_or("anchor_max_rate", e.anchor_max_rate, 0.0, 100.0);
   e.edge_velocity_noise = c.real_or("edge_velocity_noise", e.edge_velocity_noise, 0.0, 10.0);
   e.edge_min_load = c.real_or("edge_min_load", e.edge_min_load, 0.0, 2.0);
+  e.settle_after_roll = c.boolean_or("settle_after_roll", e.settle_after_roll);
   e.anchor_velocity_gate = c.real_or("anchor_velocity_gate", e.anchor_velocity_gate, 0.0, 100.0);
   e.contact_max_height = c.real_or("contact_max_height", e.contact_max_height, 0.0, 1.0);
   e.cam_observer_gain = c.real_or("cam_observer_gain", e.cam_observer_gain, 0.1, 1e4);
@@ -113,6 +114,7 @@ void Estimator::reset() {
   anchored_ = false;
   state_.status = kStatusInitialising;
   contact_ = {};
+  turned_ = {};
   implausible_.clear();
 }
 
@@ -306,8 +308,14 @@ void Estimator::update_contacts(const SensorSample& s) {
     }
     // A sole that turns (base rate plus the leg's, from the last tick) rolls about an edge or has
     // not settled: its centre is not at rest.
-    if (flat && config_.anchor_max_rate > 0.0 && (w_ + w_BS_[ku]).norm() > config_.anchor_max_rate) flat = false;
+    const bool turning = pressed && config_.anchor_max_rate > 0.0 && (w_ + w_BS_[ku]).norm() > config_.anchor_max_rate;
     if (contact_[ku] && !was && initialised_) touchdown_time_[ku] = s.time;  // (standing at the start is no touchdown)
+    // A sole that turned in contact (rolled on an edge) and stops with its CoP back inside has
+    // landed on its face: the impact, like a touchdown's, is in the leg's filtered joint rates
+    // (settle_after_roll).
+    if (config_.settle_after_roll && flat && !turning && turned_[ku]) touchdown_time_[ku] = s.time;
+    turned_[ku] = contact_[ku] && (turning || (turned_[ku] && !flat));
+    if (turning) flat = false;
     // Right after a touchdown the sole settles and the leg's joint rates, filtered, still carry the
     // swing: its kinematics correct nothing yet.
     if (s.time - touchdown_time_[ku] < kTouchdownSettle) flat = false;

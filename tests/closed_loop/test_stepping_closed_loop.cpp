@@ -200,8 +200,8 @@ TEST(SteppingClosedLoop, ADiagonalPushBeyondTheStandingEnvelopeIsHeld) {
   // standing (58.1 N s): leaning forward into its pitch bound at speed, the base tips the robot over
   // a sole's toe. With the overlay's lean budget phase 1 ends before the bound and the capture point
   // stays within the reach the step decision leaves the hip strategy: no step, and it stands.
-  // Without the budget the decision stepped while the sole tipped, and the robot fell. As
-  // push_trial --in-process runs it (the figures of docs/RESULTS.md).
+  // Without the budget a sole tips (59°) and the robot steps out of it (before the estimator's
+  // settle_after_roll it fell). As push_trial --in-process runs it (the figures of docs/RESULTS.md).
   auto trial = [](const std::vector<std::string>& overrides) { return push_trial(45.0, 70.0, overrides); };
   // Not recovered rather than fallen: whether the configured robot falls over its tipped sole or
   // ends standing on it (11.5° of tilt, 43 mm of slip) turns on the push force's seventh digit,
@@ -209,11 +209,12 @@ TEST(SteppingClosedLoop, ADiagonalPushBeyondTheStandingEnvelopeIsHeld) {
   const auto configured = trial({});
   EXPECT_FALSE(configured.recovered) << "the configured hip strategy loses this push";
   const auto unbounded = trial(stepping_overlay_and("reference_gen.y.lean_budget_positive=.inf"));
-  EXPECT_FALSE(unbounded.recovered) << "steps alone do not save it";
-  EXPECT_GT(unbounded.steps_started, 0);
+  EXPECT_GT(unbounded.steps_started, 0) << "without the budget the hip strategy tips a sole";
+  EXPECT_GT(unbounded.max_tilt_deg, 30.0);
   const auto stepping = trial(stepping_overlay());
   EXPECT_TRUE(stepping.recovered) << stepping.failure;
   EXPECT_EQ(stepping.steps_started, 0);
+  EXPECT_LT(stepping.max_tilt_deg, 1.0) << "the soles stay flat";
 }
 
 TEST(SteppingClosedLoop, ASidewaysPushTheHipStrategyHoldsTakesNoStep) {

@@ -302,6 +302,46 @@ TEST_F(EstimatorTest, ASoleThatReadsLoadedWhileItStillMovesOverridesNothingAtFir
   EXPECT_GT(est.state().v.head<3>().norm(), 0.1) << "the sole that stayed in contact moved it";
 }
 
+TEST_F(EstimatorTest, ASoleThatDropsBackFlatFromItsEdgeSettlesBeforeItCorrects) {
+  // The robot stands still, the right sole flat. From t = 0.3 s the left sole, half the weight on
+  // its outer edge, turns about it (its ankle roll at 3 rad/s: no anchor); at t = 0.4 s it is flat
+  // again, its CoP back inside, and for 10 ms its leg's rates carry the impact (a translation of
+  // the sole at about 0.2 m/s, below the velocity gate). With settle_after_roll a sole landing on
+  // its face from an edge settles as after a touchdown: the impact corrects nothing, and the
+  // estimate stays at rest. Without it the sole is an anchor at once and pulls the estimate along.
+  const Eigen::VectorXd q = standing_with_yaw(robot, 0.0);
+  const int roll = robot.model.joint_index("l_ankle_roll"), hip = robot.model.joint_index("l_hip_pitch"),
+            knee = robot.model.joint_index("l_knee"), ankle = robot.model.joint_index("l_ankle_pitch");
+  const Vector3d edge(0, 0.5 * robot.feet[1].width - 0.002, 0);
+  estimator::EstimatorConfig config;
+  config.edge_velocity_noise = 0.0;
+  config.filter_joints = false;  // the leg's rates as the drives report them
+  const auto peak_speed = [&](bool settle) {
+    config.settle_after_roll = settle;
+    estimator::Estimator est(robot, config);
+    double v_max = 0.0;
+    for (int k = 0; k <= 500; ++k) {
+      const double t = 1e-3 * k;
+      const bool on_edge = t >= 0.3 && t < 0.4;
+      StaticSensors sensors(robot, q, {0.5, 0.5}, {Vector3d::Zero(), on_edge ? edge : Vector3d::Zero()});
+      if (on_edge) sensors.sample.qd(roll) = 3.0;
+      if (t >= 0.4 && t < 0.41) {
+        sensors.sample.qd(hip) = 1.2;
+        sensors.sample.qd(knee) = -2.4;
+        sensors.sample.qd(ankle) = 1.2;
+      }
+      sensors.sample.tick = k;
+      sensors.sample.time = t;
+      est.update(sensors.sample);
+      EXPECT_TRUE(est.state().contact[0] && est.state().contact[1]);
+      if (t >= 0.4) v_max = std::max(v_max, est.state().v.head<3>().norm());
+    }
+    return v_max;
+  };
+  EXPECT_LT(peak_speed(true), 0.01) << "the impact moved the estimate";
+  EXPECT_GT(peak_speed(false), 0.05) << "what kept it at rest was the settling, not the velocity gate";
+}
+
 TEST_F(EstimatorTest, EstimatesTheGyroBias) {
   const Eigen::VectorXd q = standing_with_yaw(robot, 0.0);
   StaticSensors sensors(robot, q);

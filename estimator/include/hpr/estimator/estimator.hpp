@@ -12,8 +12,10 @@
 ///    rotating about that edge (heel or toe): it stays in contact, its pose corrects nothing until
 ///    the CoP moves back inside, and only the point of the sole at its CoP, which the rolling leaves
 ///    at rest, gives the velocity (`edge_velocity_noise`, while the sole carries `edge_min_load` of
-///    the weight). A sole that is no anchor (in the air, on an edge, turning, or just landed)
-///    follows the estimate; when it becomes one it is seated where the estimate then puts it, so
+///    the weight). A sole that turned in contact (faster than `anchor_max_rate`) and stops with its
+///    CoP back inside has landed on its face: with `settle_after_roll`, like a touchdown, it settles
+///    for 30 ms before its kinematics, which carry the impact, correct anything. A sole that is no anchor (in the air,
+///    on an edge, turning, or just landed) follows the estimate; when it becomes one it is seated where the estimate then puts it, so
 ///    that a sole that turned or slid on its edge is not pulled back to where it stood before.
 ///  - Attitude: an error-state Kalman filter on (R_WB, gyro bias b), predicted with the gyro and
 ///    corrected by the orientation the legs in contact give (sole flat on level ground, its yaw held
@@ -78,6 +80,8 @@ struct EstimatorConfig {
   double edge_velocity_noise = 0.0;       ///< [m/s] velocity from the CoP point of a sole rolling on its edge
                                           ///< (0: such a sole gives no velocity; the stepping overlay sets 0.03)
   double edge_min_load = 0.25;            ///< fraction of the robot's weight such a sole must carry for it (friction holds its CoP point)
+  bool settle_after_roll = false;         ///< a sole that turned in contact faster than anchor_max_rate and drops back
+                                          ///< flat settles as after a touchdown (the stepping overlays set it)
   double anchor_velocity_gate = 0.3;      ///< [m/s] a sole whose kinematic velocity measurement differs from the
                                           ///< estimate by more than this corrects nothing (0: no gate), unless no
                                           ///< sole agrees and it has been in contact 0.1 s: then the estimate is wrong
@@ -183,6 +187,7 @@ class Estimator {
 
   // Contact, and whether a sole in contact is a reliable anchor (flat: CoP inside the sole).
   std::array<bool, 2> contact_{}, anchor_{};
+  std::array<bool, 2> turned_{};                     // turned in contact since its CoP was last inside
   std::array<bool, 2> rolling_{};                    // in contact, loaded, no anchor: rolls on an edge or turns
   std::array<Eigen::Vector3d, 2> cop_S_{};           // centre of pressure in the sole frame, inside the sole
   std::array<double, 2> touchdown_time_{-1e9, -1e9};  ///< when each sole last came into contact
