@@ -22,9 +22,10 @@ std::vector<std::string> stepping_overlay(const std::string& robot = "toro") {
   return hpr::experiments::overlay_overrides(hpr::test::source_dir() + "/config/overlays/" + robot + "_stepping.yaml");
 }
 
-/// The TORO-like overlay with one key more (`key=value`), after the overlay's own.
-std::vector<std::string> stepping_overlay_and(const std::string& override) {
-  std::vector<std::string> o = stepping_overlay();
+/// A robot's stepping overlay (the TORO-like robot's unless `robot` says) with one key more
+/// (`key=value`), after the overlay's own.
+std::vector<std::string> stepping_overlay_and(const std::string& override, const std::string& robot = "toro") {
+  std::vector<std::string> o = stepping_overlay(robot);
   o.push_back(override);
   return o;
 }
@@ -84,11 +85,12 @@ Outcome push_from_behind(double impulse, const std::vector<std::string>& overrid
   return o;
 }
 
-/// The TORO-like robot's trial of `impulse` N s from `direction_deg` as push_trial --in-process
-/// runs it (the figures of docs/RESULTS.md).
-hpr::experiments::TrialResult push_trial(double direction_deg, double impulse, const std::vector<std::string>& overrides) {
+/// The trial of `impulse` N s from `direction_deg` (the TORO-like robot unless `robot` says) as
+/// push_trial --in-process runs it (the figures of docs/RESULTS.md).
+hpr::experiments::TrialResult push_trial(double direction_deg, double impulse, const std::vector<std::string>& overrides,
+                                         const std::string& robot = "toro") {
   hpr::experiments::TrialSpec spec;
-  spec.config = hpr::test::source_dir() + "/config/toro.yaml";
+  spec.config = hpr::test::source_dir() + "/config/" + robot + ".yaml";
   spec.direction_deg = direction_deg;
   spec.impulse = impulse;
   spec.overrides = overrides;
@@ -286,6 +288,22 @@ TEST(SteppingClosedLoop, H1StepsOutOfAPushItCannotHoldStandingLandingBeyondTheCa
   const Outcome inside = push_from_behind(35.0, stepping_overlay("h1_2"), Eigen::Vector3d::UnitX(), "h1_2");
   EXPECT_FALSE(inside.fallen);
   EXPECT_EQ(inside.steps, 0) << "a push the hip strategy holds standing takes no step";
+}
+
+TEST(SteppingClosedLoop, H1StepsFromTheFrontWhereItStopsHoldingStanding) {
+  // H1-2's CAM strategy holds 56.2 N s from the front standing. 58 N s: standing it is lost, and
+  // with its overlay but no bound on the lean back it falls without a step (the capture point never
+  // leaves the reach). With the overlay's lean budget it holds 56 N s without a step and steps out
+  // of 58 N s.
+  auto trial = [](double impulse, const std::vector<std::string>& overrides) { return push_trial(180.0, impulse, overrides, "h1_2"); };
+  EXPECT_FALSE(trial(58.0, {}).recovered) << "the hip strategy alone loses this push";
+  const auto unbounded = trial(58.0, stepping_overlay_and("reference_gen.y.lean_budget_negative=.inf", "h1_2"));
+  EXPECT_FALSE(unbounded.recovered);
+  EXPECT_EQ(unbounded.steps_started, 0) << "no step was decided";
+  expect_one_step_then_closing_up(trial(58.0, stepping_overlay("h1_2")));
+  const auto inside = trial(56.0, stepping_overlay("h1_2"));
+  EXPECT_TRUE(inside.recovered) << inside.failure;
+  EXPECT_EQ(inside.steps_started, 0) << "a push it holds standing takes no step";
 }
 
 TEST(SteppingClosedLoop, WhileNoStepIsDueTheStackComputesWhatItComputesWithoutStepping) {
