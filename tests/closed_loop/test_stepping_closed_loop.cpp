@@ -306,6 +306,22 @@ TEST(SteppingClosedLoop, H1StepsFromTheFrontWhereItStopsHoldingStanding) {
   EXPECT_EQ(inside.steps_started, 0) << "a push it holds standing takes no step";
 }
 
+TEST(SteppingClosedLoop, AStepWithNowhereToLandOnTheDeclaredGroundIsNotTakenAndBalanceGoesOnAsWithoutSteps) {
+  // 42 N s from behind takes one step with the overlay (above). The declared ground is a strip
+  // 0.24 m wide under the soles, which stand 0.2 m apart: no landing within reach keeps a sole on
+  // it, so no step is taken, and the robot moves exactly as with stepping off (here it falls: the
+  // best the ankle and hip strategies can do).
+  const auto nowhere = push_trial(0.0, 42.0, stepping_overlay_and("balance.stepping.ground=[-1, 1, -0.12, 0.12]"));
+  EXPECT_EQ(nowhere.steps_started, 0);
+  const auto off = push_trial(0.0, 42.0, stepping_overlay_and("balance.stepping.enabled=false"));
+  EXPECT_EQ(nowhere.fallen, off.fallen);
+  EXPECT_EQ(nowhere.sim_time, off.sim_time);
+  EXPECT_EQ(nowhere.max_tilt_deg, off.max_tilt_deg) << "the same motion, tick for tick";
+  EXPECT_EQ(nowhere.max_slip, off.max_slip);
+  // Ground with room ahead of the feet: the step is taken and recovers.
+  expect_one_step_then_closing_up(push_trial(0.0, 42.0, stepping_overlay_and("balance.stepping.ground=[-1, 1, -1, 1]")));
+}
+
 TEST(SteppingClosedLoop, WhileNoStepIsDueTheStackComputesWhatItComputesWithoutStepping) {
   // Stepping on, and a gentle push that the ankle strategy holds (5 N s, 25 N peak): the
   // controllers compute exactly what they compute with stepping off, tick by tick.

@@ -80,6 +80,46 @@ int support_hull(const std::array<Sole, 2>& soles, const std::array<bool, 2>& co
   return std::max(h - 1, 1);  // the last point repeats the first
 }
 
+/// The point of the convex polygon `poly` (its first `n` vertices, counter-clockwise) nearest to
+/// `x`: x itself inside, else its projection on the boundary.
+template <size_t N>
+Vector2d nearest_in_polygon(const std::array<Vector2d, N>& poly, int n, const Vector2d& x) {
+  if (n == 1) return poly[0];
+  bool inside = n >= 3;
+  double best = std::numeric_limits<double>::infinity();
+  Vector2d nearest = x;
+  for (int i = 0; i < n; ++i) {
+    const Vector2d& a = poly[static_cast<size_t>(i)];
+    const Vector2d& b = poly[static_cast<size_t>((i + 1) % n)];
+    if (cross(a, b, x) < 0) inside = false;
+    const Vector2d d = b - a;
+    const double len2 = d.squaredNorm();
+    const double s = len2 > 0 ? std::clamp((x - a).dot(d) / len2, 0.0, 1.0) : 0.0;
+    const Vector2d q = a + s * d;
+    if ((q - x).squaredNorm() < best) {
+      best = (q - x).squaredNorm();
+      nearest = q;
+    }
+  }
+  return inside ? x : nearest;
+}
+
+/// Clips the convex polygon `poly` (first `n` vertices) to the half-plane e·p ≤ d, in place
+/// (Sutherland–Hodgman); returns the new count.
+int clip(std::array<Vector2d, 8>& poly, int n, const Vector2d& e, double d) {
+  std::array<Vector2d, 8> out;
+  int m = 0;
+  for (int i = 0; i < n; ++i) {
+    const Vector2d& a = poly[static_cast<size_t>(i)];
+    const Vector2d& b = poly[static_cast<size_t>((i + 1) % n)];
+    const double fa = e.dot(a) - d, fb = e.dot(b) - d;
+    if (fa <= 0) out[static_cast<size_t>(m++)] = a;
+    if ((fa < 0 && fb > 0) || (fa > 0 && fb < 0)) out[static_cast<size_t>(m++)] = a + (b - a) * (fa / (fa - fb));
+  }
+  poly = out;
+  return m;
+}
+
 }  // namespace
 
 double support_distance(const std::array<Sole, 2>& soles, const std::array<bool, 2>& contact, const Vector2d& x) {
@@ -102,24 +142,7 @@ Vector2d support_point(const std::array<Sole, 2>& soles, const std::array<bool, 
   std::array<Vector2d, 16> hull;
   const int h = support_hull(soles, contact, inset, hull);
   if (h == 0) return x;
-  if (h == 1) return hull[0];
-  bool inside = h >= 3;
-  double best = std::numeric_limits<double>::infinity();
-  Vector2d nearest = x;
-  for (int i = 0; i < h; ++i) {
-    const Vector2d& a = hull[static_cast<size_t>(i)];
-    const Vector2d& b = hull[static_cast<size_t>((i + 1) % h)];
-    if (cross(a, b, x) < 0) inside = false;
-    const Vector2d d = b - a;
-    const double len2 = d.squaredNorm();
-    const double s = len2 > 0 ? std::clamp((x - a).dot(d) / len2, 0.0, 1.0) : 0.0;
-    const Vector2d q = a + s * d;
-    if ((q - x).squaredNorm() < best) {
-      best = (q - x).squaredNorm();
-      nearest = q;
-    }
-  }
-  return inside ? x : nearest;
+  return nearest_in_polygon(hull, h, x);
 }
 
 SteppingConfig SteppingConfig::load(const Config& c) {
@@ -141,6 +164,11 @@ SteppingConfig SteppingConfig::load(const Config& c) {
   s.weight_offset = c.real_or("weight_offset", s.weight_offset, 1e-6, 1e6);
   s.weight_time = c.real_or("weight_time", s.weight_time, 0.0, 1e6);
   s.time_samples = static_cast<int>(c.integer_or("time_samples", s.time_samples, 1, 1000));
+  if (c.has("ground")) {
+    const auto g = c.reals("ground", 4, -1e4, 1e4);
+    if (!(g[0] < g[1]) || !(g[2] < g[3])) c.fail("ground", "must be [x_min, x_max, y_min, y_max] with x_min < x_max and y_min < y_max");
+    s.ground = std::array<double, 4>{g[0], g[1], g[2], g[3]};
+  }
   return s;
 }
 
@@ -202,6 +230,8 @@ StepPlan StepPlanner::plan(const std::array<Sole, 2>& soles, int swing, const Ve
   const double t_nom = std::clamp(c.t_nominal - elapsed, t_lo, t_hi);
   StepPlan best;
   best.cost = std::numeric_limits<double>::infinity();
+  best.swing = swing;
+  best.placeable = false;  // until a duration has a landing on the declared ground
   const int samples = t_hi > t_lo ? std::max(c.time_samples, 2) : 1;
   for (int i = 0; i < samples; ++i) {
     const double T = samples == 1 ? t_lo : t_lo + (t_hi - t_lo) * i / (samples - 1);
@@ -240,15 +270,39 @@ StepPlan StepPlanner::evaluate(const std::array<Sole, 2>& soles, int swing, cons
   Vector2d u_local = free_local;
   u_local.x() = std::clamp(u_local.x(), -c.reach_backward, c.reach_forward);
   u_local.y() = side * std::clamp(side * u_local.y(), c.min_width, c.max_width);
+  bool placeable = true;
+  if (c.ground) {
+    // The box (counter-clockwise in the stance frame, so in the world) clipped to the declared
+    // ground less the landed sole's extent; the isotropic cost's constrained minimiser is the free
+    // one's projection on that convex polygon.
+    const double y_lo = side > 0 ? c.min_width : -c.max_width, y_hi = side > 0 ? c.max_width : -c.min_width;
+    std::array<Vector2d, 8> region;
+    region[0] = stance.to_world({-c.reach_backward, y_lo});
+    region[1] = stance.to_world({c.reach_forward, y_lo});
+    region[2] = stance.to_world({c.reach_forward, y_hi});
+    region[3] = stance.to_world({-c.reach_backward, y_hi});
+    const double cy = std::abs(std::cos(stance.yaw)), sy = std::abs(std::sin(stance.yaw));
+    const double ex = moving.half_length * cy + moving.half_width * sy, ey = moving.half_length * sy + moving.half_width * cy;
+    const auto& g = *c.ground;
+    int n = 4;
+    n = clip(region, n, Vector2d(-1, 0), -(g[0] + ex));
+    n = clip(region, n, Vector2d(1, 0), g[1] - ex);
+    n = clip(region, n, Vector2d(0, -1), -(g[2] + ey));
+    n = clip(region, n, Vector2d(0, 1), g[3] - ey);
+    placeable = n > 0;
+    if (placeable) u_local = stance.to_local(nearest_in_polygon(region, n, stance.to_world(free_local)));
+  }
   StepPlan p;
+  p.placeable = placeable;
   p.swing = swing;
   p.duration = T;
   p.target = stance.to_world(u_local);
   p.yaw = stance.yaw;
   p.xi_touchdown = xi_T;
   p.reachable = (u_local - free_local).norm() < 1e-9;
-  p.cost = c.weight_position * (u_local - nominal_local).squaredNorm() + c.weight_offset * (want_local - u_local).squaredNorm() +
-           c.weight_time * (T - t_nom) * (T - t_nom);
+  p.cost = placeable ? c.weight_position * (u_local - nominal_local).squaredNorm() + c.weight_offset * (want_local - u_local).squaredNorm() +
+                           c.weight_time * (T - t_nom) * (T - t_nom)
+                     : std::numeric_limits<double>::infinity();
   return p;
 }
 

@@ -228,7 +228,11 @@ void PostureReference::check_step(double t, const EstimatedState& state) {
   } else {
     swing = 1 - last_swing_;  // still settling from a step: the trailing foot follows
   }
-  step_ = planner_.plan(sole, swing, xi_, omega_);
+  const StepPlan plan = planner_.plan(sole, swing, xi_, omega_);
+  // No landing within reach on the declared ground: no step; the ankle and hip strategies do what
+  // they can.
+  if (!plan.placeable) return;
+  step_ = plan;
   begin_step(t);
   if (!needed) ++follow_steps_;
 }
@@ -319,7 +323,8 @@ void PostureReference::update_swing(double t, const EstimatedState* state) {
   if (state != nullptr && tau_s < config_.step.replan_fraction && remaining > config_.step.replan_min_time) {
     // The landing follows the capture point, at most target_rate fast (the estimate is noisy).
     const StepPlan p = planner_.plan_landing(soles(), moving_foot_, xi_, omega_, remaining);
-    const Eigen::Vector2d d = p.target - step_.target;
+    // (A stance sole that slid may leave no landing on the declared ground: the last one stays.)
+    const Eigen::Vector2d d = p.placeable ? Eigen::Vector2d(p.target - step_.target) : Eigen::Vector2d::Zero();
     const double max_d = config_.step.target_rate * dt;
     step_.target += d.norm() > max_d ? Eigen::Vector2d(d * (max_d / d.norm())) : d;
     step_.xi_touchdown = p.xi_touchdown;

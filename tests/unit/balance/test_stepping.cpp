@@ -8,7 +8,9 @@
 #include <random>
 #include <vector>
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "hpr/balance/stepping.hpp"
 #include "hpr/balance/task_reference.hpp"
@@ -300,6 +302,56 @@ TEST(StepPlanner, TheReachBoxBindsTheLandingNeverCrossesAndAStrongPushStepsSoone
   EXPECT_GE(replanned.duration, c.t_min - 0.2 - 1e-12);
 }
 
+TEST(StepPlanner, TheLandingStaysOnTheDeclaredGroundAtTheCheapestPlaceAndNoneMeansNoStep) {
+  // A strong push forwards: without a ground the left foot lands at the forward reach. With the
+  // ground ending 0.2 m ahead of the stance foot the whole landed sole stays on it, at the landing
+  // a brute-force search over the box and the ground finds cheapest (the planner's cost for the
+  // duration it chose); the stance foot turned 0.3 rad checks the rotated box and sole. A ground
+  // that leaves no landing within reach gives no placeable step.
+  SteppingConfig c;
+  c.enabled = true;
+  auto soles = standing();
+  const Vector2d xi(0.5, 0.05);
+  ASSERT_GT(StepPlanner(c).plan(soles, kLeft, xi, kOmega).target.x(), 0.3);
+  for (const double yaw : {0.0, 0.3}) {
+    for (auto& sole : soles) sole.yaw = yaw;
+    SteppingConfig g = c;
+    g.ground = std::array<double, 4>{-1.0, 0.2, -1.0, 1.0};
+    const StepPlanner planner(g);
+    const auto p = planner.plan(soles, kLeft, xi, kOmega);
+    ASSERT_TRUE(p.placeable);
+    const Sole landed{p.target, p.yaw, soles[kLeft].half_length, soles[kLeft].half_width};
+    for (const double sx : {-1.0, 1.0}) {
+      for (const double sy : {-1.0, 1.0}) {
+        EXPECT_LE(landed.to_world({sx * landed.half_length, sy * landed.half_width}).x(), 0.2 + 1e-9) << "yaw " << yaw;
+      }
+    }
+    // The cost of a landing u for the chosen duration, as the planner states it (its terms in the
+    // stance frame): w_p ‖u − u_nom‖² + w_b ‖ξ_T − b − u‖².
+    const Sole& st = soles[kRight];
+    Vector2d nominal = st.to_local(soles[kLeft].centre);
+    nominal.y() = std::clamp(nominal.y(), c.min_width, c.max_width);
+    const Vector2d want = st.to_local(p.xi_touchdown);  // b = 0
+    auto cost = [&](const Vector2d& u) { return c.weight_position * (u - nominal).squaredNorm() + c.weight_offset * (want - u).squaredNorm(); };
+    const double ex = landed.half_length * std::cos(yaw) + landed.half_width * std::sin(yaw);
+    double best = std::numeric_limits<double>::infinity();
+    for (double x = -c.reach_backward; x <= c.reach_forward; x += 5e-4) {
+      for (double y = c.min_width; y <= c.max_width; y += 5e-4) {
+        if (st.to_world({x, y}).x() + ex > 0.2) continue;
+        best = std::min(best, cost({x, y}));
+      }
+    }
+    const double planned = cost(st.to_local(p.target));
+    EXPECT_LE(planned, best + 1e-9) << "no landing on the ground is cheaper";
+    EXPECT_GT(planned, best - 1e-2) << "nor cheaper than the best on the grid by more than its spacing allows (0.1 %)";
+  }
+  for (auto& sole : soles) sole.yaw = 0.0;
+  SteppingConfig none = c;
+  none.ground = std::array<double, 4>{-1.0, 1.0, -1.0, 0.10};  // the left foot has nowhere to go
+  EXPECT_FALSE(StepPlanner(none).plan(soles, kLeft, xi, kOmega).placeable);
+  EXPECT_TRUE(StepPlanner(none).plan(soles, kRight, Vector2d(0.5, -0.05), kOmega).placeable) << "the right foot has";
+}
+
 TEST(SteppingConfig, LoadsAndRefusesOutOfRangeValuesNamingTheKey) {
   const auto cfg = hpr::Config::parse("stepping: {enabled: true, t_min: 0.2, t_max: 0.5, t_nominal: 0.3, cmp_reach: 0.03}", "test.yaml");
   const SteppingConfig c = SteppingConfig::load(cfg.section("stepping"));
@@ -317,6 +369,11 @@ TEST(SteppingConfig, LoadsAndRefusesOutOfRangeValuesNamingTheKey) {
   EXPECT_EQ(hpr::balance::PostureReferenceConfig::load(drops.section("balance")).step.com_drop_backward, 0.03);
   const auto backward = hpr::Config::parse("balance: {stepping: {com_drop: 0.03, com_drop_backward: 0.0}}", "test.yaml");
   EXPECT_EQ(hpr::balance::PostureReferenceConfig::load(backward.section("balance")).step.com_drop_backward, 0.0);
+  EXPECT_FALSE(c.ground.has_value()) << "unset, the ground is unbounded";
+  const auto ground = hpr::Config::parse("stepping: {ground: [-1, 2, -0.5, 0.5]}", "test.yaml");
+  EXPECT_EQ(SteppingConfig::load(ground.section("stepping")).ground.value()[1], 2.0);
+  const auto inverted = hpr::Config::parse("stepping: {ground: [1, -1, -0.5, 0.5]}", "test.yaml");
+  EXPECT_THROW((void)SteppingConfig::load(inverted.section("stepping")), hpr::ConfigError);
   const auto bad = hpr::Config::parse("stepping: {t_min: 0.4, t_max: 0.3}", "test.yaml");
   try {
     (void)SteppingConfig::load(bad.section("stepping"));

@@ -20,7 +20,8 @@
 /// swing of duration T, the DCM at touchdown is ξ_T = p_st + (ξ_0 − p_st) e^{ωT}. Landing the swing
 /// sole at u = ξ_T − b leaves the DCM at offset b from the new sole, inside the new support, from
 /// where the ankle and hip strategies of the paper bring the robot to rest. The planner searches T
-/// within [T_min, T_max] and u within a reachability box around the stance foot, away from it, for
+/// within [T_min, T_max] and u within a reachability box around the stance foot, away from it (and on
+/// the ground the configuration declares, if it does), for
 /// the pair closest to the nominal step that keeps ξ_T − u nearest to b; replanned each tick.
 
 #include <Eigen/Core>
@@ -84,6 +85,10 @@ struct SteppingConfig {
   /// swing side) [m]: forward/backward, and lateral from min_width (clear of the stance foot) to
   /// max_width.
   double reach_forward = 0.35, reach_backward = 0.25, min_width = 0.16, max_width = 0.45;
+  /// The flat ground a step may land on, in the world frame [m]: {x_min, x_max, y_min, y_max}, the
+  /// whole landed sole inside. Unbounded when not configured. A step with no landing both in the
+  /// reachability box and on this ground is not taken (the ankle and hip strategies do what they can).
+  std::optional<std::array<double, 4>> ground;
   double weight_position = 1.0;  ///< cost of the step's distance from the nominal landing (u = ξ_T − b)
   double weight_offset = 10.0;   ///< cost of ξ_T − u missing b (the DCM left outside the new sole)
   double weight_time = 0.1;      ///< [1/s²] cost of T's distance from t_nominal
@@ -99,6 +104,7 @@ struct StepPlan {
   double duration = 0.0;                ///< T [s] from now to touchdown
   Eigen::Vector2d xi_touchdown = Eigen::Vector2d::Zero();  ///< ξ_T predicted with the CMP at the stance sole
   bool reachable = true;                ///< the unconstrained landing lay inside the reachability box
+  bool placeable = true;                ///< some landing in the box keeps the sole on the declared ground
   double cost = 0.0;
 };
 
