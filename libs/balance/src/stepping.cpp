@@ -268,10 +268,11 @@ StepPlan StepPlanner::evaluate(const std::array<Sole, 2>& soles, int swing, cons
   const Vector2d want_local = stance.to_local(xi_T - b);
   const Vector2d free_local = (c.weight_position * nominal_local + c.weight_offset * want_local) / (c.weight_position + c.weight_offset);
   Vector2d u_local = free_local;
-  u_local.x() = std::clamp(u_local.x(), -c.reach_backward, c.reach_forward);
-  u_local.y() = side * std::clamp(side * u_local.y(), c.min_width, c.max_width);
   bool placeable = true;
-  if (c.ground) {
+  if (!c.ground) {
+    u_local.x() = std::clamp(u_local.x(), -c.reach_backward, c.reach_forward);
+    u_local.y() = side * std::clamp(side * u_local.y(), c.min_width, c.max_width);
+  } else {
     // The box (counter-clockwise in the stance frame, so in the world) clipped to the declared
     // ground less the landed sole's extent; the isotropic cost's constrained minimiser is the free
     // one's projection on that convex polygon.

@@ -76,6 +76,14 @@ double angle(const Eigen::VectorXd& qa, const Eigen::VectorXd& qb) {
   return model::base_quaternion(qa).angularDistance(model::base_quaternion(qb));
 }
 
+/// Hip, knee and ankle pitch rates `rate`, −2 `rate` and `rate` (summing to zero): the leg says its
+/// sole translates without turning.
+void translate_sole(SensorSample& s, int hip, int knee, int ankle, double rate) {
+  s.qd(hip) = rate;
+  s.qd(knee) = -2.0 * rate;
+  s.qd(ankle) = rate;
+}
+
 class EstimatorTest : public ::testing::Test {
  protected:
   model::RobotSpec robot = test::load_robot("toro");
@@ -284,12 +292,7 @@ TEST_F(EstimatorTest, ASoleThatReadsLoadedWhileItStillMovesOverridesNothingAtFir
     const double t = 1e-3 * k;
     StaticSensors sensors(robot, q, t < 0.3 ? std::array<double, 2>{0.5, 0.5} : std::array<double, 2>{t < 0.5 ? 0.0 : 0.3, 1.0},
                           {Vector3d::Zero(), t < 0.3 ? Vector3d::Zero() : toe});
-    if (t >= 0.5) {
-      // Hip, knee and ankle pitch rates that sum to zero: the sole translates without turning.
-      sensors.sample.qd(hip) = 2.0;
-      sensors.sample.qd(knee) = -4.0;
-      sensors.sample.qd(ankle) = 2.0;
-    }
+    if (t >= 0.5) translate_sole(sensors.sample, hip, knee, ankle, 2.0);
     sensors.sample.tick = k;
     sensors.sample.time = t;
     est.update(sensors.sample);
@@ -325,11 +328,7 @@ TEST_F(EstimatorTest, ASoleThatDropsBackFlatFromItsEdgeSettlesBeforeItCorrects) 
       const bool on_edge = t >= 0.3 && t < 0.4;
       StaticSensors sensors(robot, q, {0.5, 0.5}, {Vector3d::Zero(), on_edge ? edge : Vector3d::Zero()});
       if (on_edge) sensors.sample.qd(roll) = 3.0;
-      if (t >= 0.4 && t < 0.41) {
-        sensors.sample.qd(hip) = 1.2;
-        sensors.sample.qd(knee) = -2.4;
-        sensors.sample.qd(ankle) = 1.2;
-      }
+      if (t >= 0.4 && t < 0.41) translate_sole(sensors.sample, hip, knee, ankle, 1.2);
       sensors.sample.tick = k;
       sensors.sample.time = t;
       est.update(sensors.sample);
