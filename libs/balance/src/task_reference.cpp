@@ -49,6 +49,13 @@ PostureReferenceConfig PostureReferenceConfig::load(const Config& c) {
   p.lift_height = c.real_or("lift_height", p.lift_height, 0.0, 0.5);
   p.unloaded_fraction = c.real_or("unloaded_fraction", p.unloaded_fraction, 0.0, 0.5);
   p.support = support_from_string(c.choice_or("support", "double", {"double", "left", "right"}));
+  if (c.has("push_compensation")) {
+    const Config pc = c.section("push_compensation");
+    auto& k = p.push_compensation;
+    k.enabled = pc.boolean_or("enabled", k.enabled);
+    k.filter = pc.real_or("filter", k.filter, 0.001, 10.0);
+    k.max_force = pc.real_or("max_force", k.max_force, 0.0, 1.0e4);
+  }
   if (c.has("stepping")) {
     const Config st = c.section("stepping");
     p.stepping = SteppingConfig::load(st);
@@ -393,30 +400,49 @@ void PostureReference::land(double t, const EstimatedState* state) {
   }
 }
 
+void PostureReference::observe_external_force(double t, const EstimatedState& state) {
+  // The horizontal external force by a momentum observer (no differentiation):
+  // F̂ = K (m ċ − m ċ_0 − ∫ (Σ f_ground + F̂) dt), a first-order estimate of m c̈ − Σ f_ground
+  // with time constant 1/K.
+  const Eigen::Vector2d v = state.v_com.head<2>();
+  const double m = robot_->model.mass;
+  // The ground's force on the feet in contact only: the sensor of a foot in the air reads that
+  // foot's own inertia (tens of newtons while it swings), which is no ground force.
+  Eigen::Vector2d f_ground = Eigen::Vector2d::Zero();
+  for (size_t k = 0; k < 2; ++k) {
+    if (state.contact[k]) f_ground += state.foot_wrench_W[k].head<2>();
+  }
+  const double dt = t - t_prev_state_;
+  const bool running = t_prev_state_ >= 0.0 && dt > 0.0 && dt < 0.1;
+  if (running) {
+    momentum_integral_ += (f_ground + f_ext_) * dt;
+    f_ext_ = (m * (v - v_prev_) - momentum_integral_) / config_.step.force_filter;
+  } else {
+    v_prev_ = v;  // the observer's start
+    momentum_integral_.setZero();
+    f_ext_.setZero();
+  }
+  if (!f_ext_.allFinite()) {  // a sensor's NaN: the observer starts again at the next sample
+    v_prev_ = v;
+    momentum_integral_.setZero();
+    f_ext_.setZero();
+    f_comp_.setZero();
+  } else if (config_.push_compensation.enabled) {
+    if (running) f_comp_ += std::min(1.0, dt / config_.push_compensation.filter) * (f_ext_ - f_comp_);
+    const double n = f_comp_.norm(), f_max = config_.push_compensation.max_force;
+    if (n > f_max) f_comp_ *= f_max / n;
+  }
+  t_prev_state_ = t;
+}
+
 const TaskReference& PostureReference::update(double t, const EstimatedState* state) {
   ref_.time = t;
+  if (state != nullptr && (config_.stepping.enabled || config_.push_compensation.enabled) && omega_ > 0.0) {
+    observe_external_force(t, *state);
+  }
   if (state != nullptr && config_.stepping.enabled && omega_ > 0.0) {
-    // The horizontal external force by a momentum observer (no differentiation):
-    // F̂ = K (m ċ − m ċ_0 − ∫ (Σ f_ground + F̂) dt), a first-order estimate of m c̈ − Σ f_ground
-    // with time constant 1/K.
     const Eigen::Vector2d v = state->v_com.head<2>();
     const double m = robot_->model.mass;
-    // The ground's force on the feet in contact only: the sensor of a foot in the air reads that
-    // foot's own inertia (tens of newtons while it swings), which is no ground force.
-    Eigen::Vector2d f_ground = Eigen::Vector2d::Zero();
-    for (size_t k = 0; k < 2; ++k) {
-      if (state->contact[k]) f_ground += state->foot_wrench_W[k].head<2>();
-    }
-    const double dt = t - t_prev_state_;
-    if (t_prev_state_ >= 0.0 && dt > 0.0 && dt < 0.1) {
-      momentum_integral_ += (f_ground + f_ext_) * dt;
-      f_ext_ = (m * (v - v_prev_) - momentum_integral_) / config_.step.force_filter;
-    } else {
-      v_prev_ = v;  // the observer's start
-      momentum_integral_.setZero();
-      f_ext_.setZero();
-    }
-    t_prev_state_ = t;
     // The external force counts until the first touchdown of a series of steps: after it, the
     // impacts of the landing feet and their sensors' transients are no push.
     xi_ = balance::capture_point(state->p_com.head<2>(), v, omega_);
@@ -467,6 +493,9 @@ const TaskReference& PostureReference::update(double t, const EstimatedState* st
     case Stage::kHold:
       ref_.v_com.setZero();
       ref_.a_com.setZero();
+      // The push's feedforward (push_compensation): none without an estimate to observe it in, nor
+      // after a step until the robot is at rest (the landings' impacts are no push).
+      if (config_.push_compensation.enabled && state != nullptr && !stepped_) ref_.a_com.head<2>() = -f_comp_ / robot_->model.mass;
       ref_.qd_free.setZero();
       ref_.qdd_free.setZero();
       ref_.settled = true;

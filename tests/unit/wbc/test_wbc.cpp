@@ -298,6 +298,89 @@ TEST(Wbc, TheHipTorqueIsTheFeedforwardTorqueAndAMovingCoMReferenceLoadsTheAnkles
   }
 }
 
+TEST(PushCompensation, TheWbcAsksTheContactsToCancelTheObservedPushWithinItsBound) {
+  // balance.push_compensation: standing settled, the CoM reference's acceleration is −F̂ / m, F̂ the
+  // momentum observer's m c̈ − Σ f_ground. A robot at rest whose soles resist a steady push F (the
+  // ground's horizontal force −F) gets c̈^ref = −F / m and the CoM wrench the wbc asks of the
+  // contacts cancels F; the same when nothing on the ground resists and the CoM accelerates
+  // (F̂ = m c̈); the force is clamped to max_force along its direction; a sensor's NaN restarts the
+  // observer; off (the default) and without an estimate, nothing changes.
+  const auto robot = test::load_robot("toro");
+  const model::Model& m = robot.model;
+  const Config cfg = Config::load(test::source_dir() + "/config/toro.yaml");
+  wbc::WholeBodyController ctl(robot, wbc::WbcConfig::load(cfg.section("wbc"), robot));
+  const auto on = balance::PostureReferenceConfig::load(
+      Config::parse("balance: {push_compensation: {enabled: true, filter: 0.1, max_force: 150}}", "test.yaml").section("balance"));
+  EXPECT_FALSE(balance::PostureReferenceConfig::load(cfg.section("balance")).push_compensation.enabled) << "off as configured";
+  EXPECT_THROW((void)balance::PostureReferenceConfig::load(
+                   Config::parse("balance: {push_compensation: {filter: 0}}", "test.yaml").section("balance")),
+               ConfigError);
+  const VectorXd q = robot.standing_configuration();
+  model::Data d(m);
+  const Vector3d com = model::center_of_mass(m, d, q);
+  // `ground` resists a push at rest; `accel` is the CoM's acceleration with no ground force.
+  struct Case {
+    Eigen::Vector2d ground, accel, expected_force;
+  };
+  const std::vector<Case> cases{{{-60.0, 20.0}, {0.0, 0.0}, {60.0, -20.0}},
+                                {{0.0, 0.0}, {0.3, -0.1}, {0.3 * m.mass, -0.1 * m.mass}},
+                                {{-300.0, 100.0}, {0.0, 0.0}, Eigen::Vector2d(300.0, -100.0).normalized() * 150.0}};
+  for (const Case& c : cases) {
+    balance::PostureReference pref(robot, on), off(robot, {});
+    pref.start(q, 0.0);
+    off.start(q, 0.0);
+    EstimatedState st;
+    st.q = q;
+    st.v = VectorXd::Zero(m.nv);
+    st.p_com = com;
+    st.contact = {true, true};
+    balance::TaskReference ref, ref_off;
+    for (int i = 0; i <= 2000; ++i) {
+      const double t = 1e-3 * i;
+      st.time = t;
+      st.v_com.head<2>() = c.accel * t;
+      for (auto& w : st.foot_wrench_W) {
+        w.setZero();
+        w.head<2>() = 0.5 * c.ground;
+        w(2) = 0.5 * m.mass * 9.81;
+      }
+      if (i == 1500) st.foot_wrench_W[0](0) = std::numeric_limits<double>::quiet_NaN();
+      ref = pref.update(t, &st);
+      ref_off = off.update(t, &st);
+      ASSERT_TRUE(ref.a_com.allFinite()) << t;
+      if (t < 1.0) {
+        EXPECT_EQ(ref.a_com, ref_off.a_com) << "no compensation before the start's blend ends: " << t;
+      } else {
+        EXPECT_TRUE(ref_off.a_com.isZero()) << "off: " << t;
+      }
+      EXPECT_LT((ref.p_com - ref_off.p_com).norm(), 1e-12) << "the CoM reference itself does not move";
+      if (i == 1499) {
+        EXPECT_LT((-m.mass * ref.a_com.head<2>() - c.expected_force).norm(), 1e-3 * c.expected_force.norm());
+      }
+      if (i == 1500) {
+        EXPECT_TRUE(ref.a_com.isZero()) << "the NaN sample restarts the observer";
+      }
+    }
+    // 0.5 s after the restart the filtered force is back (τ = 40 ms observer, 0.1 s low-pass).
+    EXPECT_LT((-m.mass * ref.a_com.head<2>() - c.expected_force).norm(), 0.02 * c.expected_force.norm()) << c.expected_force.transpose();
+    EXPECT_EQ(ref.a_com.z(), 0.0);
+    // The wbc, the robot at rest: the CoM force it asks for differs from the one without
+    // compensation by −F̂, horizontally (the moment changes too: the leg accelerations that
+    // would move the CoM carry angular momentum).
+    wbc::RobotState rs;
+    rs.q = q;
+    rs.v = VectorXd::Zero(m.nv);
+    ctl.step(rs, ref_off);
+    const Vector6d w_off = ctl.status().w_des;
+    ctl.step(rs, ref);
+    const Vector6d dw = ctl.status().w_des - w_off;
+    EXPECT_LT((dw.head<2>() + c.expected_force).norm(), 0.02 * c.expected_force.norm()) << c.expected_force.transpose();
+    EXPECT_LT(std::abs(dw(2)), 1e-6 * c.expected_force.norm()) << dw.transpose();
+    // Without an estimate the observer has nothing to go on: no feedforward.
+    EXPECT_TRUE(pref.update(2.001, nullptr).a_com.isZero());
+  }
+}
+
 TEST(Wbc, CommandsStayWithinTheJointLimits) {
   // A commanded motion far beyond what the joints can follow (J⁻¹ turns 4 m/s of CoM into leg
   // rates above their limits): the drives get targets inside their ranges, and the step says so.

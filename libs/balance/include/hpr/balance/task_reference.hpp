@@ -70,6 +70,15 @@ struct PostureReferenceConfig {
   double unloaded_fraction = 0.02;  ///< load limit of a foot about to lift
   Support support = Support::kDouble;  ///< support to reach after the start
   SteppingConfig stepping;          ///< section `stepping`: the third strategy, off unless enabled
+  /// Section `push_compensation`: standing settled, the CoM reference's acceleration is −F̂ / m,
+  /// F̂ the horizontal external force of the momentum observer, so that the CoM wrench the wbc asks
+  /// the contacts for cancels the push instead of the CoM impedance's deflection (under a steady
+  /// force F at height h the CoP then sits F h / (m g) ahead of the CoM, not F / K_com further).
+  struct PushCompensation {
+    bool enabled = false;
+    double filter = 0.1;       ///< [s] time constant of a low-pass on F̂ (the observer's own is stepping.force_filter)
+    double max_force = 150.0;  ///< [N] the compensated force is clamped to this magnitude
+  } push_compensation;
   /// How a step is carried out (section `stepping` too).
   struct StepExecution {
     double unload_time = 0.05;        ///< [s] of the step's duration spent unloading the swing foot before lift-off
@@ -119,14 +128,17 @@ class PostureReference {
   const TaskReference& update(double t, const EstimatedState* state = nullptr);
   [[nodiscard]] const TaskReference& reference() const { return ref_; }
   [[nodiscard]] Support target_support() const { return target_; }
-  /// The horizontal external force F̂ the robot is resisting (a momentum observer, stepping
-  /// enabled only); the capture point, the step under way and the steps taken are the reference's
-  /// `stepping` (StepStatus).
+  /// The horizontal external force F̂ the robot is resisting (a momentum observer, stepping or
+  /// push compensation enabled only); the capture point, the step under way and the steps taken
+  /// are the reference's `stepping` (StepStatus).
   [[nodiscard]] const Eigen::Vector2d& external_force() const { return f_ext_; }
 
  private:
   enum class Stage { kInit, kHold, kShift, kLift, kLower, kShiftBack, kStepUnload, kStepSwing, kStepSettle, kStepRecover };
   void begin_stage(Stage s, double t);
+  /// The momentum observer's F̂ from the estimated state at time t, and its low-passed, clamped
+  /// copy for push_compensation.
+  void observe_external_force(double t, const EstimatedState& state);
   Eigen::Vector3d com_target(Support s) const;
   std::array<Sole, 2> soles() const;
   /// Starts a step from the estimated state when the capture point asks for one.
@@ -166,6 +178,7 @@ class PostureReference {
   StepPlan step_;
   Eigen::Vector2d xi_ = Eigen::Vector2d::Zero(), f_ext_ = Eigen::Vector2d::Zero();
   Eigen::Vector2d lean_ = Eigen::Vector2d::Zero();  ///< horizontal part of the base's z axis less the standing one's (world)
+  Eigen::Vector2d f_comp_ = Eigen::Vector2d::Zero();  ///< F̂ low-passed and clamped (push_compensation) [N]
   Eigen::Vector2d v_prev_ = Eigen::Vector2d::Zero();  ///< the observer's initial CoM velocity
   Eigen::Vector2d momentum_integral_ = Eigen::Vector2d::Zero();  ///< ∫ (Σ f_ground + F̂) dt [N s]
   double t_prev_state_ = -1.0, excess_ = -1.0;
