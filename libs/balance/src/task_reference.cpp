@@ -51,6 +51,7 @@ PostureReferenceConfig PostureReferenceConfig::load(const Config& c) {
   p.support = support_from_string(c.choice_or("support", "double", {"double", "left", "right"}));
   if (c.has("push_compensation")) {
     const Config pc = c.section("push_compensation");
+    pc.reject_unknown({"enabled", "filter", "max_force"});
     auto& k = p.push_compensation;
     k.enabled = pc.boolean_or("enabled", k.enabled);
     k.filter = pc.real_or("filter", k.filter, 0.001, 10.0);
@@ -417,18 +418,15 @@ void PostureReference::observe_external_force(double t, const EstimatedState& st
   if (running) {
     momentum_integral_ += (f_ground + f_ext_) * dt;
     f_ext_ = (m * (v - v_prev_) - momentum_integral_) / config_.step.force_filter;
-  } else {
-    v_prev_ = v;  // the observer's start
-    momentum_integral_.setZero();
-    f_ext_.setZero();
   }
-  if (!f_ext_.allFinite()) {  // a sensor's NaN: the observer starts again at the next sample
+  // The observer's start, and its restart after a sensor's NaN (the compensation with it).
+  if (!running || !f_ext_.allFinite()) {
+    if (!f_ext_.allFinite()) f_comp_.setZero();
     v_prev_ = v;
     momentum_integral_.setZero();
     f_ext_.setZero();
-    f_comp_.setZero();
   } else if (config_.push_compensation.enabled) {
-    if (running) f_comp_ += std::min(1.0, dt / config_.push_compensation.filter) * (f_ext_ - f_comp_);
+    f_comp_ += std::min(1.0, dt / config_.push_compensation.filter) * (f_ext_ - f_comp_);
     const double n = f_comp_.norm(), f_max = config_.push_compensation.max_force;
     if (n > f_max) f_comp_ *= f_max / n;
   }

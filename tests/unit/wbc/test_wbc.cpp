@@ -315,6 +315,10 @@ TEST(PushCompensation, TheWbcAsksTheContactsToCancelTheObservedPushWithinItsBoun
   EXPECT_THROW((void)balance::PostureReferenceConfig::load(
                    Config::parse("balance: {push_compensation: {filter: 0}}", "test.yaml").section("balance")),
                ConfigError);
+  EXPECT_THROW((void)balance::PostureReferenceConfig::load(
+                   Config::parse("balance: {push_compensation: {enable: true}}", "test.yaml").section("balance")),
+               ConfigError)
+      << "a misspelt key is refused, not ignored";
   const VectorXd q = robot.standing_configuration();
   model::Data d(m);
   const Vector3d com = model::center_of_mass(m, d, q);

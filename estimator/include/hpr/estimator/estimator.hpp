@@ -14,9 +14,10 @@
 ///    at rest, gives the velocity (`edge_velocity_noise`, while the sole carries `edge_min_load` of
 ///    the weight). A sole that turned in contact (faster than `anchor_max_rate`) and stops with its
 ///    CoP back inside has landed on its face: with `settle_after_roll`, like a touchdown, it settles
-///    for 30 ms before its kinematics, which carry the impact, correct anything. A sole that is no anchor (in the air,
-///    on an edge, turning, or just landed) follows the estimate; when it becomes one it is seated where the estimate then puts it, so
-///    that a sole that turned or slid on its edge is not pulled back to where it stood before.
+///    for 30 ms before its kinematics, which carry the impact, correct anything. A sole that is no
+///    anchor (in the air, on an edge, turning, or just landed) follows the estimate; when it becomes
+///    one it is seated where the estimate then puts it, so that a sole that turned or slid on its
+///    edge is not pulled back to where it stood before.
 ///  - Attitude: an error-state Kalman filter on (R_WB, gyro bias b), predicted with the gyro and
 ///    corrected by the orientation the legs in contact give (sole flat on level ground, its yaw held
 ///    since it became an anchor), and without contact by the accelerometer's gravity direction.
