@@ -173,9 +173,14 @@ TEST(SteppingClosedLoop, AStepLandsNoNarrowerThanTheRobotStands) {
   // point (balance.stepping.min_width 0.16 lets it land 0.07 m from the centre line), the swing sole
   // leaves the capture point beyond its outer edge, the trailing foot steps and the robot walks
   // sideways until it falls; landed no narrower than it stands (0.20, as configured) it recovers
-  // with one step and the trailing foot closing up (docs/RESULTS.md, "Stepping"). As push_trial
-  // --in-process runs it.
-  auto trial = [](const std::vector<std::string>& overrides) { return push_trial(0.0, 54.0, overrides); };
+  // with one step and the trailing foot closing up (docs/RESULTS.md, "Stepping"). The push counts
+  // as lasting for good (push_duration_ratio 1000): the step is then taken early enough to land
+  // narrow at 54 N s; taken later (the configured ratio) the narrow landing fails at 90 and 91 N s
+  // only. As push_trial --in-process runs it.
+  auto trial = [](std::vector<std::string> overrides) {
+    overrides.emplace_back("balance.stepping.push_duration_ratio=1000");
+    return push_trial(0.0, 54.0, overrides);
+  };
   expect_one_step_then_closing_up(trial(stepping_overlay()));
   const auto walked = trial(stepping_overlay_and("balance.stepping.min_width=0.16"));
   EXPECT_FALSE(walked.recovered);

@@ -15,6 +15,10 @@ double lip_omega(double z_c, double g) { return std::sqrt(g / z_c); }
 
 Vector2d capture_point(const Vector2d& c, const Vector2d& cd, double omega) { return c + cd / omega; }
 
+Vector2d push_shift(const Vector2d& f, double m, double omega, double t_remaining) {
+  return f / (m * omega * omega) * -std::expm1(-omega * std::max(t_remaining, 0.0));
+}
+
 Vector2d dcm_after(const Vector2d& xi0, const Vector2d& p, double omega, double t) {
   return p + (xi0 - p) * std::exp(omega * t);
 }

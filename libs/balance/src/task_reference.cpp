@@ -75,6 +75,8 @@ PostureReferenceConfig PostureReferenceConfig::load(const Config& c) {
     e.transfer_time = st.real_or("transfer_time", e.transfer_time, 0.0, 2.0);
     e.follow_delay = st.real_or("follow_delay", e.follow_delay, 0.0, 2.0);
     e.force_filter = st.real_or("force_filter", e.force_filter, 0.001, 1.0);
+    e.push_onset = st.real_or("push_onset", e.push_onset, 0.0, 1000.0);
+    e.push_duration_ratio = st.real_or("push_duration_ratio", e.push_duration_ratio, 0.0, 1000.0);
     e.cop_margin = st.real_or("cop_margin", e.cop_margin, 0.0, 0.1);
     e.settle_gain = st.real_or("settle_gain", e.settle_gain, 0.0, 100.0);
     e.settle_time = st.real_or("settle_time", e.settle_time, 0.0, 10.0);
@@ -170,6 +172,7 @@ void PostureReference::start(const Eigen::VectorXd& q, double t) {
   last_t_ = t;
   t_prev_state_ = -1.0;
   f_ext_.setZero();
+  push_start_ = -1.0;
   momentum_integral_.setZero();
   last_swing_ = -1;
   stepped_ = false;
@@ -442,9 +445,16 @@ const TaskReference& PostureReference::update(double t, const EstimatedState* st
     const Eigen::Vector2d v = state->v_com.head<2>();
     const double m = robot_->model.mass;
     // The external force counts until the first touchdown of a series of steps: after it, the
-    // impacts of the landing feet and their sensors' transients are no push.
+    // impacts of the landing feet and their sensors' transients are no push. How long it will
+    // last is not known: it is taken to last push_duration_ratio times as long again as it has.
+    if (f_ext_.norm() < config_.step.push_onset) {
+      push_start_ = -1.0;
+    } else if (push_start_ < 0.0) {
+      push_start_ = t;
+    }
+    const double t_pushed = push_start_ < 0.0 ? 0.0 : t - push_start_;
     xi_ = balance::capture_point(state->p_com.head<2>(), v, omega_);
-    if (!stepped_) xi_ += f_ext_ / (m * omega_ * omega_);
+    if (!stepped_) xi_ += balance::push_shift(f_ext_, m, omega_, config_.step.push_duration_ratio * t_pushed);
     // The base's lean from its standing orientation: the horizontal part of its z axis, from
     // q = (p, quat (x, y, z, w), ...), less that of the standing base's.
     const Eigen::Vector4d quat = state->q.segment<4>(3);

@@ -30,16 +30,17 @@ struct Lip {
   Vector2d c, cd;
 };
 
-/// RK4 of the LIP c̈ = ω² (c − p) over `t` with the CMP held at `p` (steps of 0.1 ms).
-Lip integrate(Lip s, const Vector2d& p, double omega, double t) {
+/// RK4 of the LIP c̈ = ω² (c − p) + a_ext over `t` with the CMP held at `p` (steps of 0.1 ms);
+/// a_ext = F / m of an external force.
+Lip integrate(Lip s, const Vector2d& p, double omega, double t, const Vector2d& a_ext = Vector2d::Zero()) {
   const int n = std::max(1, static_cast<int>(std::ceil(t / 1e-4)));
   const double h = t / n;
   const double w2 = omega * omega;
   for (int i = 0; i < n; ++i) {
-    const Vector2d k1c = s.cd, k1v = w2 * (s.c - p);
-    const Vector2d k2c = s.cd + 0.5 * h * k1v, k2v = w2 * (s.c + 0.5 * h * k1c - p);
-    const Vector2d k3c = s.cd + 0.5 * h * k2v, k3v = w2 * (s.c + 0.5 * h * k2c - p);
-    const Vector2d k4c = s.cd + h * k3v, k4v = w2 * (s.c + h * k3c - p);
+    const Vector2d k1c = s.cd, k1v = w2 * (s.c - p) + a_ext;
+    const Vector2d k2c = s.cd + 0.5 * h * k1v, k2v = w2 * (s.c + 0.5 * h * k1c - p) + a_ext;
+    const Vector2d k3c = s.cd + 0.5 * h * k2v, k3v = w2 * (s.c + 0.5 * h * k2c - p) + a_ext;
+    const Vector2d k4c = s.cd + h * k3v, k4v = w2 * (s.c + h * k3c - p) + a_ext;
     s.c += h / 6 * (k1c + 2 * k2c + 2 * k3c + k4c);
     s.cd += h / 6 * (k1v + 2 * k2v + 2 * k3v + k4v);
   }
@@ -74,6 +75,28 @@ TEST(Lip, WithTheCmpAtTheCapturePointThePendulumComesToRestThere) {
   const Lip s = integrate(s0, xi, kOmega, 6.0);
   EXPECT_LT((s.c - xi).norm(), 1e-6);
   EXPECT_LT(s.cd.norm(), 1e-5);
+}
+
+TEST(Lip, AForceOfKnownDurationShiftsTheCapturePointToTheCmpThatBringsThePendulumToRest) {
+  // With the CMP at p = ξ + push_shift(F, m, ω, T) the pendulum pushed by F for T more seconds ends
+  // the push with its capture point at p, where it then comes to rest; a force that lasts for good
+  // shifts ξ by F / (m ω²), the CMP that holds it.
+  const double m = 80.0;
+  const Vector2d f(130.0, -40.0);
+  const Lip s0{Vector2d(0.01, 0.0), Vector2d(0.2, -0.1)};
+  const Vector2d xi0 = hpr::balance::capture_point(s0.c, s0.cd, kOmega);
+  for (const double T : {0.05, 0.27, 0.8}) {
+    const Vector2d p = xi0 + hpr::balance::push_shift(f, m, kOmega, T);
+    const Lip s = integrate(s0, p, kOmega, T, f / m);
+    EXPECT_LT((hpr::balance::capture_point(s.c, s.cd, kOmega) - p).norm(), 1e-9) << "T = " << T;
+    // A CMP 1 cm short of it loses the pendulum: its capture point runs away from p.
+    const Vector2d p_short = p - 0.01 * f.normalized();
+    const Lip lost = integrate(integrate(s0, p_short, kOmega, T, f / m), p_short, kOmega, 2.0);
+    EXPECT_GT((hpr::balance::capture_point(lost.c, lost.cd, kOmega) - p_short).norm(), 0.1) << "T = " << T;
+  }
+  EXPECT_LT((hpr::balance::push_shift(f, m, kOmega, std::numeric_limits<double>::infinity()) - f / (m * kOmega * kOmega)).norm(), 1e-15);
+  EXPECT_EQ(hpr::balance::push_shift(f, m, kOmega, 0.0), Vector2d::Zero());
+  EXPECT_EQ(hpr::balance::push_shift(f, m, kOmega, -1.0), Vector2d::Zero());
 }
 
 TEST(SupportDistance, InsideIsNegativeOutsideIsTheDistanceToTheHull) {
@@ -369,6 +392,18 @@ TEST(SteppingConfig, LoadsAndRefusesOutOfRangeValuesNamingTheKey) {
   EXPECT_EQ(hpr::balance::PostureReferenceConfig::load(drops.section("balance")).step.com_drop_backward, 0.03);
   const auto backward = hpr::Config::parse("balance: {stepping: {com_drop: 0.03, com_drop_backward: 0.0}}", "test.yaml");
   EXPECT_EQ(hpr::balance::PostureReferenceConfig::load(backward.section("balance")).step.com_drop_backward, 0.0);
+  // How long a push is taken to last: 2 times as long again by default, set and bounded.
+  EXPECT_EQ(hpr::balance::PostureReferenceConfig::load(drops.section("balance")).step.push_duration_ratio, 2.0);
+  const auto ratio = hpr::Config::parse("balance: {stepping: {push_duration_ratio: 1000, push_onset: 20}}", "test.yaml");
+  EXPECT_EQ(hpr::balance::PostureReferenceConfig::load(ratio.section("balance")).step.push_duration_ratio, 1000.0);
+  EXPECT_EQ(hpr::balance::PostureReferenceConfig::load(ratio.section("balance")).step.push_onset, 20.0);
+  try {
+    (void)hpr::balance::PostureReferenceConfig::load(
+        hpr::Config::parse("balance: {stepping: {push_duration_ratio: -1}}", "test.yaml").section("balance"));
+    ADD_FAILURE() << "a negative push_duration_ratio was accepted";
+  } catch (const hpr::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("push_duration_ratio"), std::string::npos) << e.what();
+  }
   EXPECT_FALSE(c.ground.has_value()) << "unset, the ground is unbounded";
   const auto ground = hpr::Config::parse("stepping: {ground: [-1, 2, -0.5, 0.5]}", "test.yaml");
   EXPECT_EQ(SteppingConfig::load(ground.section("stepping")).ground.value()[1], 2.0);

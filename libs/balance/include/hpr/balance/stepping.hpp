@@ -41,6 +41,12 @@ Eigen::Vector2d capture_point(const Eigen::Vector2d& c, const Eigen::Vector2d& c
 /// ξ after `t` seconds with the CMP held at `p` (the DCM closed form).
 Eigen::Vector2d dcm_after(const Eigen::Vector2d& xi0, const Eigen::Vector2d& p, double omega, double t);
 
+/// The capture point's shift [m] by an external horizontal force `f` [N] on a mass `m` [kg] that
+/// lasts `t_remaining` more seconds: F / (m ω²) (1 − e^{−ω t_remaining}). With the CMP held at p the
+/// pendulum c̈ = ω² (c − p) + F / m comes to rest over p after the force ends iff ξ + shift = p; a
+/// force that lasts for good shifts ξ by F / (m ω²), the CMP that holds it.
+Eigen::Vector2d push_shift(const Eigen::Vector2d& f, double m, double omega, double t_remaining);
+
 /// A sole on flat ground: its centre, yaw and half sizes (the support rectangle).
 struct Sole {
   Eigen::Vector2d centre = Eigen::Vector2d::Zero();
@@ -69,7 +75,7 @@ struct SteppingConfig {
   bool enabled = false;        ///< take steps (else the ankle and hip strategies only, as the paper)
   double margin = 0.0;         ///< [m] ξ may come this close to the grown support edge before a step
   double cmp_reach = 0.025;    ///< [m] how far beyond the support the hip strategy holds the capture point
-                               ///<     (shifted by F̂ / (m ω²)) without a step, ahead and to the sides
+                               ///<     (shifted by the push, push_shift) without a step, ahead and to the sides
   /// [m] the same behind the support (a push from the front), where the hip strategy may hold more:
   /// the trunk leans back to gain it, with more range than leaning forward, where stretched knees end
   /// it early. Between the directions the reach blends with the squares of the direction's components.

@@ -34,7 +34,8 @@ struct FootReference {
 struct StepStatus {
   bool enabled = false;           ///< balance.stepping.enabled: the fields below are computed
   /// The capture point the decision watches [m]: ξ = c + ċ/ω, shifted by the external force the
-  /// robot resists, F̂ / (m ω²) (the CMP that would hold it), until a step's touchdown.
+  /// robot resists, push_shift(F̂, m, ω, r t) after t seconds of it (r = step.push_duration_ratio;
+  /// F̂ / (m ω²), the CMP that would hold it, as r t grows), until a step's touchdown.
   Eigen::Vector2d xi_W = Eigen::Vector2d::Zero();
   double excess = 0.0;            ///< [m] how far xi_W lies beyond what the ankle and hip strategies
                                   ///< hold (StepPlanner::excess; > 0: a step is due)
@@ -101,6 +102,12 @@ struct PostureReferenceConfig {
     double follow_delay = 0.08;       ///< [s] for this long
     double target_rate = 2.0;         ///< [m/s] fastest change of the landing while it is replanned
     double force_filter = 0.04;       ///< [s] time constant of the external-force estimate
+    /// [N] |F̂| above which a push counts as under way (below, it shifts no capture point)
+    double push_onset = 10.0;
+    /// A push under way is expected to last this many times as long again as it has so far: the
+    /// capture point is shifted by push_shift(F̂, m, ω, push_duration_ratio · elapsed), not by the
+    /// F̂ / (m ω²) of a force that lasts for good (a sharp push of 130 N shifted it 15.6 cm)
+    double push_duration_ratio = 2.0;
     double cop_margin = 0.02;         ///< [m] the CMP of a step stays this far inside the soles
     double settle_gain = 3.0;         ///< [1/s] after touchdown, the rate at which ξ is driven to the support's centre
     double settle_time = 1.5;         ///< [s] longest DCM settling after touchdown
@@ -182,6 +189,7 @@ class PostureReference {
   Eigen::Vector2d v_prev_ = Eigen::Vector2d::Zero();  ///< the observer's initial CoM velocity
   Eigen::Vector2d momentum_integral_ = Eigen::Vector2d::Zero();  ///< ∫ (Σ f_ground + F̂) dt [N s]
   double t_prev_state_ = -1.0, excess_ = -1.0;
+  double push_start_ = -1.0;  ///< [s] when |F̂| rose above step.push_onset; < 0 while below
   Eigen::Vector2d p_hold_ = Eigen::Vector2d::Zero();  ///< the CMP the CoM reference last followed
   int last_swing_ = -1;     ///< the foot that stepped last (the next step is the other's)
   bool stepped_ = false;    ///< a step landed and the robot has not come to rest since
