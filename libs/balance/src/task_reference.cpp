@@ -433,6 +433,12 @@ void PostureReference::observe_external_force(double t, const EstimatedState& st
     const double n = f_comp_.norm(), f_max = config_.push_compensation.max_force;
     if (n > f_max) f_comp_ *= f_max / n;
   }
+  // When the push began: |F̂| last rose above push_onset (a restart above sets F̂ to zero).
+  if (f_ext_.norm() < config_.step.push_onset) {
+    push_start_ = -1.0;
+  } else if (push_start_ < 0.0) {
+    push_start_ = t;
+  }
   t_prev_state_ = t;
 }
 
@@ -447,11 +453,6 @@ const TaskReference& PostureReference::update(double t, const EstimatedState* st
     // The external force counts until the first touchdown of a series of steps: after it, the
     // impacts of the landing feet and their sensors' transients are no push. How long it will
     // last is not known: it is taken to last push_duration_ratio times as long again as it has.
-    if (f_ext_.norm() < config_.step.push_onset) {
-      push_start_ = -1.0;
-    } else if (push_start_ < 0.0) {
-      push_start_ = t;
-    }
     const double t_pushed = push_start_ < 0.0 ? 0.0 : t - push_start_;
     xi_ = balance::capture_point(state->p_com.head<2>(), v, omega_);
     if (!stepped_) xi_ += balance::push_shift(f_ext_, m, omega_, config_.step.push_duration_ratio * t_pushed);

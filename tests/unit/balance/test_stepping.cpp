@@ -395,8 +395,9 @@ TEST(SteppingConfig, LoadsAndRefusesOutOfRangeValuesNamingTheKey) {
   // How long a push is taken to last: 2 times as long again by default, set and bounded.
   EXPECT_EQ(hpr::balance::PostureReferenceConfig::load(drops.section("balance")).step.push_duration_ratio, 2.0);
   const auto ratio = hpr::Config::parse("balance: {stepping: {push_duration_ratio: 1000, push_onset: 20}}", "test.yaml");
-  EXPECT_EQ(hpr::balance::PostureReferenceConfig::load(ratio.section("balance")).step.push_duration_ratio, 1000.0);
-  EXPECT_EQ(hpr::balance::PostureReferenceConfig::load(ratio.section("balance")).step.push_onset, 20.0);
+  const auto set = hpr::balance::PostureReferenceConfig::load(ratio.section("balance")).step;
+  EXPECT_EQ(set.push_duration_ratio, 1000.0);
+  EXPECT_EQ(set.push_onset, 20.0);
   try {
     (void)hpr::balance::PostureReferenceConfig::load(
         hpr::Config::parse("balance: {stepping: {push_duration_ratio: -1}}", "test.yaml").section("balance"));
