@@ -6,31 +6,32 @@
 //         − w · mean over the directions of the posture return time at that impulse [s]
 //
 // each largest impulse found by bracketing and bisection (push_sweep's search, from the same start) with the CAM
-// strategy through the in-process pipeline, the directions in parallel. Every evaluation is
+// strategy through the in-process pipeline, the directions of an evaluation in parallel on this
+// machine or as one Slurm job array (--executor, executor.hpp). Every evaluation is
 // appended to a results file (JSON lines); --resume answers the optimiser's requests from it, so
 // an interrupted run continues where it stopped. The best parameters are written as a YAML overlay
 // (tuned.yaml) that push_trial, push_sweep and push_tune take with --overlay.
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <future>
 #include <map>
 #include <memory>
+#include <optional>
 #include <nlohmann/json.hpp>
 #include <nlopt.hpp>
 #include <sstream>
+#include <thread>
 
 #include "hpr/common/args.hpp"
 #include "hpr/common/config.hpp"
 #include "hpr/common/log.hpp"
-#include "hpr/experiments/bisection.hpp"
-#include "hpr/experiments/trial.hpp"
+#include "hpr/experiments/executor.hpp"
+#include "hpr/experiments/version.hpp"
 
 namespace {
 
@@ -140,13 +141,16 @@ overlay for --overlay) and a summary.
   --resolution NS        bisection resolution [N s] (default 0.5)
   --max-impulse NS       largest impulse tried [N s] (default 80)
   --return-weight W      w of the return-time penalty [N s per s] (default 0.5)
-  --jobs J               directions searched at the same time (default: the number of cores)
   --out DIR              results folder (default tune-<date>)
-  --resume               answer from DIR/results.jsonl what it holds (same options), run on from there
 
-The push and the robot (every trial; --in-process is always on):
+With --resume, the evaluations in DIR/results.jsonl (same options) answer the optimiser, and an
+evaluation that was cut short runs only the trials it had not finished.
+
+Where the directions run (--jobs defaults to the number of cores):
 )",
              out);
+  std::fputs(kExecutorOptionsUsage, out);
+  std::fputs("\nThe push and the robot (every trial; --in-process is always on):\n", out);
   std::fputs(kPushOptionsUsage, out);
 }
 
@@ -160,70 +164,61 @@ int main(int argc, char** argv) {
   std::vector<std::string> names = {"alpha", "beta", "Q_l", "Q_p", "K_p"};
   std::vector<double> angles = {0.0, 180.0};
   std::string algorithm = "crs", out_dir;
-  int evaluations = 60, jobs = static_cast<int>(std::max(1U, std::thread::hardware_concurrency()));
+  int evaluations = 60;
+  ExecutorOptions executor;
+  executor.jobs = static_cast<int>(std::max(1U, std::thread::hardware_concurrency()));
   unsigned seed = 1;
   int population = 0;
   double start = 15.0, resolution = 0.5, max_impulse = 80.0, return_weight = 0.5;
-  bool resume = false;
-  try {
-    hpr::ArgReader args(argc, argv);
-    while (args.next()) {
-      if (args.is("-h", "--help")) {
-        usage(stdout);
-        return 0;
-      } else if (args.is("--params")) {
-        names = args.list();
-        for (const auto& n : names) (void)param(n);
-        if (names.empty()) throw hpr::UsageError("--params: at least one parameter");
-      } else if (args.is("--angles")) {
-        angles.clear();
-        for (const auto& a : args.list()) angles.push_back(hpr::parse_number(a, "--angles"));
-        if (angles.empty()) throw hpr::UsageError("--angles: at least one direction");
-      } else if (args.is("--support")) {
-        base.support = args.value();
-      } else if (args.is("--algorithm")) {
-        algorithm = args.value();
-        if (algorithm != "bobyqa" && algorithm != "cobyla" && algorithm != "sbplx" && algorithm != "crs") {
-          throw hpr::UsageError("--algorithm: '" + algorithm + "' is not bobyqa, cobyla, sbplx or crs");
-        }
-      } else if (args.is("--evaluations")) {
-        evaluations = args.integer();
-        if (evaluations < 1) throw hpr::UsageError("--evaluations: at least 1");
-      } else if (args.is("--population")) {
-        population = args.integer();
-        if (population < 2) throw hpr::UsageError("--population: at least 2");
-      } else if (args.is("--seed")) {
-        seed = static_cast<unsigned>(args.integer());
-      } else if (args.is("--start")) {
-        start = args.number();
-      } else if (args.is("--resolution")) {
-        resolution = args.number();
-      } else if (args.is("--max-impulse")) {
-        max_impulse = args.number();
-      } else if (args.is("--return-weight")) {
-        return_weight = args.number();
-        if (return_weight < 0) throw hpr::UsageError("--return-weight: not negative");
-      } else if (args.is("--jobs")) {
-        jobs = std::max(1, args.integer());
-      } else if (args.is("--out")) {
-        out_dir = args.value();
-      } else if (args.is("--resume")) {
-        resume = true;
-      } else if (!read_push_option(args, base)) {
-        args.unknown();
+  const auto option = [&](hpr::ArgReader& args) {
+    if (args.is("--params")) {
+      names = args.list();
+      for (const auto& n : names) (void)param(n);
+      if (names.empty()) throw hpr::UsageError("--params: at least one parameter");
+    } else if (args.is("--angles")) {
+      angles.clear();
+      for (const auto& a : args.list()) angles.push_back(hpr::parse_number(a, "--angles"));
+      if (angles.empty()) throw hpr::UsageError("--angles: at least one direction");
+    } else if (args.is("--support")) {
+      base.support = args.value();
+    } else if (args.is("--algorithm")) {
+      algorithm = args.value();
+      if (algorithm != "bobyqa" && algorithm != "cobyla" && algorithm != "sbplx" && algorithm != "crs") {
+        throw hpr::UsageError("--algorithm: '" + algorithm + "' is not bobyqa, cobyla, sbplx or crs");
       }
+    } else if (args.is("--evaluations")) {
+      evaluations = args.integer();
+      if (evaluations < 1) throw hpr::UsageError("--evaluations: at least 1");
+    } else if (args.is("--population")) {
+      population = args.integer();
+      if (population < 2) throw hpr::UsageError("--population: at least 2");
+    } else if (args.is("--seed")) {
+      seed = static_cast<unsigned>(args.integer());
+    } else if (args.is("--start")) {
+      start = args.number();
+    } else if (args.is("--resolution")) {
+      resolution = args.number();
+    } else if (args.is("--max-impulse")) {
+      max_impulse = args.number();
+    } else if (args.is("--return-weight")) {
+      return_weight = args.number();
+      if (return_weight < 0) throw hpr::UsageError("--return-weight: not negative");
+    } else if (args.is("--out")) {
+      out_dir = args.value();
+    } else if (!executor.read(args) && !read_push_option(args, base)) {
+      args.unknown();
     }
+  };
+  const auto check = [&] {
     base.in_process = true;
     base.config = find_config(base.config);
     if (!(resolution > 0) || !(start > 0) || !(max_impulse > start) || !(base.peak > 0)) {
       throw hpr::UsageError("need --resolution > 0, 0 < --start < --max-impulse and --peak > 0");
     }
-    if (resume && out_dir.empty()) throw hpr::UsageError("--resume needs --out DIR");
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "push_tune: %s\n", e.what());
-    usage(stderr);
-    return 2;
-  }
+    executor.validate();
+    if (executor.resume && out_dir.empty()) throw hpr::UsageError("--resume needs --out DIR");
+  };
+  if (const auto status = hpr::read_command_line(argc, argv, "push_tune", usage, option, check)) return *status;
   if (out_dir.empty()) out_dir = dated_name("tune");
   fs::create_directories(out_dir);
   // The candidates' configurations load once per trial: their warnings (an α outside the paper's
@@ -254,6 +249,7 @@ int main(int argc, char** argv) {
     return k;
   };
   std::map<std::string, Evaluation> cache;
+  const bool resume = executor.resume;
   if (resume && fs::exists(results_path)) {
     std::ifstream in(results_path);
     int line_no = 0;
@@ -288,46 +284,47 @@ int main(int argc, char** argv) {
   best.objective = -1e9;
   Evaluation initial;
 
+  // The directions of an evaluation are one round of searches for the executor.
+  int trials_run = 0;
+  ExecutorEvents events;
+  events.trial = [&](const SearchSpec&, const TrialOutcome&, bool stored) { trials_run += stored ? 0 : 1; };
+  events.note = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
+  std::unique_ptr<Executor> run_round;
+  try {
+    run_round = make_executor(executor, out_dir, events);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "push_tune: %s\n", e.what());
+    return 1;
+  }
   const auto evaluate = [&](const std::vector<double>& values) -> Evaluation {
     Evaluation e;
     e.values = values;
-    e.impulse.assign(angles.size(), 0.0);
-    e.return_time.assign(angles.size(), 0.0);
     const auto t_eval = std::chrono::steady_clock::now();
-    std::atomic<int> trials{0};
-    std::atomic<size_t> next{0};
-    std::vector<std::future<void>> workers;
-    for (int w = 0; w < std::min<int>(jobs, static_cast<int>(angles.size())); ++w) {
-      workers.push_back(std::async(std::launch::async, [&] {
-        for (size_t a = next++; a < angles.size(); a = next++) {
-          std::map<double, TrialResult> tried;
-          TrialSpec case_spec = base;
-          case_spec.strategy = Strategy::kCam;
-          case_spec.direction_deg = angles[a];
-          const std::vector<std::string> tuned = overrides_of(values);
-          case_spec.overrides.insert(case_spec.overrides.end(), tuned.begin(), tuned.end());
-          // In process, the direction's trials continue one run from just before the push.
-          const std::unique_ptr<PrePushCheckpoint> checkpoint = PrePushCheckpoint::for_case(case_spec);
-          const auto recovered = [&](double impulse) {
-            TrialSpec spec = case_spec;
-            spec.impulse = impulse;
-            ++trials;
-            const TrialResult r = checkpoint ? checkpoint->run(spec) : run_trial(spec);
-            tried[impulse] = r;
-            return r.recovered;
-          };
-          // Every search starts where push_sweep's does: recovery is not monotonic in the impulse
-          // near the limit, so a search from elsewhere may end half a step off, and the objective
-          // would depend on the order of the evaluations.
-          const ImpulseBracket b = largest_recovered(recovered, start, max_impulse, resolution);
-          e.impulse[a] = b.max_recovered;
-          const auto it = tried.find(b.max_recovered);
-          e.return_time[a] = it != tried.end() && it->second.return_time ? *it->second.return_time : 5.0;
-        }
-      }));
+    std::vector<SearchSpec> searches;
+    for (const double angle : angles) {
+      SearchSpec search;
+      search.base = base;
+      search.base.strategy = Strategy::kCam;
+      search.base.direction_deg = angle;
+      const std::vector<std::string> tuned = overrides_of(values);
+      search.base.overrides.insert(search.base.overrides.end(), tuned.begin(), tuned.end());
+      // Every search starts where push_sweep's does: recovery is not monotonic in the impulse
+      // near the limit, so a search from elsewhere may end half a step off, and the objective
+      // would depend on the order of the evaluations.
+      search.start = start;
+      search.max_impulse = max_impulse;
+      search.resolution = resolution;
+      searches.push_back(search);
     }
-    for (auto& w : workers) w.get();
-    e.trials = trials;
+    const int before = trials_run;
+    const std::vector<SearchResult> found = run_round->run(searches);
+    for (const SearchResult& r : found) {
+      if (r.failed) throw std::runtime_error(r.failure);
+      e.impulse.push_back(r.bracket.max_recovered);
+      const TrialOutcome* at = r.find(r.bracket.max_recovered);
+      e.return_time.push_back(at != nullptr && at->result.return_time ? *at->result.return_time : 5.0);
+    }
+    e.trials = trials_run - before;
     double mean_return = 0.0;
     for (double r : e.return_time) mean_return += r / static_cast<double>(angles.size());
     e.objective = *std::min_element(e.impulse.begin(), e.impulse.end()) - return_weight * mean_return;
@@ -335,6 +332,9 @@ int main(int argc, char** argv) {
     return e;
   };
 
+  // Why the optimisation stopped early, and the exit status (an interruption, or an evaluation
+  // that could not finish): the optimiser turns exceptions into its own, so they are kept here.
+  std::optional<std::pair<int, std::string>> stopped;
   const auto objective = [&](const std::vector<double>& u) {
     std::vector<double> values;
     for (size_t i = 0; i < params.size(); ++i) values.push_back(from_unit(*params[i], u[i]));
@@ -347,7 +347,16 @@ int main(int argc, char** argv) {
       e = it->second;
       cached = true;
     } else {
-      e = evaluate(values);
+      try {
+        e = evaluate(values);
+      } catch (const Interrupted& err) {
+        stopped = {130, err.what()};
+        throw nlopt::forced_stop();
+      } catch (const std::exception& err) {
+        // A search that could not finish (a cluster task failed twice): no objective to report.
+        stopped = {4, err.what()};
+        throw nlopt::forced_stop();
+      }
       cache[key] = e;
       json j;
       j["evaluation"] = n_eval + 1;
@@ -360,6 +369,7 @@ int main(int argc, char** argv) {
       j["objective"] = e.objective;
       j["trials"] = e.trials;
       j["wall_s"] = e.wall_s;
+      j["commit"] = source_commit();
       results << j.dump() << std::endl;
     }
     ++n_eval;
@@ -393,9 +403,9 @@ int main(int argc, char** argv) {
     opt.set_population(static_cast<unsigned>(population > 0 ? population : 3 * (static_cast<int>(params.size()) + 1)));
   }
   opt.set_initial_step(std::vector<double>(params.size(), 0.15));
-  std::fprintf(stderr, "push_tune: %s, %s over %s; %d evaluations, %zu directions, %d jobs; results in %s\n", base.config.c_str(),
-               algorithm.c_str(), fmt::format("{}", fmt::join(names, ",")).c_str(), evaluations, angles.size(), jobs,
-               results_path.c_str());
+  std::fprintf(stderr, "push_tune: %s, %s over %s; %d evaluations, %zu directions, %s; results in %s\n", base.config.c_str(),
+               algorithm.c_str(), fmt::format("{}", fmt::join(names, ",")).c_str(), evaluations, angles.size(),
+               run_round->describe().c_str(), results_path.c_str());
   // The optimiser starts at the configured parameters: the baseline (evaluated last if it did not).
   std::vector<double> u = x0;
   double f = 0.0;
@@ -404,7 +414,12 @@ int main(int argc, char** argv) {
   } catch (const nlopt::roundoff_limited&) {
     // The best point so far stands.
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "push_tune: the optimiser stopped: %s (the best point so far stands)\n", e.what());
+    if (!stopped) std::fprintf(stderr, "push_tune: the optimiser stopped: %s (the best point so far stands)\n", e.what());
+  }
+  if (stopped) {
+    std::fprintf(stderr, "push_tune: %s\n%s", stopped->second.c_str(),
+                 stopped->first == 130 ? "" : "push_tune: the evaluation could not finish; run again with --resume to go on\n");
+    return stopped->first;
   }
   std::vector<double> configured_values;
   for (size_t i = 0; i < params.size(); ++i) configured_values.push_back(text_value(value_text(from_unit(*params[i], x0[i]))));
@@ -415,7 +430,7 @@ int main(int argc, char** argv) {
   std::ostringstream yaml;
   yaml << "# push_tune: " << algorithm << ", " << n_eval << " evaluations, directions";
   for (double a : angles) yaml << " " << a;
-  yaml << " deg, " << base.support << " support, " << base.peak << " N peak\n";
+  yaml << " deg, " << base.support << " support, " << base.peak << " N peak; " << base.config << " at " << source_commit() << "\n";
   yaml << "# objective " << fmt::format("{:.2f}", best.objective) << " (configured: " << fmt::format("{:.2f}", initial.objective)
        << "); use with --overlay, or merge into the robot's configuration\n";
   std::map<std::string, std::map<std::string, std::string>> sections;

@@ -31,6 +31,8 @@ def main() -> int:
     for k, (table, label) in enumerate(tables):
         curves = {}
         for r in table["results"]:
+            if r.get("failed"):  # a case whose cluster task failed: no figure to draw
+                continue
             curves.setdefault((r["support"], r["strategy"]), []).append((r["direction_deg"], r["max_recovered_Ns"]))
         for (support, strategy), pts in sorted(curves.items()):
             pts.sort()

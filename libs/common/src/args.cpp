@@ -85,4 +85,24 @@ std::vector<std::string> split_list(const std::string& text, char separator) {
   return out;
 }
 
+std::optional<int> read_command_line(int argc, char** argv, const char* tool, const std::function<void(std::FILE*)>& usage,
+                                     const std::function<void(ArgReader&)>& each, const std::function<void()>& check) {
+  try {
+    ArgReader args(argc, argv);
+    while (args.next()) {
+      if (args.is("-h", "--help")) {
+        usage(stdout);
+        return 0;
+      }
+      each(args);
+    }
+    if (check) check();
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "%s: %s\n", tool, e.what());
+    usage(stderr);
+    return 2;
+  }
+  return std::nullopt;
+}
+
 }  // namespace hpr

@@ -11,6 +11,9 @@
 ///
 /// Every error is a UsageError (a std::invalid_argument) that names the option and the value.
 
+#include <cstdio>
+#include <functional>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -57,6 +60,13 @@ class ArgReader {
   mutable std::vector<std::string> options_;  ///< every option is() was asked about
   std::size_t i_ = static_cast<std::size_t>(-1);
 };
+
+/// A tool's whole command line: `-h` or `--help` prints `usage` on stdout (exit status 0); every
+/// other argument goes to `each`, which reads it or calls args.unknown(); then `check` (may be
+/// empty) checks the combination. An exception from either prints "<tool>: <what>" and the usage
+/// on stderr (exit status 2). Returns nullopt when the command line is good, else the exit status.
+std::optional<int> read_command_line(int argc, char** argv, const char* tool, const std::function<void(std::FILE*)>& usage,
+                                     const std::function<void(ArgReader&)>& each, const std::function<void()>& check = {});
 
 /// `text` as a finite number, else UsageError "<what>: '<text>' is not a finite number".
 double parse_number(const std::string& text, const std::string& what);
