@@ -12,16 +12,19 @@
 #include "hpr/common/args.hpp"
 #include "hpr/common/log.hpp"
 #include "hpr/experiments/executor.hpp"
+#include "hpr/experiments/version.hpp"
 
 namespace {
 
 using namespace hpr::experiments;
 
 void usage(std::FILE* out) {
-  std::fputs(R"(usage: push_task --searches FILE --task I --store DIR [--per-task K] [--jobs J]
+  std::fputs(R"(usage: push_task --searches FILE --task I --store DIR [--per-task K] [--jobs J] [--commit C]
 
 Runs searches I*K to I*K+K-1 (counted from 0) of FILE, one search per line as push_sweep and
 push_tune write them, J at a time, each trial appended to DIR/<search key>.jsonl as it finishes.
+With --commit, refuses to run unless built from commit C (the submitting tool's: a node that runs
+another build would file its trials where the submitter never looks).
 Exit status: 0 when every search finished, 1 when one could not run, 2 for bad arguments.
 )",
              out);
@@ -30,7 +33,7 @@ Exit status: 0 when every search finished, 1 when one could not run, 2 for bad a
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string searches_file, store;
+  std::string searches_file, store, commit;
   int task = -1, per_task = 1, jobs = 1;
   const auto option = [&](hpr::ArgReader& args) {
     if (args.is("--searches")) {
@@ -43,6 +46,8 @@ int main(int argc, char** argv) {
       store = args.value();
     } else if (args.is("--jobs")) {
       jobs = args.integer();
+    } else if (args.is("--commit")) {
+      commit = args.value();
     } else {
       args.unknown();
     }
@@ -52,6 +57,13 @@ int main(int argc, char** argv) {
     if (per_task < 1 || jobs < 1) throw hpr::UsageError("--per-task and --jobs: at least 1");
   };
   if (const auto status = hpr::read_command_line(argc, argv, "push_task", usage, option, check)) return *status;
+  if (!commit.empty() && commit != source_commit()) {
+    std::fprintf(stderr,
+                 "push_task: built from %s, but the searches were written by a build from %s: the nodes must run the "
+                 "submitting machine's build (a shared build tree or install, or --task-exe)\n",
+                 source_commit(), commit.c_str());
+    return 1;
+  }
   hpr::log::init("push_task", hpr::log::Level::kError);
   std::vector<SearchSpec> mine;
   {

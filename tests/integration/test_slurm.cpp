@@ -64,8 +64,8 @@ class SlurmCluster : public ::testing::Test {
   bool started_ = false;
 };
 
-/// A small sweep: two directions, both strategies, 2 N s resolution (about 20 trials).
-const std::string kSweep = "--robot toro --in-process --angles 0,180 --strategies cam,ankle --start 20 --max-impulse 60 --resolution 2";
+/// A small sweep: two directions, both strategies, 4 N s resolution (about 20 trials).
+const std::string kSweep = "--robot toro --in-process --angles 0,180 --strategies cam,ankle --start 20 --max-impulse 60 --resolution 4";
 /// One case (about 6 trials).
 const std::string kOneCase = "--robot toro --in-process --angles 180 --strategies cam --start 20 --max-impulse 60 --resolution 4";
 
@@ -166,7 +166,7 @@ TEST_F(SlurmCluster, ATaskThatFailsTwiceIsReportedAsFailedNeverAsAFall) {
 }
 
 TEST_F(SlurmCluster, ATuningRunGivesTheLocalEvaluations) {
-  const std::string args = "--robot toro --params alpha --angles 0,180 --evaluations 2 --algorithm sbplx --resolution 4";
+  const std::string args = "--robot toro --params alpha --angles 0,180 --evaluations 2 --algorithm sbplx --resolution 8";
   const auto l = sh(quote(bin_dir() + "/push_tune") + " " + args + " --jobs 2 --out " + quote(dir_ + "/tune-local"));
   ASSERT_EQ(l.exit_code, 0) << l.out;
   const auto c = sh(quote(bin_dir() + "/push_tune") + " " + args + " --executor slurm --out " + quote(dir_ + "/tune-slurm"));
@@ -227,6 +227,18 @@ TEST_F(SlurmCluster, CtrlCCancelsTheArrayAndTheResumedRunFinishesIt) {
   const auto l = sweep(kSweep + " --jobs 2", dir_ + "/local");
   ASSERT_EQ(l.exit_code, 0) << l.out;
   EXPECT_EQ(results_of(out), results_of(dir_ + "/local"));
+}
+
+// A node that runs another build than the submitting machine's would key its trials by another
+// commit, where the submitter never looks: push_task refuses, naming both commits.
+TEST(SlurmExecutor, ATaskOfAnotherBuildRefusesToRunNamingBothCommits) {
+  const std::string dir = hpr::test::temp_dir("slurm-commit");
+  std::ofstream(dir + "/searches.jsonl") << "{}\n";
+  const auto r = sh(quote(bin_dir() + "/push_task") + " --searches " + quote(dir + "/searches.jsonl") + " --task 0 --store " +
+                    quote(dir + "/trials") + " --commit 0123456789ab");
+  EXPECT_EQ(r.exit_code, 1) << r.out;
+  EXPECT_NE(r.out.find("0123456789ab"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("built from"), std::string::npos) << r.out;
 }
 
 // The executors are the experiment tools' alone: no process that runs on a robot carries them.

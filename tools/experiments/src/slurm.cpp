@@ -24,6 +24,7 @@
 #include <thread>
 
 #include "hpr/experiments/executor.hpp"
+#include "hpr/experiments/version.hpp"
 #include "hpr/launch/process_group.hpp"
 
 extern char** environ;
@@ -240,7 +241,7 @@ std::vector<SearchResult> SlurmExecutor::run(const std::vector<SearchSpec>& sear
            << " and appends each trial to the store as it finishes.\n"
            << "exec " << shell_quote(o_.task_exe) << " --searches " << shell_quote((r.dir / "searches.jsonl").string())
            << " --task \"$SLURM_ARRAY_TASK_ID\" --per-task " << r.per_task << " --store " << shell_quote(store_.dir().string())
-           << " --jobs \"${SLURM_CPUS_PER_TASK:-1}\"\n";
+           << " --jobs \"${SLURM_CPUS_PER_TASK:-1}\" --commit " << shell_quote(source_commit()) << "\n";
   }
   fs::permissions(r.dir / "task.sh", fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec | fs::perms::others_read |
                                          fs::perms::others_exec);
