@@ -165,6 +165,8 @@ class SlurmExecutor final : public Executor {
     std::vector<SearchResult>* results = nullptr;
     std::vector<bool> done;                 ///< per search of the round
     std::vector<std::set<double>> reported; ///< trials already reported, per search
+    std::vector<fs::path> file;             ///< each pending search's store file (its key hashed once)
+    std::vector<std::uintmax_t> size_read;  ///< the file's size when last read: unchanged, not read again
   };
 
   void note(const std::string& line) const {
@@ -190,6 +192,8 @@ std::vector<SearchResult> SlurmExecutor::run(const std::vector<SearchSpec>& sear
   r.results = &results;
   r.done.assign(searches.size(), false);
   r.reported.resize(searches.size());
+  r.file.resize(searches.size());
+  r.size_read.assign(searches.size(), 0);
   // What the store answers already.
   for (size_t i = 0; i < searches.size(); ++i) {
     if (!resume_) {
@@ -214,6 +218,7 @@ std::vector<SearchResult> SlurmExecutor::run(const std::vector<SearchSpec>& sear
     }
   }
   if (r.pending.empty()) return results;
+  for (const size_t i : r.pending) r.file[i] = store_.file(searches[i]);
 
   // The round's folder and files.
   const fs::path rounds = fs::path(o_.shared_dir) / "rounds";
@@ -320,6 +325,11 @@ std::string SlurmExecutor::submit(const Round& r, const std::vector<int>& tasks)
 void SlurmExecutor::poll_store(Round& r, const std::vector<SearchSpec>& searches) const {
   for (const size_t i : r.pending) {
     if (r.done[i]) continue;
+    // Read again only once the task has appended to it (and a bad file is said once).
+    std::error_code ec;
+    const std::uintmax_t size = fs::file_size(r.file[i], ec);
+    if (ec || size == r.size_read[i]) continue;
+    r.size_read[i] = size;
     std::map<double, TrialOutcome> known;
     try {
       known = store_.trials(searches[i]);
