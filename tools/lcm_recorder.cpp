@@ -7,7 +7,8 @@
 // traffic, and on exit says which ticks of the data-flow channels are missing, so that a log is
 // known complete or known holed.
 //
-// Exit status: 0 recorded (complete), 1 error, 2 bad use, 3 recorded with missing ticks.
+// Exit status: 0 recorded (complete), 1 error, 2 bad use, 3 recorded with missing ticks, 4 (--check)
+// undecodable messages in the log.
 #include <fmt/format.h>
 
 #include <csignal>
@@ -37,7 +38,8 @@ data-flow channels lack.
   --queue N         messages held while the file is written (default 200000)
   --force           overwrite FILE
   --quiet           no progress line
-Exit status: 0 recorded, 1 error, 2 bad use, 3 recorded but ticks of data-flow channels are missing.
+Exit status: 0 recorded (--check: the log is complete), 1 error, 2 bad use, 3 ticks of data-flow
+channels are missing, 4 (--check) the log holds messages that do not decode.
 )";
 
 volatile std::sig_atomic_t g_stop = 0;

@@ -20,6 +20,7 @@
 #include <thread>
 
 #include "hpr/common/args.hpp"
+#include "hpr/common/text.hpp"
 #include "hpr/common/time.hpp"
 #include "hpr/node/lcm_url.hpp"
 
@@ -116,7 +117,8 @@ int main(int argc, char** argv) {
       std::printf("%s", kUsage);
       return 0;
     } else {
-      return usage("unknown command '" + verb + "'");
+      return usage("unknown command '" + verb + "'" +
+                   hpr::did_you_mean(verb, {"enable", "damp", "stop", "support", "set", "params", "--help"}));
     }
     for (; i < argc; ++i) {
       const std::string a = argv[i];
@@ -129,6 +131,9 @@ int main(int argc, char** argv) {
       } else if (a == "--wait" && i + 1 < argc) {
         wait_s = hpr::parse_number(argv[++i], "--wait");
         if (wait_s <= 0) return usage("--wait must be positive");
+      } else if (!a.empty() && a[0] == '-') {
+        const std::string name = a.substr(0, a.find('='));
+        return usage("unknown option " + a + hpr::did_you_mean(name, {"--reason", "--lcm-url", "--source", "--wait"}));
       } else {
         return usage("unexpected argument '" + a + "'");
       }

@@ -38,6 +38,8 @@ tilt, maximum sole slip, peak CAM per axis, minimum CoP margin, time to return t
   --duration S          push duration [s] (default: from impulse and peak, I = 2 F T / pi)
   --log FILE            record the LCM log of the run
   --work-dir DIR        keep the processes' output there
+  --lcm-url URL         run the processes on this LCM URL, so that lcm-spy or the viewer can watch the
+                        trial (default: a URL of its own that no other run meets)
   --json FILE           also write the JSON object to FILE
   --video FILE          render the run to an MP4 with the 3D viewer (headless Chromium, ffmpeg)
   --video-label TEXT    caption written on the video (default: the strategy and the push)
@@ -101,6 +103,8 @@ int main(int argc, char** argv) {
         spec.duration = args.number();
       } else if (args.is("--log")) {
         spec.log_file = args.value();
+      } else if (args.is("--lcm-url")) {
+        spec.lcm_url = args.value();
       } else if (args.is("--work-dir")) {
         spec.work_dir = args.value();
       } else if (args.is("--json")) {
@@ -123,6 +127,7 @@ int main(int argc, char** argv) {
     }
     spec.config = find_config(spec.config);
     if (spec.truth_state && !spec.in_process) throw std::invalid_argument("--truth-state needs --in-process");
+    if (!spec.lcm_url.empty() && spec.in_process) throw std::invalid_argument("--lcm-url: an --in-process trial has no LCM");
     if (spec.in_process && (!spec.log_file.empty() || !video_file.empty())) {
       throw std::invalid_argument("--in-process writes no log: --log and --video need the processes");
     }

@@ -46,6 +46,7 @@
 
 #include "hpr/common/args.hpp"
 #include "hpr/common/config.hpp"
+#include "hpr/common/log.hpp"
 #include "hpr/common/time.hpp"
 #include "hpr/launch/groups.hpp"
 #include "hpr/launch/process_group.hpp"
@@ -218,6 +219,8 @@ std::string tail_file(const std::string& path, int lines) {
 }
 
 /// A typed LCM subscription calling a std::function (this LCM release has no lambda subscribe).
+/// A message that does not decode is counted (errors()) and logged, rate limited, with its
+/// channel and size, instead of LCM's own line per message.
 template <class Msg>
 class Subscription {
  public:
@@ -227,12 +230,22 @@ class Subscription {
   ~Subscription() { lcm_.unsubscribe(sub_); }
   Subscription(const Subscription&) = delete;
   Subscription& operator=(const Subscription&) = delete;
+  [[nodiscard]] std::int64_t errors() const { return errors_; }
 
  private:
-  void on(const lcm::ReceiveBuffer*, const std::string&, const Msg* m) { f_(*m); }
+  void on(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
+    if (msg_.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size)) < 0) {
+      ++errors_;
+      hpr::log::warn("{}: a message of {} bytes is not a valid {} ({} so far)", channel, rbuf->data_size, Msg::getTypeName(), errors_);
+      return;
+    }
+    f_(msg_);
+  }
   lcm::LCM& lcm_;
   std::function<void(const Msg&)> f_;
   lcm::Subscription* sub_ = nullptr;
+  Msg msg_{};
+  std::int64_t errors_ = 0;
 };
 
 /// Handles messages for `timeout_s`, and always whatever is already queued: a supervisor that was
@@ -260,6 +273,7 @@ int run_supervisor(const launch::GroupSpec& group, const Options& o, const std::
     ::close(notify_fd);
     notify_fd = -1;
   };
+  hpr::log::init("supervisor");
   lcm::LCM lcm(url);
   if (!lcm.good()) {
     const std::string msg = "failed: cannot open LCM on " + url + " (is multicast enabled on the interface? tools/install-deps sets it up)\n";
@@ -333,6 +347,7 @@ int run_supervisor(const launch::GroupSpec& group, const Options& o, const std::
   bool failed = false, down_started = false;
   while (true) {
     handle_for(lcm, 0.01);
+    hpr::log::flush_repeats();
     const double now = monotonic_s();
     if ((g_stop || down_requested) && !down_started) {
       down_started = true;

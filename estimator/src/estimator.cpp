@@ -176,6 +176,7 @@ const EstimatedState& Estimator::update(const SensorSample& s) {
     for (int j = 0; j < s.q.size(); ++j) complete = complete && !s.stale(j);
     if (!complete) {
       state_.tick = s.tick;
+      if (s.time > state_.time) state_.time = s.time;  // the output's clock runs with the sample's
       state_.status = kStatusInitialising | kStatusSensorStale;  // no estimate yet: nothing to act on
       return state_;
     }

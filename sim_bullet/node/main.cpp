@@ -12,8 +12,18 @@ int main(int argc, char** argv) {
                                const auto options = hpr::sim::SimNodeOptions::load(sim_cfg);
                                hpr::node::Runtime rt(cl.name, hpr::node::lcm_url(cl, cfg),
                                                      hpr::node::runtime_options(cfg, sim_config.dt));
+                               // The hal's drive ranges: its section when the configuration has one
+                               // (validated here too), else the defaults from the URDF limits.
+                               std::vector<hpr::hal::DriveConfig> drives;
+                               if (cfg.has("hal")) {
+                                 const hpr::Config hal_cfg = cfg.section("hal");
+                                 hal_cfg.known({"enable_on_start", "duration"});  // the hal process's own
+                                 drives = hpr::hal::HalConfig::load(hal_cfg, robot).drives;
+                               } else {
+                                 drives = hpr::hal::default_drives(robot);
+                               }
                                hpr::sim::Simulator sim(robot, sim_config);
-                               hpr::sim::SimNode node(rt, sim, options);
+                               hpr::sim::SimNode node(rt, sim, options, std::move(drives));
                                return node.run();
                              });
 }

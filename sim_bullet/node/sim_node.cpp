@@ -1,6 +1,7 @@
 #include "sim_node.hpp"
 
 #include <cmath>
+#include <stdexcept>
 
 #include "hpr/common/log.hpp"
 #include "hpr/common/time.hpp"
@@ -20,15 +21,20 @@ SimNodeOptions SimNodeOptions::load(const Config& c) {
   return o;
 }
 
-SimNode::SimNode(node::Runtime& rt, Simulator& sim, SimNodeOptions options)
-    : rt_(rt), sim_(sim), options_(std::move(options)) {
+SimNode::SimNode(node::Runtime& rt, Simulator& sim, SimNodeOptions options, std::vector<hal::DriveConfig> drives)
+    : rt_(rt), sim_(sim), options_(std::move(options)), drives_(std::move(drives)) {
   const model::Model& m = sim.robot().model;
   names_.joints = m.joint_name;
+  if (static_cast<int>(drives_.size()) < m.nj) throw std::invalid_argument("sim_bullet: fewer drive ranges than joints");
   command_in_ = &rt.subscribe<humanoid::joint_command_t>(
-      "JOINT_COMMAND", [this](const humanoid::joint_command_t& msg) {
+      "JOINT_COMMAND", [this, nj = m.nj](const humanoid::joint_command_t& msg) {
         JointCommand c;
-        const std::string why = msg::from_message(msg, names_, c);
-        if (!why.empty()) return why;
+        std::string why = msg::from_message(msg, names_, c);
+        if (why.empty()) why = hal::check_command(c, drives_, nj);  // what the hal refuses
+        if (!why.empty()) {
+          ++refused_;
+          return why;
+        }
         std::string refused;
         if (!sim_.set_command(c, &refused)) return refused;
         return std::string();
@@ -69,7 +75,7 @@ int SimNode::run() {
             options_.lockstep ? "lockstep" : "realtime", sim_.config().dt * 1e3);
   const int rc = options_.lockstep ? run_lockstep() : run_realtime();
   log::info("stopped at t = {:.3f} s (tick {}); commands rejected {}, ticks without a command {}, late steps {}",
-            sim_.time(), sim_.tick(), sim_.rejected_commands(), missed_, late_);
+            sim_.time(), sim_.tick(), refused_ + sim_.rejected_commands(), missed_, late_);
   return rc;
 }
 

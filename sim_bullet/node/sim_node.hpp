@@ -11,6 +11,7 @@
 #include <humanoid/robot_sensors_t.hpp>
 #include <humanoid/sim_truth_t.hpp>
 
+#include "hpr/hal/hal.hpp"
 #include "hpr/msg/robot_io.hpp"
 #include "hpr/node/runtime.hpp"
 #include "hpr/sim/simulator.hpp"
@@ -29,7 +30,9 @@ struct SimNodeOptions {
 
 class SimNode {
  public:
-  SimNode(node::Runtime& rt, Simulator& sim, SimNodeOptions options);
+  /// `drives`: the hal's drive ranges (HalConfig::drives, or default_drives where the configuration
+  /// maps none): a JOINT_COMMAND the hal would refuse is refused here by the same check.
+  SimNode(node::Runtime& rt, Simulator& sim, SimNodeOptions options, std::vector<hal::DriveConfig> drives);
   /// Runs until the duration is reached or a signal arrives. Returns the exit code.
   int run();
 
@@ -43,6 +46,8 @@ class SimNode {
   node::Runtime& rt_;
   Simulator& sim_;
   SimNodeOptions options_;
+  std::vector<hal::DriveConfig> drives_;
+  std::int64_t refused_ = 0;  ///< commands refused (as the hal counts them)
   msg::RobotNames names_;
   node::Input<humanoid::joint_command_t>* command_in_ = nullptr;
   node::Output<humanoid::robot_sensors_t> sensors_out_;

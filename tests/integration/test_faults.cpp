@@ -45,14 +45,20 @@ class Watch {
  public:
   explicit Watch(const std::string& url) : lcm_(url) {
     auto& l = lcm_.lcm();
-    l.subscribe("ROBOT_SENSORS", &Watch::keep<humanoid::robot_sensors_t>, this);
-    l.subscribe("ROBOT_STATE", &Watch::keep<humanoid::robot_state_t>, this);
-    l.subscribe("JOINT_COMMAND", &Watch::keep<humanoid::joint_command_t>, this);
-    l.subscribe("SIM_TRUTH", &Watch::keep<humanoid::sim_truth_t>, this);
-    l.subscribe("HEALTH", &Watch::keep<humanoid::health_t>, this);
-    l.subscribe("OPERATOR", &Watch::keep<humanoid::operator_t>, this);
+    l.subscribe("ROBOT_SENSORS", &Watch::keep<humanoid::robot_sensors_t>, this)->setQueueCapacity(hpr::node::kCountingQueueCapacity);
+    l.subscribe("ROBOT_STATE", &Watch::keep<humanoid::robot_state_t>, this)->setQueueCapacity(hpr::node::kCountingQueueCapacity);
+    l.subscribe("JOINT_COMMAND", &Watch::keep<humanoid::joint_command_t>, this)->setQueueCapacity(hpr::node::kCountingQueueCapacity);
+    l.subscribe("SIM_TRUTH", &Watch::keep<humanoid::sim_truth_t>, this)->setQueueCapacity(hpr::node::kCountingQueueCapacity);
+    l.subscribe("HEALTH", &Watch::keep<humanoid::health_t>, this)->setQueueCapacity(hpr::node::kCountingQueueCapacity);
+    l.subscribe("OPERATOR", &Watch::keep<humanoid::operator_t>, this)->setQueueCapacity(hpr::node::kCountingQueueCapacity);
   }
   bool wait_for(const std::function<bool()>& done, std::chrono::milliseconds timeout) { return lcm_.wait_for(done, timeout); }
+  /// Handles what has queued up (messages sent while the test started the group) until none is
+  /// waiting, so that the latest messages are the chain's present ones.
+  void catch_up() {
+    for (int n = 0; n < 1'000'000 && lcm_.lcm().handleTimeout(0) > 0; ++n) {
+    }
+  }
   template <class Msg>
   void publish(const std::string& channel, const Msg& m) {
     lcm_.publish(channel, m);
@@ -192,6 +198,39 @@ FAULTS_TEST(ForgedFutureTicksAreHeldAndARestartedSimulatorIsFollowed) {
   for (const char* n : {"estimator", "wbc", "reference_gen", "motion_opt"}) {
     EXPECT_NE(g.log(n).find("following tick"), std::string::npos) << n << " did not log that it followed the new clock";
   }
+}
+
+// One copy of a live message, 200 ticks ahead (inside lcm.tick_window) with a time 2^58 us ahead, on
+// each clocked channel: accepted, it would become the clock the real stream is judged by ("time
+// does not advance"), and the robot fell. Each is held for its time; the chain runs on and the robot
+// stands.
+FAULTS_TEST(OneSampleWithAFarTimeInsideTheTickWindowIsHeldAndTheRobotStands) {
+  const std::string url = hpr::test::unique_lcm_url();
+  Watch w(url);
+  Group g(url);
+  ASSERT_TRUE(g.up()) << g.up_text();
+  ASSERT_TRUE(chain_runs(w, 0, 500, 30s)) << "the chain did not start";
+  constexpr std::int64_t kFar = std::int64_t{1} << 58;
+  w.catch_up();  // copies of the present messages: their ticks 200 ahead are inside the window
+  humanoid::robot_sensors_t s = w.sensors;
+  humanoid::robot_state_t e = w.state;
+  humanoid::joint_command_t c = w.command;
+  for (auto* tick : {&s.tick, &e.tick, &c.tick}) *tick += 200;
+  for (auto* utime : {&s.utime, &e.utime, &c.utime}) *utime += kFar;
+  w.publish("ROBOT_SENSORS", s);
+  w.publish("ROBOT_STATE", e);
+  w.publish("JOINT_COMMAND", c);
+  const std::int64_t at_forge = w.command.tick;
+  EXPECT_TRUE(chain_runs(w, at_forge, 2000, 60s)) << "the chain stalled after the forged samples: " << w.command.tick;
+  EXPECT_FALSE(w.truth.fallen) << "the robot fell after one forged sample";
+  ASSERT_TRUE(w.wait_for([&] { return w.health["estimator"].decode_errors >= 1 && w.health["wbc"].decode_errors >= 1; }, 5s));
+  for (const char* n : {"estimator", "wbc"}) {
+    const std::string log = g.log(n);
+    EXPECT_NE(log.find("s ahead of"), std::string::npos) << n << " did not say why it held the sample:\n" << log;
+    EXPECT_EQ(log.find("following tick"), std::string::npos) << n << " followed the forged sample:\n" << log;
+    EXPECT_EQ(log.find("does not advance"), std::string::npos) << n << " refused the real stream:\n" << log;
+  }
+  EXPECT_TRUE(w.wait_for([&] { return w.health["sim_bullet"].decode_errors >= 1; }, 5s)) << "the simulator did not count the forged command";
 }
 
 // The group's hang watch for the wbc: 0.05 s in the real-time group, 0.5 s in the lockstep group

@@ -323,4 +323,23 @@ TEST(InProcess, TheTruthStateGivesEveryControllerTheSimulatorsStateAndNoEstimato
   EXPECT_THROW(hpr::experiments::run_trial(spec), hpr::ConfigError);
 }
 
+// In process as in the processes, every key of the configuration is checked: a misspelt key of
+// the lcm section (which only the processes use) stops the trial naming the nearest key, and a
+// value out of range names its range.
+TEST(InProcess, AMisspeltOrOutOfRangeLcmKeyIsRefusedAsTheProcessesRefuseIt) {
+  const std::string config = hpr::test::source_dir() + "/config/toro.yaml";
+  try {
+    hpr::pipeline::ClosedLoop loop(config, {"lcm.tick_windw=5"}, {.cam = true, .estimator_in_loop = false});
+    ADD_FAILURE() << "lcm.tick_windw was accepted";
+  } catch (const hpr::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("did you mean 'tick_window'?"), std::string::npos) << e.what();
+  }
+  try {
+    hpr::pipeline::ClosedLoop loop(config, {"lcm.time_slack_s=-1"}, {.cam = true, .estimator_in_loop = false});
+    ADD_FAILURE() << "lcm.time_slack_s = -1 was accepted";
+  } catch (const hpr::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("lcm.time_slack_s"), std::string::npos) << e.what();
+  }
+}
+
 }  // namespace

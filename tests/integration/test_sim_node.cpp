@@ -5,11 +5,13 @@
 #include <fstream>
 
 #include "all_types.hpp"
+#include "hpr/hal/hal.hpp"
 #include "hpr/model/robot.hpp"
 #include "hpr/msg/robot_io.hpp"
 #include "hpr/sim/simulator.hpp"
 #include "lcm_listener.hpp"
 #include "process_group.hpp"
+#include "shell.hpp"
 
 namespace {
 
@@ -25,7 +27,8 @@ struct HoldController {
     command_.resize(spec.model.nj);
     command_.mode = hpr::JointCommand::Mode::kRun;
     command_.q_des = spec.q_joints_stand;
-    hpr::sim::hold_gains(spec, spec.standing_configuration(), 1500, 30, 1e-3, command_.kp, command_.kd);
+    // Gains inside the drives' ranges (hal.drive_defaults.kp_max 1000): the simulator refuses what the hal would.
+    hpr::sim::hold_gains(spec, spec.standing_configuration(), 1000, 30, 1e-3, command_.kp, command_.kd);
     lcm.lcm().subscribe("ROBOT_SENSORS", &HoldController::on_sensors, this);
   }
   void on_sensors(const lcm::ReceiveBuffer* rb, const std::string&) {
@@ -119,6 +122,51 @@ TEST(SimNode, MalformedCommandsAreCountedAndRefused) {
   const auto r = group.wait(pid, 1000ms);
   EXPECT_TRUE(r.exited);
   EXPECT_EQ(r.exit_code, 0);
+}
+
+// The simulator refuses what the hal refuses: a run command with kp = 10^9 on one joint is refused
+// and counted with the hal's own reason (its drive range from the configuration's hal section),
+// while the same command with a gain inside the range is taken.
+TEST(SimNode, ACommandTheHalRefusesIsRefusedByTheSimulatorWithTheHalsReason) {
+  ProcessGroup group;
+  LcmListener lcm(group.lcm_url());
+  auto health = lcm.collect<humanoid::health_t>("HEALTH");
+  auto truth = lcm.collect<humanoid::sim_truth_t>("SIM_TRUTH");
+  const std::string log = hpr::test::temp_dir("sim-kp") + "/sim.log";
+  const pid_t pid = group.start("sim_bullet", {"--config", hpr::test::source_dir() + "/config/toro.yaml", "--set", "sim.mode=realtime"},
+                                {}, log);
+  ASSERT_TRUE(lcm.wait_for([&] { return truth->size() > 10; }, 20s));
+  const auto cfg = hpr::Config::load(hpr::test::source_dir() + "/config/toro.yaml");
+  const auto spec = hpr::model::RobotSpec::load(cfg.section("robot"));
+  hpr::msg::RobotNames names;
+  names.joints = spec.model.joint_name;
+  hpr::JointCommand c;
+  c.resize(spec.model.nj);
+  c.mode = hpr::JointCommand::Mode::kRun;
+  c.q_des = spec.q_joints_stand;
+  c.kp.setConstant(100.0);
+  c.kd.setConstant(2.0);
+  c.kp(4) = 1e9;
+  const hpr::hal::HalConfig hal = hpr::hal::HalConfig::load(cfg.section("hal"), spec);
+  const std::string hal_says = hpr::hal::check_command(c, hal.drives, hal.controlled);
+  ASSERT_NE(hal_says.find("kp of joint '" + spec.model.joint_name[4] + "'"), std::string::npos) << hal_says;
+  humanoid::joint_command_t m;
+  c.tick = truth->back().tick;
+  hpr::msg::to_message(c, names, m);
+  lcm.publish("JOINT_COMMAND", m);
+  ASSERT_TRUE(lcm.wait_for([&] { return !health->empty() && health->back().decode_errors == 1; }, 5s));
+  c.kp(4) = 900.0;  // inside [0, 1000]
+  ASSERT_TRUE(hpr::hal::check_command(c, hal.drives, hal.controlled).empty());
+  c.tick = truth->back().tick;
+  hpr::msg::to_message(c, names, m);
+  lcm.publish("JOINT_COMMAND", m);
+  lcm.spin_for(300ms);
+  EXPECT_EQ(health->back().decode_errors, 1) << "a command inside the hal's ranges was refused";
+  group.signal(pid, SIGTERM);
+  EXPECT_TRUE(group.wait(pid, 2000ms).exited);
+  const std::string text = hpr::test::read_file(log);
+  EXPECT_NE(text.find(hal_says), std::string::npos) << "the simulator did not give the hal's reason '" << hal_says << "':\n" << text;
+  EXPECT_NE(text.find("commands rejected 1,"), std::string::npos) << text;
 }
 
 }  // namespace

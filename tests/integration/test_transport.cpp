@@ -154,6 +154,19 @@ TEST(NodeCommandLine, AnUnknownOptionStopsTheNodeNamingTheNearestOne) {
     EXPECT_EQ(p.exit_code, 2) << node << ": " << p.out;
     EXPECT_NE(p.out.find("unexpected argument 'stray'"), std::string::npos) << node << ": " << p.out;
   }
+  // The tools too: push_trial (which takes --lcm-url for the processes of its trial) and the
+  // operator command, whose verbs are suggested as well.
+  for (const std::string tool : {"push_trial", "hpr_operator"}) {
+    std::vector<std::string> cmd{hpr::test::bin_dir() + "/" + tool};
+    if (tool == "hpr_operator") cmd.emplace_back("damp");
+    cmd.insert(cmd.end(), {"--lcm_url", "udpm://239.255.76.99:7699?ttl=0"});
+    const auto r = hpr::test::run_command(cmd, "2>&1");
+    EXPECT_EQ(r.exit_code, 2) << tool << ": " << r.out;
+    EXPECT_NE(r.out.find("unknown option --lcm_url (did you mean '--lcm-url'?)"), std::string::npos) << tool << ": " << r.out;
+  }
+  const auto verb = hpr::test::run_command({hpr::test::bin_dir() + "/hpr_operator", "enabel"}, "2>&1");
+  EXPECT_EQ(verb.exit_code, 2) << verb.out;
+  EXPECT_NE(verb.out.find("unknown command 'enabel' (did you mean 'enable'?)"), std::string::npos) << verb.out;
 }
 
 TEST(NodeConfiguration, AKeyTheNodeDoesNotReadStopsItNamingTheNearestOne) {

@@ -137,7 +137,7 @@ class Filler {
   void fill(humanoid::health_t& m) {
     m.tick = i64(); m.utime = i64(); m.node = s(); m.host = s(); m.pid = i32(); m.state = i8(); m.lifecycle = i8(); m.steps = i64();
     m.rate_hz = r(); m.cycle_median_us = r(); m.cycle_p99_us = r(); m.cycle_max_us = r();
-    m.deadline_misses = i64(); m.decode_errors = i64(); m.stale_inputs = i64(); m.num_faults = 2; m.faults = names(2);
+    m.deadline_misses = i64(); m.decode_errors = i64(); m.stale_inputs = i64(); m.log_suppressed = i64(); m.num_faults = 2; m.faults = names(2);
   }
   void fill(humanoid::operator_t& m) {
     m.tick = i64(); m.utime = i64(); m.source = s(); m.command = i8(); m.support = i8(); m.reason = s();

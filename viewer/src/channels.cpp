@@ -128,6 +128,7 @@ json to_json(const humanoid::health_t& m) {
           {"cycle_median_us", num(m.cycle_median_us)},
           {"deadline_misses", m.deadline_misses},
           {"decode_errors", m.decode_errors},
+          {"log_suppressed", m.log_suppressed},
           {"faults", m.faults}};
 }
 

@@ -18,6 +18,7 @@
 #include <fmt/format.h>
 
 #include "hpr/msg/commands.hpp"
+#include "hpr/msg/lcm_section.hpp"
 #include "hpr/node/command_line.hpp"
 #include "hpr/node/lcm_url.hpp"
 
@@ -56,11 +57,12 @@ std::string host_name() {
 
 }  // namespace
 
-void InputBase::accept(std::int64_t tick) {
+void InputBase::accept(std::int64_t tick, std::int64_t utime) {
   receive_time_ = monotonic_s();
   // A repeated tick (a source republishing while it waits) does not show that its clock runs.
   if (tick > tick_ || tick_ < 0) advance_time_ = receive_time_;
   tick_ = tick;
+  utime_ = utime;
   ++count_;
 }
 
@@ -76,14 +78,37 @@ bool InputBase::in_window(std::int64_t tick) const {
   return tick_ < 0 || (tick >= tick_ && tick - tick_ <= runtime_.options_.tick_window);
 }
 
-void InputBase::hold(std::size_t bytes, std::int64_t tick) {
+std::string InputBase::implausible_time(std::int64_t tick, std::int64_t utime, double now) const {
+  // utime 0: the source's clock has not started (an estimator that is still initialising).
+  if (tick_ < 0 || (utime_ == 0 && utime >= 0)) return {};
+  const RuntimeOptions& o = runtime_.options_;
+  // In seconds, as doubles: a corrupted utime may be anywhere in int64's range.
+  const double dt = (static_cast<double>(utime) - static_cast<double>(utime_)) * 1e-6;
+  const double allowed = static_cast<double>(tick - tick_) * o.tick_period_max_s + std::max(0.0, now - receive_time_) + o.time_slack_s;
+  if (dt < 0.0) {
+    return fmt::format("time {:.6f} s at tick {} goes back {:.6f} s from {:.6f} s at tick {}", static_cast<double>(utime) * 1e-6, tick,
+                       -dt, static_cast<double>(utime_) * 1e-6, tick_);
+  }
+  if (dt > allowed) {
+    return fmt::format("time {:.6f} s at tick {} is {:.6g} s ahead of {:.6f} s at tick {} (at most {:.3f} s for {} ticks)",
+                       static_cast<double>(utime) * 1e-6, tick, dt, static_cast<double>(utime_) * 1e-6, tick_, allowed, tick - tick_);
+  }
+  return {};
+}
+
+void InputBase::hold(std::size_t bytes, std::int64_t tick, const std::string& why) {
   const double now = monotonic_s();
   held_ = true;
   held_tick_ = tick;
   ++out_of_window_;
-  const std::string where = tick > tick_ ? fmt::format("{} ahead of", tick - tick_) : fmt::format("{} behind", tick_ - tick);
-  reject(bytes, fmt::format("tick {} is {} the last tick {} (window {}): held until the stream is quiet for {} s",
-                            tick, where, tick_, runtime_.options_.tick_window, runtime_.options_.source_quiet_s));
+  const double quiet = runtime_.options_.source_quiet_s;
+  if (why == "tick") {
+    const std::string where = tick > tick_ ? fmt::format("{} ahead of", tick - tick_) : fmt::format("{} behind", tick_ - tick);
+    reject(bytes, fmt::format("tick {} is {} the last tick {} (window {}): held until the stream is quiet for {} s", tick, where,
+                              tick_, runtime_.options_.tick_window, quiet));
+  } else {
+    reject(bytes, fmt::format("{}: held until the stream is quiet for {} s", why, quiet));
+  }
   follow_if_quiet(now);
 }
 
@@ -478,6 +503,9 @@ void Runtime::publish_health() {
   h.deadline_misses = deadline_misses_;
   h.decode_errors = decode_errors();
   h.stale_inputs = stale_inputs_;
+  // Repeated log lines held back in a second that has ended are said now (all of them when stopping).
+  log::flush_repeats(stop_requested());
+  h.log_suppressed = log::suppressed();
   const int n = h.getEncodedSize();
   health_buffer_.resize(static_cast<std::size_t>(n));
   if (h.encode(health_buffer_.data(), 0, n) >= 0) {
@@ -550,26 +578,22 @@ void Runtime::publish_parameters(const ParameterSet& set, const ParameterRequest
 }
 
 RuntimeOptions runtime_options(const Config& cfg, double deadline_s) {
+  const msg::LcmSection l = msg::LcmSection::load(cfg);
   RuntimeOptions o;
   o.deadline_s = deadline_s;
   o.configuration = std::make_shared<const Config>(cfg);
-  if (cfg.has("lcm")) {
-    const Config l = cfg.section("lcm");
-    o.channel_prefix = l.string_or("channel_prefix", "");
-    o.health_period_s = 1.0 / l.real_or("health_rate_hz", 10.0, 0.1, 1000.0);
-    o.decode_fault_quiet_s = l.real_or("decode_fault_quiet_s", o.decode_fault_quiet_s, 0.0, 3600.0);
-    o.tick_window = l.integer_or("tick_window", o.tick_window, 1, 1'000'000'000);
-    o.source_quiet_s = l.real_or("source_quiet_s", o.source_quiet_s, 1e-3, 3600.0);
-    o.spin_s = l.real_or("spin_s", o.spin_s, 0.0, 0.1);
-  }
+  o.channel_prefix = l.channel_prefix;
+  o.health_period_s = 1.0 / l.health_rate_hz;
+  o.decode_fault_quiet_s = l.decode_fault_quiet_s;
+  o.tick_window = l.tick_window;
+  o.source_quiet_s = l.source_quiet_s;
+  o.tick_period_max_s = l.tick_period_max_s;
+  o.time_slack_s = l.time_slack_s;
+  o.spin_s = l.spin_s;
   return o;
 }
 
-std::string lcm_url(const CommandLine& cl, const Config& cfg) {
-  std::string configured;
-  if (cfg.has("lcm")) configured = cfg.section("lcm").string_or("url", "");
-  return resolve_lcm_url(cl.lcm_url, configured);
-}
+std::string lcm_url(const CommandLine& cl, const Config& cfg) { return resolve_lcm_url(cl.lcm_url, msg::LcmSection::load(cfg).url); }
 
 int run_main(int argc, char** argv, const std::string& process, const std::string& summary,
              const std::function<int(const CommandLine&, const Config&)>& body) {

@@ -5,6 +5,7 @@
 #include <type_traits>
 
 #include "hpr/msg/balance.hpp"
+#include "hpr/msg/lcm_section.hpp"
 #include "hpr/msg/state.hpp"
 
 namespace hpr::pipeline {
@@ -24,6 +25,7 @@ void check_exchange_options(const Config& cfg, const ControllersOptions& run) {
   (void)wb.integer_or("wholebody_stale_ticks", 50, 1, 100000);
   (void)wb.real_or("state_timeout", 0.05, 0.0, 60.0);
   if (run.estimator) (void)cfg.section("estimator").real_or("sensor_timeout", 0.02, 1e-3, 60.0);
+  (void)msg::LcmSection::load(cfg);
 }
 
 namespace {

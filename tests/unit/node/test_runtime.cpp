@@ -6,6 +6,7 @@
 #include <humanoid/balance_status_t.hpp>
 #include <humanoid/robot_sensors_t.hpp>
 #include <chrono>
+#include <optional>
 #include <thread>
 #include <vector>
 
@@ -26,9 +27,11 @@ class TickStream : public ::testing::Test {
     return o;
   }
 
-  void send(std::int64_t tick, const std::string& channel = "SENSORS") {
+  /// A sample of `tick` at 1 ms per tick, or at `utime` [us].
+  void send(std::int64_t tick, const std::string& channel = "SENSORS", std::optional<std::int64_t> utime = {}) {
     humanoid::robot_sensors_t m{};
     m.tick = tick;
+    m.utime = utime.value_or(tick * 1000);
     rt.lcm().publish(channel, &m);
     rt.spin_once(0.0);
   }
@@ -61,6 +64,44 @@ TEST_F(TickStream, AForgedFutureTickIsHeldCountedAndNeverStepped) {
   rt.spin_until([] { return false; }, 0.2);
   EXPECT_EQ(sensors.follows(), 0);
   EXPECT_EQ(stepped.back(), 20);
+}
+
+// The probe that felled the robot: one sample 200 ticks ahead (inside the window) whose time is
+// 2^58 us ahead. Were it accepted, every real sample after it would be "time does not advance".
+TEST_F(TickStream, ASampleWhoseTimeIsImplausibleForItsTickIsHeldAndTheRealStreamRunsOn) {
+  rt.on_tick(sensors, {}, 0.0, [&](const hpr::node::TickInfo& info) { stepped.push_back(info.tick); });
+  for (int k = 1; k <= 10; ++k) send(k);
+  send(60, "SENSORS", std::int64_t{1} << 58);
+  for (int k = 11; k <= 20; ++k) send(k);
+  ASSERT_EQ(stepped.size(), 20U);
+  EXPECT_EQ(stepped.back(), 20);
+  EXPECT_EQ(sensors.latest().utime, 20'000);
+  EXPECT_EQ(sensors.implausible_times(), 1);
+  EXPECT_EQ(sensors.out_of_window(), 1);
+  EXPECT_EQ(rt.decode_errors(), 1);
+  EXPECT_NE(sensors.last_error().find("at tick 60 is 2.8823e+11 s ahead of 0.010000 s at tick 10"), std::string::npos)
+      << sensors.last_error();
+  rt.spin_until([] { return false; }, 0.2);
+  EXPECT_EQ(sensors.follows(), 0) << "the live stream ran: the forged sample is never followed";
+}
+
+TEST_F(TickStream, ATimeThatGoesBackIsHeldAsIsOneTooFarAheadForItsTicks) {
+  rt.on_tick(sensors, {}, 0.0, [&](const hpr::node::TickInfo& info) { stepped.push_back(info.tick); });
+  send(100);
+  send(101, "SENSORS", 99'000);  // 2 ms back
+  // 0.5 s ahead in 5 ticks: more than 5 x 10 ms + the wall time since tick 100 + 50 ms.
+  send(105, "SENSORS", 100'000 + 500'000);
+  EXPECT_EQ(stepped, (std::vector<std::int64_t>{100}));
+  EXPECT_EQ(sensors.implausible_times(), 2);
+  EXPECT_NE(sensors.last_error().find("ahead of 0.100000 s at tick 100"), std::string::npos) << sensors.last_error();
+  // What a lockstep source does (1 ms per tick, whatever the wall clock) and what a real-time one
+  // does after a stall (its clock ran with the wall clock) are both followed at once.
+  for (int k = 102; k <= 110; ++k) send(k);
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  send(111, "SENSORS", 110'000 + 300'000);
+  send(112, "SENSORS", 110'000 + 301'000);
+  EXPECT_EQ(stepped.back(), 112);
+  EXPECT_EQ(sensors.implausible_times(), 2);
 }
 
 TEST_F(TickStream, ATickWithinTheWindowIsAcceptedOneBeyondIsNot) {
@@ -175,31 +216,33 @@ TEST_F(TickStream, InputsThatAreNotStreamsAcceptAnyTick) {
 TEST_F(TickStream, ARepeatOfAWaitingTickIsDroppedSoTheStepUsesTheFirstMessage) {
   // A node whose validator decodes into its own state (as the wbc's does), and whose step waits
   // for BALANCE only while that state is usable (utime >= 0 here), as the wbc waits for the motion
-  // optimiser's command only on a usable estimate.
-  std::int64_t state_utime = 0;
+  // optimiser's command only on a usable estimate. The mark (imu_gyro_B[0]: 1 usable, -1 flagged)
+  // stands for the estimator's status; the copy's time is its tick's, as a republished sample's is.
+  double state_mark = 0;
   auto& state = rt.subscribe<humanoid::robot_sensors_t>("STATE", [&](const humanoid::robot_sensors_t& m) {
-    state_utime = m.utime;
+    state_mark = m.imu_gyro_B[0];
     return std::string();
   });
   auto& balance = rt.subscribe<humanoid::balance_status_t>("BALANCE");
-  std::vector<std::int64_t> used_utime;
-  rt.on_tick(state, {{&balance, 0, [&] { return state_utime >= 0; }}}, 10.0, [&](const hpr::node::TickInfo& info) {
+  std::vector<double> used_mark;
+  rt.on_tick(state, {{&balance, 0, [&] { return state_mark >= 0; }}}, 10.0, [&](const hpr::node::TickInfo& info) {
     stepped.push_back(info.tick);
-    used_utime.push_back(state_utime);
+    used_mark.push_back(state_mark);
   });
-  const auto send_state = [&](std::int64_t tick, std::int64_t utime) {
+  const auto send_state = [&](std::int64_t tick, double mark) {
     humanoid::robot_sensors_t m{};
     m.tick = tick;
-    m.utime = utime;
+    m.utime = tick * 1000;
+    m.imu_gyro_B[0] = mark;
     rt.lcm().publish("STATE", &m);
     rt.spin_once(0.0);
   };
-  send_state(1, 1000);
+  send_state(1, 1);
   send_balance(1);
   ASSERT_EQ(stepped, (std::vector<std::int64_t>{1}));
   // Tick 2 waits for BALANCE; meanwhile its source republishes tick 2 flagged unusable (a sensor
   // timeout on a slow round). The step must neither run early nor see the flagged copy.
-  send_state(2, 2000);
+  send_state(2, 2);
   send_state(2, -1);
   send_state(2, -1);
   EXPECT_EQ(stepped.size(), 1U) << "the repeat released the waiting step";
@@ -207,18 +250,18 @@ TEST_F(TickStream, ARepeatOfAWaitingTickIsDroppedSoTheStepUsesTheFirstMessage) {
   EXPECT_EQ(state.count(), 2);
   send_balance(2);
   ASSERT_EQ(stepped, (std::vector<std::int64_t>{1, 2}));
-  EXPECT_EQ(used_utime.back(), 2000);
+  EXPECT_EQ(used_mark.back(), 2);
   // Once tick 2 has stepped, a repeat is taken as the latest message (nothing waits on it) and
   // steps nothing.
   send_state(2, -1);
   EXPECT_EQ(state.repeats(), 2);
   EXPECT_EQ(state.count(), 3);
-  EXPECT_EQ(state_utime, -1);
+  EXPECT_EQ(state_mark, -1);
   EXPECT_EQ(stepped.size(), 2U);
   // A first message that is unusable is the tick's message: the step runs at once without BALANCE.
   send_state(3, -1);
   EXPECT_EQ(stepped, (std::vector<std::int64_t>{1, 2, 3}));
-  EXPECT_EQ(used_utime.back(), -1);
+  EXPECT_EQ(used_mark.back(), -1);
 }
 
 }  // namespace

@@ -229,7 +229,7 @@ TrialResult run_trial(const TrialSpec& spec, const std::function<void(const std:
     return a;
   };
 
-  launch::ProcessGroup group;
+  launch::ProcessGroup group(spec.lcm_url.empty() ? launch::unique_lcm_url() : spec.lcm_url);
   const std::unique_ptr<lcm::LCM> lcm_handle = node::open_lcm(group.lcm_url());
   lcm::LCM& lcm = *lcm_handle;
   TrialEvaluator eval(robot, spec.support, t_push, t_end);

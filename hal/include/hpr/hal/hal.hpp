@@ -66,6 +66,26 @@ struct HalConfig {
   static HalConfig load(const Config& hal_section, const model::RobotSpec& robot);
 };
 
+/// What a drive without a `limits` block accepts, from its joint's URDF limits (`hal.drive_defaults`).
+struct DriveDefaults {
+  double kp_max = 1000.0;         ///< [Nm/rad]
+  double kd_max = 50.0;           ///< [Nm s/rad]
+  double position_margin = 0.5;   ///< [rad] beyond the URDF position limits
+  double velocity_scale = 1.5;    ///< × the URDF velocity limit
+  double torque_scale = 1.0;      ///< × the URDF effort limit
+  static DriveDefaults load(const Config& drive_defaults);
+};
+
+/// A drive for every model joint with the defaults' limits (sign 1, offset 0, no bus): what the
+/// hal's command check uses where a configuration maps no drives (a simulated robot).
+std::vector<DriveConfig> default_drives(const model::RobotSpec& robot, const DriveDefaults& defaults = {});
+
+/// The hal's check of a JOINT_COMMAND against the first `controlled` of `drives`: the command's
+/// own check (size, non-finite values, negative gains), then in run mode every joint's q_des, qd_des,
+/// kp, kd and τ_ff inside its drive's range (drive side). Empty when acceptable, else the first
+/// reason. The simulator applies the same check, so that what the hal refuses is refused there too.
+std::string check_command(const JointCommand& c, const std::vector<DriveConfig>& drives, int controlled);
+
 /// Opens the transports of the configured buses. `emulator_side` swaps local and remote for udp.
 std::vector<std::unique_ptr<CanTransport>> open_buses(const HalConfig& c, bool emulator_side);
 

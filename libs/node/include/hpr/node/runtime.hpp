@@ -12,7 +12,13 @@
 ///    that window (a forged or corrupted tick, or a source that restarted at 0) is held back and
 ///    counted as a rejected message; when the stream's tick has not advanced for `source_quiet_s`,
 ///    the input follows the held stream (a restarted source), the triggers it drives start again
-///    from its tick and the node's on_restart() resets run.
+///    from its tick and the node's on_restart() resets run. The message's time (`utime`) is held to
+///    the same rule, jointly with its tick: from the last accepted message it may not go back, nor
+///    advance by more than `tick_period_max_s` per tick plus the wall time since that message plus
+///    `time_slack_s` (a real-time source's clock runs with the wall clock, a lockstep one by its
+///    ticks; a last time of 0 is a clock that has not started). A message whose time is implausible
+///    for its tick is held like one outside the window,
+///    so one forged or corrupted sample never becomes the stream that the real one is judged by.
 ///  - A step uses the first message of its tick: a message that repeats the primary input's tick
 ///    while that tick's step waits for its synced inputs (a source republishing its last sample,
 ///    flagged stale, because the chain is slow) is counted (repeats()) and dropped. How long a
@@ -68,8 +74,11 @@ class InputBase {
   /// Treats the channel as one tick stream (see the file comment); a trigger's inputs are.
   void follow_ticks() { stream_ = true; }
   [[nodiscard]] bool follows_ticks() const { return stream_; }
-  /// Messages held back because their tick was outside the window (included in errors()).
+  /// Messages held back because their tick was outside the window, or their time implausible for
+  /// their tick (included in errors()).
   [[nodiscard]] std::int64_t out_of_window() const { return out_of_window_; }
+  /// Of those, the messages held for their time.
+  [[nodiscard]] std::int64_t implausible_times() const { return implausible_times_; }
   /// Times the input followed a new tick stream (a restarted source).
   [[nodiscard]] std::int64_t follows() const { return follows_; }
   /// Messages dropped because they repeated the tick of a step still waiting (see the file comment).
@@ -79,13 +88,16 @@ class InputBase {
   InputBase(Runtime& rt, std::string channel) : runtime_(rt), channel_(std::move(channel)) {}
   /// Records an accepted message of `tick`; then the subscriber's callback runs, then notify()
   /// releases the steps waiting for it (so a step sees what the callback did with the message).
-  void accept(std::int64_t tick);
+  void accept(std::int64_t tick, std::int64_t utime);
   void notify();
   void reject(std::size_t bytes, const std::string& why);
   /// Whether `tick` continues the stream: from the last accepted tick up to the window ahead.
   [[nodiscard]] bool in_window(std::int64_t tick) const;
-  /// Counts and reports a message held back for its tick (only the newest is kept).
-  void hold(std::size_t bytes, std::int64_t tick);
+  /// Why a message of `tick` (in the window) and time `utime` [us] does not continue the stream's
+  /// clock at monotonic time `now` (empty: it does). See the file comment.
+  [[nodiscard]] std::string implausible_time(std::int64_t tick, std::int64_t utime, double now) const;
+  /// Counts and reports a message held back for its tick or its time (only the newest is kept).
+  void hold(std::size_t bytes, std::int64_t tick, const std::string& why);
   /// When a stream is held and the accepted one has been quiet long enough: follows it.
   void follow_if_quiet(double now);
   /// Monotonic time at which follow_if_quiet() may follow the held stream (inf: nothing held).
@@ -101,12 +113,13 @@ class InputBase {
   Runtime& runtime_;
   std::string channel_;
   std::int64_t tick_ = -1, count_ = 0, errors_ = 0;
+  std::int64_t utime_ = 0;  ///< time [us] of the latest valid message
   double receive_time_ = 0.0;
   double advance_time_ = 0.0;  ///< monotonic time of the last accepted tick above the one before
   std::string last_error_;
   bool stream_ = false;
   bool held_ = false;
-  std::int64_t held_tick_ = -1, out_of_window_ = 0, follows_ = 0, repeats_ = 0;
+  std::int64_t held_tick_ = -1, out_of_window_ = 0, implausible_times_ = 0, follows_ = 0, repeats_ = 0;
   friend class Runtime;
 };
 
@@ -135,12 +148,21 @@ class Input final : public InputBase {
     } catch (const std::exception& e) {
       why = "not a valid " + std::string(Msg::getTypeName()) + " (" + e.what() + ")";
     }
-    if (why.empty() && stream_ && !in_window(spare_.tick)) {
-      // Not validated yet: a validator may act on what it accepts (the simulator applies a command).
-      std::swap(held_msg_, spare_);
-      held_bytes_ = rbuf->data_size;
-      hold(rbuf->data_size, held_msg_.tick);
-      return;
+    if (why.empty() && stream_) {
+      std::string held_why;
+      if (!in_window(spare_.tick)) {
+        held_why = "tick";
+      } else {
+        held_why = implausible_time(spare_.tick, spare_.utime, monotonic_s());
+        if (!held_why.empty()) ++implausible_times_;
+      }
+      if (!held_why.empty()) {
+        // Not validated yet: a validator may act on what it accepts (the simulator applies a command).
+        std::swap(held_msg_, spare_);
+        held_bytes_ = rbuf->data_size;
+        hold(rbuf->data_size, held_msg_.tick, held_why);
+        return;
+      }
     }
     // Before validation: a validator decodes into the node's own state, which the step reads.
     if (why.empty() && stream_ && repeats_waiting_step(spare_.tick)) return;
@@ -151,7 +173,7 @@ class Input final : public InputBase {
     }
     held_ = false;
     std::swap(latest_, spare_);
-    accept(latest_.tick);
+    accept(latest_.tick, latest_.utime);
     if (on_message_) on_message_(latest_);
     notify();
   }
@@ -173,7 +195,7 @@ class Input final : public InputBase {
       return false;
     }
     std::swap(latest_, held_msg_);
-    accept(latest_.tick);
+    accept(latest_.tick, latest_.utime);
     if (on_message_) on_message_(latest_);
     notify();
     return true;
@@ -238,6 +260,11 @@ struct RuntimeOptions {
   /// [s] How long a tick stream must be quiet before its input follows a new one (a restarted
   /// source, or ticks that jumped beyond the window).
   double source_quiet_s = 0.1;
+  /// [s] The longest clock period per tick of a tick stream's source: its time may advance by this
+  /// much per tick beyond the wall time elapsed (a lockstep source runs faster than the wall clock).
+  double tick_period_max_s = 0.01;
+  /// [s] Beyond that, how far a message's time may run ahead (delivery jitter).
+  double time_slack_s = 0.05;
   /// [s] Busy-poll window: from this long before the next message of a stepping input is due (its
   /// period estimated from the arrivals) until this long after, the loop polls LCM without
   /// sleeping, so the step starts without the core's wake-up (tens of microseconds on a virtual

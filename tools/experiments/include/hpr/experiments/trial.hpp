@@ -61,6 +61,7 @@ struct TrialSpec {
   std::vector<std::string> overrides; ///< more --set key=value for every process
   std::string log_file;               ///< LCM log of the run (lcm_recorder), empty: none
   std::string work_dir;               ///< folder for the processes' output (default: a temporary one)
+  std::string lcm_url;                ///< the processes' LCM URL (default: one no other run uses)
   double timeout = 600.0;             ///< [s] wall clock for the whole run
   bool stop_when_decided = false;     ///< end the run as soon as it cannot count as recovered (sweeps)
   bool in_process = false;            ///< through the in-process pipeline, not the processes (no log)
