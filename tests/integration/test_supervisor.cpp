@@ -127,6 +127,27 @@ TEST(Supervisor, UpStatusCriticalDeathRecordAndDownLeaveNothingBehind) {
     EXPECT_NE(spy.out.find(std::string("\n") + c + " "), std::string::npos) << c << " not seen by lcm-spy:\n" << spy.out;
   }
 
+  // 300 messages on HEALTH that do not decode: the supervisor counts them and says so a few times a
+  // second with the count (not LCM's own line per message), and its group stays up.
+  for (int k = 0; k < 300; ++k) {
+    const std::uint8_t junk[3] = {1, 2, static_cast<std::uint8_t>(k)};
+    lcm.lcm().publish("HEALTH", junk, sizeof(junk));
+  }
+  std::this_thread::sleep_for(2500ms);
+  {
+    const std::string text = hpr::test::read_file(run_dir + "/supervisor.log");
+    int lines = 0;
+    for (auto p = text.find("HEALTH: a message of 3 bytes is not a valid health_t"); p != std::string::npos;
+         p = text.find("HEALTH: a message of 3 bytes is not a valid health_t", p + 1)) {
+      ++lines;
+    }
+    EXPECT_GE(lines, 2) << text;
+    EXPECT_LE(lines, 12) << "one line per bad message:\n" << text;
+    EXPECT_NE(text.find("more like this in the last second"), std::string::npos) << text;
+    EXPECT_EQ(text.find("error -1 decoding"), std::string::npos) << text;
+    EXPECT_EQ(status(url)["supervisors"][0]["state"], "up");
+  }
+
   // A critical process dies: OPERATOR damp from the supervisor.
   ASSERT_TRUE(alive(pids["wbc"]));
   ::kill(pids["wbc"], SIGKILL);
