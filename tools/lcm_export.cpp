@@ -13,6 +13,7 @@
 #include <humanoid/sim_truth_t.hpp>
 #include <humanoid/wholebody_command_t.hpp>
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -24,6 +25,7 @@
 #include <string>
 #include <vector>
 
+#include "hpr/common/args.hpp"
 #include "hpr/msg/log_check.hpp"
 
 namespace {
@@ -249,25 +251,32 @@ bool ends_with(const std::string& s, const std::string& suffix) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc < 3 || std::string(argv[1]) == "-h" || std::string(argv[1]) == "--help") {
-    std::fprintf(argc < 3 ? stderr : stdout, "usage: lcm_export LOG OUTDIR [--channels A,B,...] [--every N]\n");
-    return argc < 3 ? 2 : 0;
-  }
-  const std::string log_path = argv[1], out_dir = argv[2];
+  constexpr const char* kUsage = "usage: lcm_export LOG OUTDIR [--channels A,B,...] [--every N]\n";
+  std::string log_path, out_dir;
   std::set<std::string> only;
   long every = 1;
-  for (int i = 3; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--channels" && i + 1 < argc) {
-      std::stringstream ss(argv[++i]);
-      std::string c;
-      while (std::getline(ss, c, ',')) only.insert(c);
-    } else if (a == "--every" && i + 1 < argc) {
-      every = std::max(1L, std::stol(argv[++i]));
-    } else {
-      std::fprintf(stderr, "lcm_export: unknown option '%s'\n", a.c_str());
-      return 2;
+  try {
+    hpr::ArgReader args(argc, argv);
+    while (args.next()) {
+      if (args.is("-h", "--help")) {
+        std::fputs(kUsage, stdout);
+        return 0;
+      } else if (args.is("--channels")) {
+        for (const auto& c : args.list()) only.insert(c);
+      } else if (args.is("--every")) {
+        every = std::max(1, args.integer());
+      } else if (args.positional() && log_path.empty()) {
+        log_path = args.current();
+      } else if (args.positional() && out_dir.empty()) {
+        out_dir = args.current();
+      } else {
+        args.unknown();
+      }
     }
+    if (out_dir.empty()) throw hpr::UsageError("a LOG and an OUTDIR are needed");
+  } catch (const hpr::UsageError& e) {
+    std::fprintf(stderr, "lcm_export: %s\n%s", e.what(), kUsage);
+    return 2;
   }
   fs::create_directories(out_dir);
   std::map<std::string, Sink> sinks;
