@@ -251,33 +251,29 @@ bool ends_with(const std::string& s, const std::string& suffix) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  constexpr const char* kUsage = "usage: lcm_export LOG OUTDIR [--channels A,B,...] [--every N]\n";
   std::string log_path, out_dir;
   std::set<std::string> only;
   long every = 1;
-  try {
-    hpr::ArgReader args(argc, argv);
-    while (args.next()) {
-      if (args.is("-h", "--help")) {
-        std::fputs(kUsage, stdout);
-        return 0;
-      } else if (args.is("--channels")) {
-        for (const auto& c : args.list()) only.insert(c);
-      } else if (args.is("--every")) {
-        every = std::max(1, args.integer());
-      } else if (args.positional() && log_path.empty()) {
-        log_path = args.current();
-      } else if (args.positional() && out_dir.empty()) {
-        out_dir = args.current();
-      } else {
-        args.unknown();
-      }
-    }
-    if (out_dir.empty()) throw hpr::UsageError("a LOG and an OUTDIR are needed");
-  } catch (const hpr::UsageError& e) {
-    std::fprintf(stderr, "lcm_export: %s\n%s", e.what(), kUsage);
-    return 2;
-  }
+  const auto usage = [](std::FILE* out) { std::fputs("usage: lcm_export LOG OUTDIR [--channels A,B,...] [--every N]\n", out); };
+  const auto refused = hpr::read_command_line(
+      argc, argv, "lcm_export", usage,
+      [&](hpr::ArgReader& args) {
+        if (args.is("--channels")) {
+          for (const auto& c : args.list()) only.insert(c);
+        } else if (args.is("--every")) {
+          every = std::max(1, args.integer());
+        } else if (args.positional() && log_path.empty()) {
+          log_path = args.current();
+        } else if (args.positional() && out_dir.empty()) {
+          out_dir = args.current();
+        } else {
+          args.unknown();
+        }
+      },
+      [&] {
+        if (out_dir.empty()) throw hpr::UsageError("a LOG and an OUTDIR are needed");
+      });
+  if (refused) return *refused;
   fs::create_directories(out_dir);
   std::map<std::string, Sink> sinks;
   std::map<std::string, long> unknown;

@@ -76,6 +76,10 @@ struct DriveDefaults {
   static DriveDefaults load(const Config& drive_defaults);
 };
 
+/// A drive's limits (drive units) from its joint's limits (`dc.q_lower`, `dc.q_upper`, sign and
+/// offset set) and the defaults.
+DriveLimits default_limits(const DriveDefaults& defaults, const DriveConfig& dc, double v_max, double tau_max);
+
 /// A drive for every model joint with the defaults' limits (sign 1, offset 0, no bus): what the
 /// hal's command check uses where a configuration maps no drives (a simulated robot).
 std::vector<DriveConfig> default_drives(const model::RobotSpec& robot, const DriveDefaults& defaults = {});
