@@ -22,7 +22,9 @@
 #include "hpr/common/args.hpp"
 #include "hpr/common/text.hpp"
 #include "hpr/common/time.hpp"
+#include "hpr/common/auth.hpp"
 #include "hpr/node/lcm_url.hpp"
+#include "hpr/node/runtime.hpp"
 
 namespace {
 
@@ -35,7 +37,9 @@ constexpr const char* kUsage =
     "         --wait S: how long set and params wait for the nodes' answers (default 1)\n"
     "set applies each node's keys all or nothing and exits 0 when every node named applied them,\n"
     "1 when one refused, 4 when one did not answer. Keys are those of the node's configuration\n"
-    "section (wbc.com.stiffness.z, reference_gen.x.alpha); `params` lists them.\n";
+    "section (wbc.com.stiffness.z, reference_gen.x.alpha); `params` lists them.\n"
+    "Every OPERATOR is signed with the deployment's key, $HPR_LCM_KEY_FILE (default\n"
+    "~/.config/hpr/lcm.key, created by `supervisor up`); exit 2 when it cannot be read.\n";
 
 int usage(const std::string& why) {
   std::fprintf(stderr, "%s%s%s", why.c_str(), why.empty() ? "" : "\n", kUsage);
@@ -143,8 +147,14 @@ int main(int argc, char** argv) {
   }
 
   std::unique_ptr<lcm::LCM> lcm;
+  hpr::auth::Key key;
   try {
+    // Signed with the deployment's key: the stack refuses an OPERATOR without its code.
+    key = hpr::auth::load_key(hpr::auth::key_path());
     lcm = hpr::node::open_lcm(hpr::node::resolve_lcm_url(url, ""));
+  } catch (const hpr::auth::AuthError& e) {
+    std::fprintf(stderr, "hpr_operator: %s\n", e.what());
+    return 2;
   } catch (const hpr::node::LcmError& e) {
     std::fprintf(stderr, "hpr_operator: %s\n", e.what());
     return 3;
@@ -157,7 +167,7 @@ int main(int argc, char** argv) {
   // Three copies 5 ms apart: UDP multicast may drop one; every receiver acts on one request once.
   for (int k = 0; k < 3; ++k) {
     m.tick = k;
-    lcm->publish("OPERATOR", &m);
+    hpr::node::publish_signed(*lcm, "OPERATOR", m, key);
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
   if (!asks) {

@@ -44,6 +44,8 @@
 #include "hpr/msg/graph.hpp"
 #include "hpr/msg/ticks.hpp"
 #include "hpr/node/lcm_url.hpp"
+#include "hpr/node/runtime.hpp"
+#include "hpr/common/auth.hpp"
 
 namespace fs = std::filesystem;
 
@@ -75,7 +77,7 @@ std::vector<std::string> outputs_of(const std::string& node) {
 /// Channels never played back (each process publishes its own).
 const std::set<std::string> kNotPlayed = {"HEALTH", "PARAMS", "SUPERVISOR_STATUS", "SUPERVISOR_COMMAND"};
 
-/// Decodes, clears the wall-clock fields, re-encodes: two outputs are equal when these bytes are.
+/// Decodes, clears the wall-clock fields (and the publisher's identity and code), re-encodes: two outputs are equal when these bytes are.
 using Canonical = std::function<std::vector<uint8_t>(const void*, int)>;
 
 template <class Msg>
@@ -84,6 +86,10 @@ Canonical canonical(std::function<void(Msg&)> clear) {
     Msg m;
     if (m.decode(data, 0, size) < 0) return std::vector<uint8_t>{};
     clear(m);
+    // Who published it (a process's random identity) and its authentication code (over that) are
+    // not what the node computed.
+    if constexpr (hpr::node::Sourced<Msg>) m.source = 0;
+    if constexpr (hpr::auth::Signed<Msg>) std::fill(std::begin(m.mac), std::end(m.mac), std::uint8_t{0});
     std::vector<uint8_t> out(static_cast<std::size_t>(m.getEncodedSize()));
     m.encode(out.data(), 0, static_cast<int>(out.size()));
     return out;

@@ -53,6 +53,8 @@
 #include "hpr/launch/supervisor.hpp"
 #include "hpr/msg/graph.hpp"
 #include "hpr/node/lifecycle.hpp"
+#include "hpr/node/runtime.hpp"
+#include "hpr/common/auth.hpp"
 
 namespace fs = std::filesystem;
 using namespace hpr;
@@ -70,6 +72,7 @@ usage: supervisor up GROUP [options]     start this host's share of GROUP; retur
        supervisor logs NAME [-f] [-n N]  the log of process NAME in the run folder
        supervisor restart NAME [options] stop process NAME and start it again
        supervisor groups [options]       list the groups of the file
+       supervisor keygen                 create the deployment's LCM key if there is none; print its path
 
 options:
   --groups FILE     group file (default: $HPR_GROUPS, else config/groups.yaml of this build or install)
@@ -79,6 +82,10 @@ options:
   --run-root DIR    where run folders go (default: $HPR_RUN_ROOT, else ./output/runs)
   --lcm-url URL     LCM URL for the group and the supervisors (default: lcm_url of the file, else
                     $LCM_DEFAULT_URL)
+
+The commanding channels (OPERATOR, JOINT_COMMAND, SUPERVISOR_COMMAND) are signed with the key file
+$HPR_LCM_KEY_FILE (default ~/.config/hpr/lcm.key): `up` creates it when there is none and names it to
+every process; the other hosts of a multi-host group need a copy (mode 0600).
   --foreground      (up) stay attached; Ctrl-C stops the group
   --json            (status) one JSON object instead of the table
   --wait S          (status) seconds to listen for the supervisors (default 1.2)
@@ -220,20 +227,30 @@ std::string tail_file(const std::string& path, int lines) {
 
 /// A typed LCM subscription calling a std::function (this LCM release has no lambda subscribe).
 /// A message that does not decode is counted (errors()) and logged, rate limited, with its
-/// channel and size, instead of LCM's own line per message.
+/// channel and size, instead of LCM's own line per message. With a key, a message without its valid
+/// authentication code is refused the same way before it is decoded (unauthenticated()).
 template <class Msg>
 class Subscription {
  public:
-  Subscription(lcm::LCM& lcm, const std::string& channel, std::function<void(const Msg&)> f) : lcm_(lcm), f_(std::move(f)) {
+  Subscription(lcm::LCM& lcm, const std::string& channel, std::function<void(const Msg&)> f, const auth::Key* key = nullptr)
+      : lcm_(lcm), f_(std::move(f)), key_(key) {
     sub_ = lcm_.subscribe(channel, &Subscription::on, this);
   }
   ~Subscription() { lcm_.unsubscribe(sub_); }
   Subscription(const Subscription&) = delete;
   Subscription& operator=(const Subscription&) = delete;
   [[nodiscard]] std::int64_t errors() const { return errors_; }
+  [[nodiscard]] std::int64_t unauthenticated() const { return unauthenticated_; }
 
  private:
   void on(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
+    if (key_ != nullptr && !auth::verify(static_cast<const std::uint8_t*>(rbuf->data), rbuf->data_size, *key_)) {
+      ++errors_;
+      ++unauthenticated_;
+      hpr::log::warn("{}: a message of {} bytes refused: no valid authentication code (not signed with {}; {} refused so far)",
+                     channel, rbuf->data_size, key_->path, unauthenticated_);
+      return;
+    }
     if (msg_.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size)) < 0) {
       ++errors_;
       hpr::log::warn("{}: a message of {} bytes is not a valid {} ({} so far)", channel, rbuf->data_size, Msg::getTypeName(), errors_);
@@ -243,9 +260,10 @@ class Subscription {
   }
   lcm::LCM& lcm_;
   std::function<void(const Msg&)> f_;
+  const auth::Key* key_ = nullptr;
   lcm::Subscription* sub_ = nullptr;
   Msg msg_{};
-  std::int64_t errors_ = 0;
+  std::int64_t errors_ = 0, unauthenticated_ = 0;
 };
 
 /// Handles messages for `timeout_s`, and always whatever is already queued: a supervisor that was
@@ -281,7 +299,8 @@ int run_supervisor(const launch::GroupSpec& group, const Options& o, const std::
     notify(msg);
     return 1;
   }
-  launch::ProcessGroup launcher(url);
+  launch::ProcessGroup launcher(url);  // creates the deployment's key when there is none
+  const auth::Key key = auth::load_key(launcher.key_path());
   launch::Supervisor sup(group, o.host, run_dir, launcher);
   std::string last_event;
   bool changed = true;
@@ -325,7 +344,7 @@ int run_supervisor(const launch::GroupSpec& group, const Options& o, const std::
         std::cout << fmt::format("[{}] {}: restart requested by {}", now_text(), c.process, c.source) << std::endl;
       }
     }
-  });
+  }, &key);
 
   std::int64_t seq = 0, damp_seq = 0;
   const auto publish_damp = [&](const std::string& reason) {
@@ -337,7 +356,7 @@ int run_supervisor(const launch::GroupSpec& group, const Options& o, const std::
     op.support = 0;
     op.reason = reason;
     op.num_params = 0;
-    lcm.publish("OPERATOR", &op);
+    node::publish_signed(lcm, "OPERATOR", op, key);
     std::cout << fmt::format("[{}] OPERATOR damp sent: {}", now_text(), reason) << std::endl;
   };
 
@@ -591,7 +610,8 @@ void send_command(lcm::LCM& lcm, const Options& o, int8_t command, const std::st
   c.group = o.group_filter;
   c.command = command;
   c.process = process;
-  lcm.publish("SUPERVISOR_COMMAND", &c);
+  static const auth::Key key = auth::load_key(auth::key_path());
+  node::publish_signed(lcm, "SUPERVISOR_COMMAND", c, key);
 }
 
 int cmd_down(const Options& o, const std::string& url) {
@@ -794,6 +814,12 @@ int main(int argc, char** argv) {
     if (needs_target && o.target.empty()) throw UsageError(o.command + " needs a " + (o.command == "up" ? "GROUP" : "NAME"));
     if (o.command == "up") return cmd_up(o);
     if (o.command == "groups") return cmd_groups(o);
+    if (o.command == "keygen") {
+      const std::string path = auth::key_path();
+      (void)auth::load_or_create_key(path);
+      std::cout << path << "\n";
+      return 0;
+    }
     std::signal(SIGINT, on_signal);
     std::signal(SIGTERM, on_signal);
     // The URL: --lcm-url, else the group file's, else the environment's.

@@ -11,6 +11,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <csignal>
 #include <humanoid/health_t.hpp>
 #include <humanoid/joint_command_t.hpp>
@@ -20,6 +21,7 @@
 #include <humanoid/sim_truth_t.hpp>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <random>
 #include <thread>
 
 #include "lcm_listener.hpp"
@@ -59,10 +61,18 @@ class Watch {
     for (int n = 0; n < 1'000'000 && lcm_.lcm().handleTimeout(0) > 0; ++n) {
     }
   }
+  /// Publishes as the stack does (a signed type with the deployment's key).
   template <class Msg>
   void publish(const std::string& channel, const Msg& m) {
     lcm_.publish(channel, m);
   }
+  /// Publishes as a sender without the key does.
+  template <class Msg>
+  void publish_unsigned(const std::string& channel, const Msg& m) {
+    lcm_.publish_unsigned(channel, m);
+  }
+  [[nodiscard]] const hpr::auth::Key& key() { return lcm_.key(); }
+  lcm::LCM& lcm() { return lcm_.lcm(); }
 
   humanoid::robot_sensors_t sensors{};
   humanoid::robot_state_t state{};
@@ -158,6 +168,19 @@ bool chain_runs(Watch& w, std::int64_t from, std::int64_t ticks, std::chrono::mi
   }, timeout);
 }
 
+/// A group up with its chain running (`ticks` commands) and the watch caught up with the present.
+struct Running {
+  std::string url = hpr::test::unique_lcm_url();
+  Watch w{url};
+  Group g{url};
+  ::testing::AssertionResult started(std::int64_t ticks = 500) {
+    if (!g.up()) return ::testing::AssertionFailure() << g.up_text();
+    if (!chain_runs(w, 0, ticks, 30s)) return ::testing::AssertionFailure() << "the chain did not start";
+    w.catch_up();
+    return ::testing::AssertionSuccess();
+  }
+};
+
 FAULTS_TEST(ForgedFutureTicksAreHeldAndARestartedSimulatorIsFollowed) {
   const std::string url = hpr::test::unique_lcm_url();
   Watch w(url);
@@ -205,13 +228,11 @@ FAULTS_TEST(ForgedFutureTicksAreHeldAndARestartedSimulatorIsFollowed) {
 // does not advance"), and the robot fell. Each is held for its time; the chain runs on and the robot
 // stands.
 FAULTS_TEST(OneSampleWithAFarTimeInsideTheTickWindowIsHeldAndTheRobotStands) {
-  const std::string url = hpr::test::unique_lcm_url();
-  Watch w(url);
-  Group g(url);
-  ASSERT_TRUE(g.up()) << g.up_text();
-  ASSERT_TRUE(chain_runs(w, 0, 500, 30s)) << "the chain did not start";
+  Running r;
+  ASSERT_TRUE(r.started());  // copies of the present messages: their ticks 200 ahead are inside the window
+  Watch& w = r.w;
+  Group& g = r.g;
   constexpr std::int64_t kFar = std::int64_t{1} << 58;
-  w.catch_up();  // copies of the present messages: their ticks 200 ahead are inside the window
   humanoid::robot_sensors_t s = w.sensors;
   humanoid::robot_state_t e = w.state;
   humanoid::joint_command_t c = w.command;
@@ -231,6 +252,186 @@ FAULTS_TEST(OneSampleWithAFarTimeInsideTheTickWindowIsHeldAndTheRobotStands) {
     EXPECT_EQ(log.find("does not advance"), std::string::npos) << n << " refused the real stream:\n" << log;
   }
   EXPECT_TRUE(w.wait_for([&] { return w.health["sim_bullet"].decode_errors >= 1; }, 5s)) << "the simulator did not count the forged command";
+}
+
+// A second sender on the clocked channels (a stray simulator or controller with its own identity, and
+// the key): samples whose ticks and times continue the stream, with every joint at zero, and limp
+// commands, each a few ticks ahead of the live ones. Each reader holds them as another source's,
+// counts them and says so; the chain runs on with the real streams and the robot stands.
+FAULTS_TEST(ASecondSenderInsideTheTickWindowIsHeldAndTheRobotStands) {
+  Running r;
+  ASSERT_TRUE(r.started());
+  Watch& w = r.w;
+  Group& g = r.g;
+  constexpr std::int64_t kStray = 0x5eed;
+  constexpr int kEach = 50;
+  for (int k = 1; k <= kEach; ++k) {
+    humanoid::robot_sensors_t s = w.sensors;
+    s.source = kStray;
+    s.tick += 2;
+    s.utime += 2000;
+    std::fill(s.q.begin(), s.q.end(), 0.0);
+    w.publish("ROBOT_SENSORS", s);
+    humanoid::joint_command_t c = w.command;
+    c.source = kStray;
+    c.tick += 2;
+    std::fill(c.kp.begin(), c.kp.end(), 0.0);
+    std::fill(c.kd.begin(), c.kd.end(), 0.0);
+    std::fill(c.tau_ff.begin(), c.tau_ff.end(), 0.0);
+    w.publish("JOINT_COMMAND", c);  // signed: an insider with the key, but another process
+    w.wait_for([] { return false; }, 2ms);
+  }
+  const std::int64_t at_forge = w.command.tick;
+  EXPECT_TRUE(chain_runs(w, at_forge, 2000, 60s)) << "the chain stalled after the second sender: tick " << w.command.tick;
+  EXPECT_FALSE(w.truth.fallen) << "the robot fell";
+  EXPECT_GT(w.truth.p_WB[2], 0.8) << "the pelvis sank";
+  const auto counted = [&] {
+    return w.health["estimator"].decode_errors >= kEach && w.health["sim_bullet"].decode_errors >= kEach;
+  };
+  EXPECT_TRUE(w.wait_for(counted, 5s)) << "estimator " << w.health["estimator"].decode_errors << ", sim_bullet "
+                                      << w.health["sim_bullet"].decode_errors;
+  for (const char* n : {"estimator", "sim_bullet"}) {
+    const std::string log = g.log(n);
+    EXPECT_NE(log.find("0000000000005eed is not the stream's source"), std::string::npos) << n << " did not say why:\n" << log;
+    EXPECT_EQ(log.find("following tick"), std::string::npos) << n << " followed the second sender:\n" << log;
+  }
+}
+
+// Anyone on the network but the stack: a JOINT_COMMAND that would fell the robot (the chain's own at
+// the next ticks, made limp) and OPERATOR damp and stop, sent without the code, with another key's
+// code, or with the code of another message. Every one is refused before it acts and counted in the
+// HEALTH of each process that reads the channel; the chain runs on and the robot stands.
+FAULTS_TEST(CommandsWithoutTheDeploymentsCodeAreRefusedCountedAndTheRobotStands) {
+  Running r;
+  ASSERT_TRUE(r.started());
+  Watch& w = r.w;
+  Group& g = r.g;
+  hpr::auth::Key other = w.key();
+  other.bytes[7] ^= 0x5a;
+  constexpr int kEach = 20;
+  int commands_sent = 0;
+  for (int k = 1; k <= kEach; ++k) {
+    humanoid::joint_command_t c = w.command;  // its code is the wbc's, for the message before the change
+    c.tick += k;
+    for (int j = 0; j < c.num_joints; ++j) {
+      c.kp[static_cast<std::size_t>(j)] = 0.0;
+      c.kd[static_cast<std::size_t>(j)] = 0.0;
+      c.tau_ff[static_cast<std::size_t>(j)] = 0.0;
+    }
+    w.publish_unsigned("JOINT_COMMAND", c);
+    hpr::node::publish_signed(w.lcm(), "JOINT_COMMAND", c, other);
+    commands_sent += 2;
+    humanoid::operator_t op{};
+    op.tick = k;
+    op.utime = static_cast<std::int64_t>(k);
+    op.source = "intruder";
+    op.command = k % 2 == 0 ? humanoid::operator_t::COMMAND_DAMP : humanoid::operator_t::COMMAND_STOP;
+    op.reason = "forged";
+    w.publish_unsigned("OPERATOR", op);
+    hpr::node::publish_signed(w.lcm(), "OPERATOR", op, other);
+    w.wait_for([] { return false; }, 5ms);
+  }
+  const std::int64_t at_forge = w.command.tick;
+  EXPECT_TRUE(chain_runs(w, at_forge, 2000, 60s)) << "the chain stopped after the forged commands: tick " << w.command.tick
+                                                  << " mode " << int{w.command.mode};
+  EXPECT_FALSE(w.truth.fallen) << "the robot fell";
+  EXPECT_GT(w.truth.p_WB[2], 0.8) << "the pelvis sank";
+  EXPECT_FALSE(w.first_damp.has_value()) << "the supervisor damped: " << w.damp_reason;
+  // Each reader of OPERATOR (the wbc has two: its lifecycle and its live parameters) refused all
+  // 2 kEach of them; the simulator, which reads no OPERATOR, every forged command.
+  const auto counted = [&] {
+    for (const char* n : {"estimator", "wbc"}) {
+      if (w.health.count(n) == 0 || w.health[n].unauthenticated < 2 * kEach) return false;
+    }
+    return w.health["sim_bullet"].unauthenticated >= commands_sent;
+  };
+  EXPECT_TRUE(w.wait_for(counted, 5s)) << "estimator " << w.health["estimator"].unauthenticated << ", wbc "
+                                      << w.health["wbc"].unauthenticated << ", sim_bullet " << w.health["sim_bullet"].unauthenticated;
+  for (const char* n : {"wbc", "sim_bullet"}) {
+    const std::string log = g.log(n);
+    EXPECT_NE(log.find("no valid authentication code"), std::string::npos) << n << " did not say why:\n" << log;
+    EXPECT_EQ(log.find("intruder"), std::string::npos) << n << " acted on the intruder's OPERATOR:\n" << log;
+  }
+}
+
+// The backend restarted under the standing robot after each kind of probe, again and again: every
+// restart resumes standing (the new simulator is a new source, which every reader follows and the
+// estimator starts again from, carrying nothing across), and the robot stands 1.5 s after it. 20
+// tries in the real-time group (label hil), 4 in lockstep.
+#ifdef HPR_FAULTS_REALTIME
+constexpr int kRestartTries = 20;
+#else
+constexpr int kRestartTries = 4;
+#endif
+
+FAULTS_TEST(TheBackendRestartedAfterEachProbeResumesStanding) {
+  Running r;
+  ASSERT_TRUE(r.started(1000));
+  Watch& w = r.w;
+  Group& g = r.g;
+  std::mt19937_64 random(5);
+  int resumed = 0;
+  std::string failures;
+  for (int attempt = 0; attempt < kRestartTries; ++attempt) {
+    w.catch_up();
+    const int probe = attempt % 4;
+    if (probe == 0) {  // one sample 200 ticks and 2^58 us ahead
+      humanoid::robot_sensors_t s = w.sensors;
+      s.tick += 200;
+      s.utime += std::int64_t{1} << 58;
+      w.publish("ROBOT_SENSORS", s);
+    } else if (probe == 1) {  // a second sender a tick ahead of the live one
+      for (int k = 0; k < 20; ++k) {
+        humanoid::robot_sensors_t s = w.sensors;
+        s.source = 0x5eed;
+        s.tick += 1;
+        w.publish("ROBOT_SENSORS", s);
+        w.wait_for([] { return false; }, 2ms);
+      }
+    } else if (probe == 2) {  // commands without the key
+      humanoid::joint_command_t c = w.command;
+      c.tick += 1;
+      std::fill(c.kp.begin(), c.kp.end(), 0.0);
+      w.publish_unsigned("JOINT_COMMAND", c);
+      humanoid::operator_t op{};
+      op.source = "intruder";
+      op.command = humanoid::operator_t::COMMAND_DAMP;
+      w.publish_unsigned("OPERATOR", op);
+    } else {  // one random bit flipped in each of 100 copies of the live sample
+      for (int k = 0; k < 100; ++k) {
+        std::vector<std::uint8_t> bytes(static_cast<std::size_t>(w.sensors.getEncodedSize()));
+        w.sensors.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+        bytes[random() % bytes.size()] ^= static_cast<std::uint8_t>(1U << (random() % 8));
+        w.lcm().publish("ROBOT_SENSORS", bytes.data(), static_cast<unsigned>(bytes.size()));
+        if (k % 10 == 0) w.wait_for([] { return false; }, 1ms);
+      }
+    }
+    if (!chain_runs(w, w.command.tick, 300, 30s) || w.truth.fallen) {
+      failures += "try " + std::to_string(attempt) + ": the probe alone stopped the chain or felled the robot\n";
+      break;
+    }
+    const std::int64_t before = w.truth.tick;
+    if (g.restart("sim_bullet") != 0) {
+      failures += "try " + std::to_string(attempt) + ": supervisor restart failed\n";
+      continue;
+    }
+    const bool restarted = w.wait_for([&] { return w.truth.tick < before - 100; }, 30s);
+    // Then the chain answers the new clock (the command's tick is the sample's) for a simulated second
+    // and a half.
+    const bool stood = restarted && w.wait_for([&] {
+      return w.truth.fallen || (w.truth.tick >= 1500 && std::abs(w.command.tick - w.truth.tick) <= 5 &&
+                                w.command.mode == humanoid::joint_command_t::MODE_RUN);
+    }, 60s);
+    if (stood && !w.truth.fallen && w.truth.p_WB[2] > 0.8) {
+      ++resumed;
+    } else {
+      failures += "try " + std::to_string(attempt) + " (probe " + std::to_string(probe) + "): " +
+                  (restarted ? "" : "no restart; ") + "SIM_TRUTH tick " + std::to_string(w.truth.tick) + (w.truth.fallen ? " fallen" : "") +
+                  ", JOINT_COMMAND tick " + std::to_string(w.command.tick) + " mode " + std::to_string(int{w.command.mode}) + "\n";
+      if (w.truth.fallen) break;  // the next tries would start from a fallen robot
+    }
+  }
+  EXPECT_EQ(resumed, kRestartTries) << failures << "estimator log:\n" << g.log("estimator").substr(0, 4000);
 }
 
 // The group's hang watch for the wbc: 0.05 s in the real-time group, 0.5 s in the lockstep group

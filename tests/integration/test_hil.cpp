@@ -87,6 +87,34 @@ struct Hil {
   }
 };
 
+// Only the stack enables the drives: an OPERATOR enable without the deployment's code, or with another
+// key's, leaves them disabled and is counted in the hal's HEALTH; the same enable signed then enables.
+HIL_TEST(AnEnableWithoutTheDeploymentsCodeLeavesTheDrivesDisabled) {
+  Hil hil;
+  ASSERT_TRUE(hil.lcm.wait_for([&] { return hil.commands->size() > 200 && !hil.status->empty(); }, 30s)) << "no JOINT_COMMAND";
+  humanoid::operator_t op{};
+  op.source = "intruder";
+  op.command = humanoid::operator_t::COMMAND_ENABLE;
+  hpr::auth::Key other = hil.lcm.key();
+  other.bytes[0] ^= 1;
+  for (int k = 0; k < 3; ++k) {
+    op.tick = k;
+    hil.lcm.publish_unsigned("OPERATOR", op);
+    hpr::node::publish_signed(hil.lcm.lcm(), "OPERATOR", op, other);
+  }
+  const auto hal_refused = [&] {
+    for (auto it = hil.health->rbegin(); it != hil.health->rend(); ++it) {
+      if (it->node == "hal") return it->unauthenticated >= 6;
+    }
+    return false;
+  };
+  EXPECT_TRUE(hil.lcm.wait_for(hal_refused, 5s)) << "the hal did not count the 6 forged enables";
+  hil.lcm.spin_for(300ms);
+  EXPECT_NE(hil.hal_state(), int{humanoid::hal_status_t::STATE_ENABLED}) << "enabled by a sender without the key";
+  hil.enable();  // signed with the deployment's key
+  EXPECT_EQ(hil.hal_state(), int{humanoid::hal_status_t::STATE_ENABLED});
+}
+
 HIL_TEST(StandsTenSecondsAndRecoversExperiment1OverUdp) {
   Hil hil;
   hil.enable();

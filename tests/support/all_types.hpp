@@ -78,14 +78,14 @@ class Filler {
   }
 
   void fill(humanoid::robot_sensors_t& m) {
-    m.tick = i64(); m.utime = i64(); m.num_joints = joints_;
+    m.tick = i64(); m.utime = i64(); m.source = i64(); m.num_joints = joints_;
     m.joint_name = names(joints_); m.q = vec(joints_); m.qd = vec(joints_); m.tau = vec(joints_);
     m.drive_status = gen<int32_t>(joints_, [&] { return i32(); });
     arr(m.imu_quat_WB); arr(m.imu_gyro_B); arr(m.imu_accel_B);
     m.num_ft = 2; m.ft_name = names(2); m.ft_wrench_S = mat(2, 6);
   }
   void fill(humanoid::robot_state_t& m) {
-    m.tick = i64(); m.utime = i64();
+    m.tick = i64(); m.utime = i64(); m.source = i64();
     arr(m.p_WB); arr(m.quat_WB); arr(m.v_WB); arr(m.omega_WB); arr(m.p_WCom); arr(m.v_WCom);
     m.num_joints = joints_; m.joint_name = names(joints_); m.q = vec(joints_); m.qd = vec(joints_); m.tau = vec(joints_);
     m.num_feet = 2; m.foot_name = names(2); m.foot_contact = gen<int8_t>(2, [&] { return static_cast<int8_t>(b()); });
@@ -93,21 +93,21 @@ class Filler {
     arr(m.l_WCom); arr(m.ldot_WCom); m.status = i32();
   }
   void fill(humanoid::balance_status_t& m) {
-    m.tick = i64(); m.utime = i64(); m.support = i8(); arr(m.p_WV); m.yaw_WV = r();
+    m.tick = i64(); m.utime = i64(); m.source = i64(); m.support = i8(); arr(m.p_WV); m.yaw_WV = r();
     arr(m.tau_ankle_V); arr(m.tau_hip_V); arr(m.tau_V); arr(m.tau_min_V); arr(m.tau_max_V);
     arr(m.cop_V); arr(m.cop_measured_V); m.f_vz = r(); arr(m.w_des_WCom); arr(m.w_achieved_WCom);
     m.num_contacts = 2; m.contact_name = names(2); m.contact_wrench_W = mat(2, 6);
     m.qp_status = i32(); m.qp_iterations = i32(); m.qp_solve_time_us = r(); m.qp_fallback = b(); m.compute_time_us = r();
   }
   void fill(humanoid::cam_reference_t& m) {
-    m.tick = i64(); m.utime = i64(); arr(m.l_ref_W); arr(m.ldot_ref_W); arr(m.l_ref_V); arr(m.ldot_ref_V);
+    m.tick = i64(); m.utime = i64(); m.source = i64(); arr(m.l_ref_W); arr(m.ldot_ref_W); arr(m.l_ref_V); arr(m.ldot_ref_V);
     m.yaw_WV = r();
     for (auto& p : m.phase) p = i8();
     for (auto& row : m.t_phase_start) arr(row);
     arr(m.tau_thres_V); arr(m.ldot_max_V); m.status = i32(); m.balance_tick = i64();
   }
   void fill(humanoid::wholebody_command_t& m) {
-    m.tick = i64(); m.utime = i64(); m.support = i8();
+    m.tick = i64(); m.utime = i64(); m.source = i64(); m.support = i8();
     arr(m.p_WCom); arr(m.v_WCom); arr(m.a_WCom); arr(m.quat_WB); arr(m.omega_WB); arr(m.omegadot_WB);
     m.num_feet = 2; m.foot_name = names(2); m.p_WF = mat(2, 3); m.quat_WF = mat(2, 4); m.v_WF = mat(2, 6); m.a_WF = mat(2, 6);
     m.foot_contact = gen<int8_t>(2, [&] { return static_cast<int8_t>(b()); }); m.foot_load_limit = vec(2);
@@ -120,15 +120,16 @@ class Filler {
     m.posture_error = r(); m.qp_status = i32(); m.qp_iterations = i32(); m.qp_solve_time_us = r(); m.status = i32();
   }
   void fill(humanoid::joint_command_t& m) {
-    m.tick = i64(); m.utime = i64(); m.mode = i8(); m.num_joints = joints_; m.joint_name = names(joints_);
+    m.tick = i64(); m.utime = i64(); m.source = i64(); m.mode = i8(); m.num_joints = joints_; m.joint_name = names(joints_);
     m.tau_ff = vec(joints_); m.q_des = vec(joints_); m.qd_des = vec(joints_); m.kp = vec(joints_); m.kd = vec(joints_);
+    bytes(m.mac);
   }
   void fill(humanoid::push_t& m) {
     m.tick = i64(); m.utime = i64(); m.id = i64(); m.link = s(); arr(m.point_L); arr(m.force_W);
     m.start_time = r(); m.duration = r(); m.profile = i8();
   }
   void fill(humanoid::sim_truth_t& m) {
-    m.tick = i64(); m.utime = i64(); arr(m.p_WB); arr(m.quat_WB); arr(m.v_WB); arr(m.omega_WB);
+    m.tick = i64(); m.utime = i64(); m.source = i64(); arr(m.p_WB); arr(m.quat_WB); arr(m.v_WB); arr(m.omega_WB);
     arr(m.p_WCom); arr(m.v_WCom); arr(m.h_lin_W); arr(m.l_WCom);
     m.num_feet = 2; m.foot_name = names(2); m.p_WF = mat(2, 3); m.quat_WF = mat(2, 4); m.contact_wrench_W = mat(2, 6);
     m.foot_contact = gen<int8_t>(2, [&] { return static_cast<int8_t>(b()); }); m.foot_tilt = vec(2);
@@ -137,11 +138,12 @@ class Filler {
   void fill(humanoid::health_t& m) {
     m.tick = i64(); m.utime = i64(); m.node = s(); m.host = s(); m.pid = i32(); m.state = i8(); m.lifecycle = i8(); m.steps = i64();
     m.rate_hz = r(); m.cycle_median_us = r(); m.cycle_p99_us = r(); m.cycle_max_us = r();
-    m.deadline_misses = i64(); m.decode_errors = i64(); m.stale_inputs = i64(); m.log_suppressed = i64(); m.num_faults = 2; m.faults = names(2);
+    m.deadline_misses = i64(); m.decode_errors = i64(); m.stale_inputs = i64(); m.log_suppressed = i64(); m.unauthenticated = i64(); m.num_faults = 2; m.faults = names(2);
   }
   void fill(humanoid::operator_t& m) {
     m.tick = i64(); m.utime = i64(); m.source = s(); m.command = i8(); m.support = i8(); m.reason = s();
     m.num_params = 3; m.param_name = names(3); m.param_value = vec(3);
+    bytes(m.mac);
   }
   void fill(humanoid::params_t& m) {
     m.tick = i64(); m.utime = i64(); m.node = s(); m.version = i64(); m.request_utime = i64(); m.request_source = s();
@@ -149,7 +151,7 @@ class Filler {
     m.max_value = vec(5); m.unit = names(5);
   }
   void fill(humanoid::hal_status_t& m) {
-    m.tick = i64(); m.utime = i64(); m.state = i8(); m.state_reason = s(); m.num_drives = joints_;
+    m.tick = i64(); m.utime = i64(); m.source = i64(); m.state = i8(); m.state_reason = s(); m.num_drives = joints_;
     m.drive_joint = names(joints_); m.drive_id = gen<int32_t>(joints_, [&] { return i32(); });
     m.drive_state = gen<int8_t>(joints_, [&] { return i8(); }); m.drive_temperature = vec(joints_);
     m.drive_fault = gen<int32_t>(joints_, [&] { return i32(); }); m.drive_missed = gen<int64_t>(joints_, [&] { return i64(); });
@@ -170,9 +172,14 @@ class Filler {
   }
   void fill(humanoid::supervisor_command_t& m) {
     m.tick = i64(); m.utime = i64(); m.source = s(); m.host = s(); m.group = s(); m.command = i8(); m.process = s();
+    bytes(m.mac);
   }
 
  private:
+  template <std::size_t N>
+  void bytes(std::uint8_t (&a)[N]) {
+    for (auto& x : a) x = static_cast<std::uint8_t>(gen_());
+  }
   std::mt19937_64 gen_;
   int joints_;
 };

@@ -9,7 +9,9 @@
 #include <string>
 #include <vector>
 
+#include "hpr/common/auth.hpp"
 #include "hpr/node/lcm_url.hpp"
+#include "hpr/node/runtime.hpp"
 
 namespace hpr::test {
 
@@ -30,9 +32,25 @@ class LcmListener {
     return out;
   }
 
+  /// Publishes `m`; a signed type (OPERATOR, JOINT_COMMAND, ...) is signed with the deployment's
+  /// key, as the stack's own senders sign it.
   template <class Msg>
   void publish(const std::string& channel, const Msg& m) {
+    if constexpr (hpr::auth::Signed<Msg>) {
+      hpr::node::publish_signed(lcm_, channel, m, key());
+    } else {
+      lcm_.publish(channel, &m);
+    }
+  }
+  /// Publishes `m` as it is, with whatever its `mac` holds (a sender without the key).
+  template <class Msg>
+  void publish_unsigned(const std::string& channel, const Msg& m) {
     lcm_.publish(channel, &m);
+  }
+  /// The deployment's key (auth::key_path(), created when there is none).
+  const hpr::auth::Key& key() {
+    if (!key_) key_ = std::make_unique<hpr::auth::Key>(hpr::auth::load_or_create_key(hpr::auth::key_path()));
+    return *key_;
   }
 
   /// Handles messages until `done()` or the timeout; returns done().
@@ -52,6 +70,7 @@ class LcmListener {
   }
 
  private:
+  std::unique_ptr<hpr::auth::Key> key_;
   template <class Msg>
   struct Handler {
     std::shared_ptr<std::vector<Msg>> out;

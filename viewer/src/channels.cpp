@@ -129,6 +129,7 @@ json to_json(const humanoid::health_t& m) {
           {"deadline_misses", m.deadline_misses},
           {"decode_errors", m.decode_errors},
           {"log_suppressed", m.log_suppressed},
+          {"unauthenticated", m.unauthenticated},
           {"faults", m.faults}};
 }
 

@@ -1,5 +1,7 @@
 #include "hpr/launch/process_group.hpp"
 
+#include "hpr/common/auth.hpp"
+
 #include <arpa/inet.h>
 #include <fcntl.h>
 #include <netinet/in.h>
@@ -48,8 +50,11 @@ std::string executable_dir() {
   return ec ? std::string(".") : exe.parent_path().string();
 }
 
-ProcessGroup::ProcessGroup(std::string lcm_url, std::string bin_dir) : lcm_url_(std::move(lcm_url)), bin_dir_(std::move(bin_dir)) {
+ProcessGroup::ProcessGroup(std::string lcm_url, std::string bin_dir)
+    : lcm_url_(std::move(lcm_url)), bin_dir_(std::move(bin_dir)), key_path_(auth::key_path()) {
   if (bin_dir_.empty()) bin_dir_ = executable_dir();
+  // The deployment's key, created on first use: the processes started sign and check commands with it.
+  (void)auth::load_or_create_key(key_path_);
 }
 
 ProcessGroup::~ProcessGroup() { stop_all(); }
@@ -100,6 +105,7 @@ pid_t ProcessGroup::start(const std::string& exe, const std::vector<std::string>
     ::prctl(PR_SET_PDEATHSIG, SIGKILL);
     if (::getppid() != parent) ::_exit(127);
     ::setenv("LCM_DEFAULT_URL", lcm_url_.c_str(), 1);
+    ::setenv("HPR_LCM_KEY_FILE", key_path_.c_str(), 1);
     for (const auto& [k, v] : options.env) ::setenv(k.c_str(), v.c_str(), 1);
     if (!options.log_file.empty()) {
       const int fd = ::open(options.log_file.c_str(), O_WRONLY | O_CREAT | (options.append_log ? O_APPEND : O_TRUNC), 0644);

@@ -8,6 +8,7 @@
 #include <atomic>
 #include <cerrno>
 #include <cmath>
+#include <random>
 #include <csignal>
 #include <cstdlib>
 #include <cstring>
@@ -57,7 +58,8 @@ std::string host_name() {
 
 }  // namespace
 
-void InputBase::accept(std::int64_t tick, std::int64_t utime) {
+void InputBase::accept(std::int64_t tick, std::int64_t utime, std::int64_t source) {
+  source_ = source;
   receive_time_ = monotonic_s();
   // A repeated tick (a source republishing while it waits) does not show that its clock runs.
   if (tick > tick_ || tick_ < 0) advance_time_ = receive_time_;
@@ -72,6 +74,13 @@ void InputBase::reject(std::size_t bytes, const std::string& why) {
   ++errors_;
   last_error_ = why;
   runtime_.on_reject(*this, bytes, why);
+}
+
+bool InputBase::authentic(const void* bytes, std::size_t n, const auth::Key* key) {
+  if (key == nullptr || auth::verify(static_cast<const std::uint8_t*>(bytes), n, *key)) return true;
+  ++unauthenticated_;
+  reject(n, "no valid authentication code: not signed with this deployment's key (" + key->path + ")");
+  return false;
 }
 
 bool InputBase::in_window(std::int64_t tick) const {
@@ -94,6 +103,12 @@ std::string InputBase::implausible_time(std::int64_t tick, std::int64_t utime, d
                        static_cast<double>(utime) * 1e-6, tick, dt, static_cast<double>(utime_) * 1e-6, tick_, allowed, tick - tick_);
   }
   return {};
+}
+
+std::string InputBase::second_source(std::int64_t source) const {
+  if (tick_ < 0 || source == source_) return {};
+  return fmt::format("source {:016x} is not the stream's source {:016x} (a second sender on the channel)",
+                     static_cast<std::uint64_t>(source), static_cast<std::uint64_t>(source_));
 }
 
 void InputBase::hold(std::size_t bytes, std::int64_t tick, const std::string& why) {
@@ -156,12 +171,27 @@ Runtime::Runtime(std::string node_name, const std::string& lcm_url, RuntimeOptio
     }
   }
   lcm_ = open_lcm(lcm_url);
+  std::random_device entropy;
+  while (source_id_ == 0) source_id_ = static_cast<std::int64_t>((std::uint64_t{entropy()} << 32) | entropy());
   start_time_ = monotonic_s();
   rate_time_ = start_time_;
   last_health_ = start_time_ - options_.health_period_s;  // first HEALTH at once
 }
 
 Runtime::~Runtime() = default;
+
+const auth::Key* Runtime::command_key() {
+  if (!options_.authenticate) {
+    if (!warned_unauthenticated_) {
+      log::warn("lcm.authentication is off: commands (OPERATOR, JOINT_COMMAND, SUPERVISOR_COMMAND) are accepted from anyone "
+                "on the LCM network, and sent unsigned");
+      warned_unauthenticated_ = true;
+    }
+    return nullptr;
+  }
+  if (!key_) key_ = std::make_unique<auth::Key>(auth::load_key(auth::key_path()));
+  return key_.get();
+}
 
 bool Runtime::stop_requested() const { return stop_ || g_signalled.load(); }
 
@@ -506,6 +536,8 @@ void Runtime::publish_health() {
   // Repeated log lines held back in a second that has ended are said now (all of them when stopping).
   log::flush_repeats(stop_requested());
   h.log_suppressed = log::suppressed();
+  h.unauthenticated = 0;
+  for (const auto& in : inputs_) h.unauthenticated += in->unauthenticated();
   const int n = h.getEncodedSize();
   health_buffer_.resize(static_cast<std::size_t>(n));
   if (h.encode(health_buffer_.data(), 0, n) >= 0) {
@@ -590,6 +622,7 @@ RuntimeOptions runtime_options(const Config& cfg, double deadline_s) {
   o.tick_period_max_s = l.tick_period_max_s;
   o.time_slack_s = l.time_slack_s;
   o.spin_s = l.spin_s;
+  o.authenticate = l.authenticate;
   return o;
 }
 
@@ -608,6 +641,9 @@ int run_main(int argc, char** argv, const std::string& process, const std::strin
   } catch (const LcmError& e) {
     log::error("{}", e.what());
     return kExitLcm;
+  } catch (const auth::AuthError& e) {
+    log::error("{}", e.what());
+    return kExitConfig;
   } catch (const std::exception& e) {
     log::error("{}", e.what());
     return kExitFailure;

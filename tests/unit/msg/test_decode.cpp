@@ -49,14 +49,14 @@ TEST(Decode, ForgedCountsAndLengthsAreRefusedWithoutThrowingOrAllocating) {
   hpr::test::for_each_type([]<class Msg>(const std::string& name) { forge_every_int32<Msg>(name); });
 }
 
-TEST(Decode, AHugeJointCountInA92ByteMessageAllocatesNothingLarge) {
+TEST(Decode, AHugeJointCountInASmallMessageAllocatesNothingLarge) {
   // The probe's case: a small ROBOT_SENSORS declaring 20 000 000 joints.
   humanoid::robot_sensors_t m{};
   const int size = m.getEncodedSize();
   std::vector<std::uint8_t> buf(static_cast<size_t>(size));
   ASSERT_EQ(m.encode(buf.data(), 0, size), size);
   const std::uint32_t n = 20'000'000;
-  const int at = 8 + 8 + 8;  // hash, tick, utime, then num_joints
+  const int at = 8 + 8 + 8 + 8;  // hash, tick, utime, source, then num_joints
   for (int k = 0; k < 4; ++k) buf[static_cast<size_t>(at + k)] = static_cast<std::uint8_t>(n >> (24 - 8 * k));
   const long before = hpr::test::allocated_bytes();
   humanoid::robot_sensors_t out{};

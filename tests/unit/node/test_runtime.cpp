@@ -4,12 +4,16 @@
 #include <gtest/gtest.h>
 
 #include <humanoid/balance_status_t.hpp>
+#include <humanoid/health_t.hpp>
+#include <humanoid/joint_command_t.hpp>
+#include <humanoid/operator_t.hpp>
 #include <humanoid/robot_sensors_t.hpp>
 #include <chrono>
 #include <optional>
 #include <thread>
 #include <vector>
 
+#include "all_types.hpp"
 #include "hpr/node/runtime.hpp"
 
 namespace {
@@ -27,11 +31,13 @@ class TickStream : public ::testing::Test {
     return o;
   }
 
-  /// A sample of `tick` at 1 ms per tick, or at `utime` [us].
-  void send(std::int64_t tick, const std::string& channel = "SENSORS", std::optional<std::int64_t> utime = {}) {
+  /// A sample of `tick` at 1 ms per tick, or at `utime` [us], from publisher `source`.
+  void send(std::int64_t tick, const std::string& channel = "SENSORS", std::optional<std::int64_t> utime = {},
+            std::int64_t source = 0) {
     humanoid::robot_sensors_t m{};
     m.tick = tick;
     m.utime = utime.value_or(tick * 1000);
+    m.source = source;
     rt.lcm().publish(channel, &m);
     rt.spin_once(0.0);
   }
@@ -126,6 +132,77 @@ TEST_F(TickStream, ARestartedSourceIsFollowedAfterTheQuietTime) {
   for (int k = 1; k <= 5; ++k) send(k);
   EXPECT_EQ(stepped.back(), 5);
   EXPECT_EQ(sensors.out_of_window(), 1);
+}
+
+// A second sender on the channel (a stray simulator, a forger with its own identity) whose ticks and
+// times continue the stream plausibly: held and counted, never stepped while the followed source
+// lives; once that one has been quiet for source_quiet_s, the new source is followed (a restart).
+TEST_F(TickStream, ASecondSourceInsideTheWindowIsHeldUntilTheFollowedOneIsQuiet) {
+  constexpr std::int64_t kReal = 0x1234, kOther = -77;
+  int restarts = 0;
+  rt.on_restart(sensors, [&] { ++restarts; });
+  rt.on_tick(sensors, {}, 0.0, [&](const hpr::node::TickInfo& info) { stepped.push_back(info.tick); });
+  for (int k = 1; k <= 100; ++k) send(k, "SENSORS", {}, kReal);
+  EXPECT_EQ(sensors.source(), kReal);
+  for (int k = 101; k <= 200; ++k) {
+    send(k + 1, "SENSORS", {}, kOther);  // one tick ahead of the real one: in the window, a plausible time
+    send(k, "SENSORS", {}, kReal);
+  }
+  ASSERT_EQ(stepped.size(), 200U);
+  for (int k = 1; k <= 200; ++k) ASSERT_EQ(stepped[static_cast<std::size_t>(k - 1)], k);
+  EXPECT_EQ(sensors.second_sources(), 100);
+  EXPECT_EQ(sensors.out_of_window(), 100);
+  EXPECT_EQ(sensors.follows(), 0);
+  EXPECT_NE(sensors.last_error().find("source ffffffffffffffb3 is not the stream's source 0000000000001234"), std::string::npos)
+      << sensors.last_error();
+  EXPECT_TRUE(rt.has_fault("decode:SENSORS"));
+  // The real source stops and the other goes on: it is followed once the stream has been quiet long enough.
+  send(202, "SENSORS", {}, kOther);
+  ASSERT_TRUE(rt.spin_until([&] { return sensors.follows() == 1; }, 5.0));
+  EXPECT_EQ(sensors.source(), kOther);
+  EXPECT_EQ(restarts, 1);
+  EXPECT_EQ(stepped.back(), 202);
+  send(203, "SENSORS", {}, kOther);
+  EXPECT_EQ(stepped.back(), 203);
+}
+
+// What a process publishes carries its identity, at the offset the readers' rule assumes, for every
+// clocked type; the other types have no source.
+TEST(SourceIdentity, OutputsStampTheProcessIdentityOnEveryClockedType) {
+  Runtime a{"a", "memq://", RuntimeOptions{}};
+  Runtime b{"b", "memq://", RuntimeOptions{}};
+  EXPECT_NE(a.source_id(), 0);
+  EXPECT_NE(a.source_id(), b.source_id());
+  auto out = a.advertise<humanoid::robot_sensors_t>("S");
+  auto& in = a.subscribe<humanoid::robot_sensors_t>("S");
+  humanoid::robot_sensors_t m{};
+  m.tick = 3;
+  m.source = 99;  // whatever the message holds, the process's identity goes out
+  out.publish(m);
+  a.spin_once(0.0);
+  ASSERT_EQ(in.count(), 1);
+  EXPECT_EQ(in.latest().source, a.source_id());
+  // Every type: a Sourced one decodes the stamped identity (bytes 24-31), with every other field as
+  // it was; the list of Sourced types is the clocked channels.
+  std::vector<std::string> sourced;
+  hpr::test::for_each_type([&]<class Msg>(const std::string& name) {
+    hpr::test::Filler filler(11);
+    Msg original;
+    filler.fill(original);
+    std::vector<std::uint8_t> bytes;
+    const int n = hpr::node::encode_message(original, bytes, nullptr, std::int64_t{-0x0123456789abcdef});
+    ASSERT_GT(n, 0) << name;
+    Msg decoded;
+    ASSERT_EQ(decoded.decode(bytes.data(), 0, n), n) << name;
+    if constexpr (hpr::node::Sourced<Msg>) {
+      sourced.push_back(name);
+      EXPECT_EQ(decoded.source, -0x0123456789abcdef) << name;
+      decoded.source = original.source;
+    }
+    EXPECT_EQ(hpr::test::encode(decoded), hpr::test::encode(original)) << name << ": another field changed";
+  });
+  EXPECT_EQ(sourced, (std::vector<std::string>{"ROBOT_SENSORS", "ROBOT_STATE", "BALANCE_STATUS", "CAM_REFERENCE", "WHOLEBODY_COMMAND",
+                                               "JOINT_COMMAND", "SIM_TRUTH", "HAL_STATUS"}));
 }
 
 TEST_F(TickStream, ASourceThatJumpedAheadIsFollowedOnceTheOldStreamIsQuiet) {
@@ -382,6 +459,92 @@ TEST(BusyPoll, EveryTickIsSteppedAndTheNextArrivalIsEstimated) {
   // steps nothing.
   rt.spin_once(1.0);
   EXPECT_EQ(stepped.size(), 50U);
+}
+
+}  // namespace
+
+// The commanding channels: an input of a signed type takes only what the deployment's key signed,
+// refusing (and counting, in HEALTH too) a message without the code, with another key's code, or
+// with one changed byte; with authentication off it takes anything.
+namespace {
+
+humanoid::operator_t enable_request() {
+  humanoid::operator_t m{};
+  m.utime = 1;
+  m.source = "test";
+  m.command = humanoid::operator_t::COMMAND_ENABLE;
+  m.reason = "probe";
+  return m;
+}
+
+TEST(Authentication, AnInputOfASignedTypeTakesOnlyWhatTheKeySigned) {
+  (void)hpr::auth::load_or_create_key(hpr::auth::key_path());
+  Runtime rt{"test", "memq://", RuntimeOptions{}};
+  auto& in = rt.subscribe<humanoid::operator_t>("OPERATOR");
+  auto& health = rt.subscribe<humanoid::health_t>("HEALTH");
+  auto out = rt.advertise<humanoid::operator_t>("OPERATOR");
+  const humanoid::operator_t m = enable_request();
+
+  out.publish(m);
+  rt.spin_once(0.0);
+  EXPECT_EQ(in.count(), 1);
+  EXPECT_EQ(int{in.latest().command}, int{humanoid::operator_t::COMMAND_ENABLE});
+
+  rt.lcm().publish("OPERATOR", &m);  // unsigned: a sender without the key
+  rt.spin_once(0.0);
+  hpr::auth::Key other = hpr::auth::load_key(hpr::auth::key_path());
+  other.bytes[0] ^= 0xff;
+  hpr::node::publish_signed(rt.lcm(), "OPERATOR", m, other);
+  rt.spin_once(0.0);
+  // One byte of a signed message changed (the command: damp instead of enable).
+  std::vector<std::uint8_t> bytes;
+  const int n = hpr::node::encode_message(m, bytes, rt.command_key());
+  ASSERT_GT(n, 40);
+  humanoid::operator_t damp = m;
+  damp.command = humanoid::operator_t::COMMAND_DAMP;
+  std::vector<std::uint8_t> damp_bytes;
+  ASSERT_EQ(hpr::node::encode_message(damp, damp_bytes, nullptr), n);
+  std::copy(damp_bytes.begin(), damp_bytes.end() - 32, bytes.begin());  // the enable's code kept
+  rt.lcm().publish("OPERATOR", bytes.data(), static_cast<unsigned>(n));
+  rt.spin_once(0.0);
+
+  EXPECT_EQ(in.count(), 1);
+  EXPECT_EQ(in.unauthenticated(), 3);
+  EXPECT_EQ(in.errors(), 3);
+  EXPECT_NE(in.last_error().find("no valid authentication code"), std::string::npos) << in.last_error();
+  EXPECT_NE(in.last_error().find(hpr::auth::key_path()), std::string::npos) << in.last_error();
+  rt.publish_health();
+  rt.spin_once(0.0);
+  ASSERT_TRUE(health.has_value());
+  EXPECT_EQ(health.latest().unauthenticated, 3);
+  EXPECT_EQ(health.latest().decode_errors, 3);
+}
+
+TEST(Authentication, OffTakesAnySenderAndSignsNothing) {
+  RuntimeOptions o;
+  o.authenticate = false;
+  Runtime rt{"test", "memq://", o};
+  EXPECT_EQ(rt.command_key(), nullptr);
+  auto& in = rt.subscribe<humanoid::operator_t>("OPERATOR");
+  const humanoid::operator_t m = enable_request();
+  rt.lcm().publish("OPERATOR", &m);
+  rt.spin_once(0.0);
+  EXPECT_EQ(in.count(), 1);
+  EXPECT_EQ(in.unauthenticated(), 0);
+}
+
+TEST(Authentication, ANodeWithoutTheKeyFileRefusesToStartNamingIt) {
+  const std::string missing = std::string(HPR_TEST_WORK_DIR) + "/no-such-folder/lcm.key";
+  const std::string saved = hpr::auth::key_path();
+  ::setenv("HPR_LCM_KEY_FILE", missing.c_str(), 1);
+  Runtime rt{"test", "memq://", RuntimeOptions{}};
+  try {
+    (void)rt.subscribe<humanoid::operator_t>("OPERATOR");
+    ADD_FAILURE() << "subscribed without a key";
+  } catch (const hpr::auth::AuthError& e) {
+    EXPECT_NE(std::string(e.what()).find(missing + " does not exist"), std::string::npos) << e.what();
+  }
+  ::setenv("HPR_LCM_KEY_FILE", saved.c_str(), 1);
 }
 
 }  // namespace

@@ -39,7 +39,9 @@ struct StartOptions {
 class ProcessGroup {
  public:
   /// `lcm_url` is given to every child as LCM_DEFAULT_URL; executables named without a '/' are
-  /// looked up in `bin_dir` (default: executable_dir()).
+  /// looked up in `bin_dir` (default: executable_dir()). The deployment's key (auth::key_path()) is
+  /// created when there is none (throws auth::AuthError when it cannot be, or is open to others)
+  /// and named to every child as HPR_LCM_KEY_FILE.
   explicit ProcessGroup(std::string lcm_url = unique_lcm_url(), std::string bin_dir = "");
   ~ProcessGroup();
   ProcessGroup(const ProcessGroup&) = delete;
@@ -47,6 +49,7 @@ class ProcessGroup {
 
   [[nodiscard]] const std::string& lcm_url() const { return lcm_url_; }
   [[nodiscard]] const std::string& bin_dir() const { return bin_dir_; }
+  [[nodiscard]] const std::string& key_path() const { return key_path_; }
 
   /// Starts `exe` with `args`; stdout and stderr go to `log_file` when given (else inherited).
   /// Returns the pid. Throws std::runtime_error when fork fails.
@@ -70,7 +73,7 @@ class ProcessGroup {
  private:
   void reap(pid_t pid, int status);
 
-  std::string lcm_url_, bin_dir_;
+  std::string lcm_url_, bin_dir_, key_path_;
   std::vector<pid_t> pids_;
   std::map<pid_t, ProcessResult> reaped_;
 };

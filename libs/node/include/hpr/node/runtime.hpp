@@ -19,10 +19,21 @@
 ///    ticks; a last time of 0 is a clock that has not started). A message whose time is implausible
 ///    for its tick is held like one outside the window,
 ///    so one forged or corrupted sample never becomes the stream that the real one is judged by.
+///  - Every process stamps the clocked messages it publishes with its identity (`source`, a random
+///    64-bit number chosen when the Runtime starts). A tick stream follows one source: a message of
+///    another (a second sender on the channel, a stray or forged publisher) is held like a tick
+///    outside the window and counted (second_sources()), with a fault naming the channel and both
+///    sources, so a second sender's in-window ticks are never followed; when the followed source has
+///    been quiet for `source_quiet_s` (a restart: a new process has a new identity), the new one is
+///    followed and the node's on_restart() resets run.
 ///  - A step uses the first message of its tick: a message that repeats the primary input's tick
 ///    while that tick's step waits for its synced inputs (a source republishing its last sample,
 ///    flagged stale, because the chain is slow) is counted (repeats()) and dropped. How long a
 ///    lockstep round takes thus never changes what a step computes.
+///  - The channels that move or enable the robot carry an authentication code (hpr/common/auth.hpp):
+///    an input of such a type refuses, before decoding it, a message whose code is missing or was
+///    not made with the deployment's key (counted: unauthenticated(), HEALTH.unauthenticated), and
+///    an output signs what it publishes. lcm.authentication: off (a bench) turns both off.
 ///  - SIGINT and SIGTERM end run() (and spin_until()) promptly; the process then exits 0.
 ///  - HEALTH goes out at lcm.health_rate_hz (10 Hz), or faster when the environment variable
 ///    HPR_HEALTH_RATE_HZ asks (the supervisor does, for a node it watches for hangs): node, last
@@ -36,6 +47,7 @@
 
 #include <lcm/lcm-cpp.hpp>
 
+#include <concepts>
 #include <cstdint>
 #include <functional>
 #include <limits>
@@ -45,6 +57,7 @@
 #include <vector>
 
 #include "hpr/node/lifecycle.hpp"
+#include "hpr/common/auth.hpp"
 #include "hpr/common/config.hpp"
 #include "hpr/common/log.hpp"
 #include "hpr/common/stats.hpp"
@@ -83,12 +96,18 @@ class InputBase {
   [[nodiscard]] std::int64_t follows() const { return follows_; }
   /// Messages dropped because they repeated the tick of a step still waiting (see the file comment).
   [[nodiscard]] std::int64_t repeats() const { return repeats_; }
+  /// Messages held because another source than the stream's sent them (included in out_of_window()).
+  [[nodiscard]] std::int64_t second_sources() const { return second_sources_; }
+  /// The source the stream follows (0 before the first message of a sourced type).
+  [[nodiscard]] std::int64_t source() const { return source_; }
+  /// Messages refused for a missing or wrong authentication code (included in errors()).
+  [[nodiscard]] std::int64_t unauthenticated() const { return unauthenticated_; }
 
  protected:
   InputBase(Runtime& rt, std::string channel) : runtime_(rt), channel_(std::move(channel)) {}
   /// Records an accepted message of `tick`; then the subscriber's callback runs, then notify()
   /// releases the steps waiting for it (so a step sees what the callback did with the message).
-  void accept(std::int64_t tick, std::int64_t utime);
+  void accept(std::int64_t tick, std::int64_t utime, std::int64_t source);
   void notify();
   void reject(std::size_t bytes, const std::string& why);
   /// Whether `tick` continues the stream: from the last accepted tick up to the window ahead.
@@ -96,6 +115,8 @@ class InputBase {
   /// Why a message of `tick` (in the window) and time `utime` [us] does not continue the stream's
   /// clock at monotonic time `now` (empty: it does). See the file comment.
   [[nodiscard]] std::string implausible_time(std::int64_t tick, std::int64_t utime, double now) const;
+  /// Why a message of `source` is not the stream's (empty: it is, or the stream follows none yet).
+  [[nodiscard]] std::string second_source(std::int64_t source) const;
   /// Counts and reports a message held back for its tick or its time (only the newest is kept).
   void hold(std::size_t bytes, std::int64_t tick, const std::string& why);
   /// When a stream is held and the accepted one has been quiet long enough: follows it.
@@ -120,8 +141,27 @@ class InputBase {
   bool stream_ = false;
   bool held_ = false;
   std::int64_t held_tick_ = -1, out_of_window_ = 0, implausible_times_ = 0, follows_ = 0, repeats_ = 0;
+  std::int64_t unauthenticated_ = 0, second_sources_ = 0;
+  std::int64_t source_ = 0;
+  /// Whether `bytes` carry the code of `key` (null: authentication off); if not, counts and rejects.
+  bool authentic(const void* bytes, std::size_t n, const auth::Key* key);
   friend class Runtime;
 };
+
+/// An lcm-gen type whose third field is `int64_t source` (the publisher's identity, bytes 24-31).
+template <class Msg>
+concept Sourced = requires(const Msg& m) {
+  { m.source } -> std::convertible_to<std::int64_t>;
+} && std::is_same_v<decltype(Msg::source), std::int64_t>;
+
+template <class Msg>
+std::int64_t source_of(const Msg& m) {
+  if constexpr (Sourced<Msg>) {
+    return m.source;
+  } else {
+    return 0;
+  }
+}
 
 /// A typed input. `Msg` is an lcm-gen type with an int64 `tick` field.
 template <class Msg>
@@ -131,8 +171,9 @@ class Input final : public InputBase {
   using Validator = std::function<std::string(const Msg&)>;
   using Callback = std::function<void(const Msg&)>;
 
-  Input(Runtime& rt, lcm::LCM& lcm, std::string channel, Validator validate, Callback on_message)
-      : InputBase(rt, std::move(channel)), validate_(std::move(validate)), on_message_(std::move(on_message)) {
+  /// `key`: the key a signed type's code is checked with (null: not checked).
+  Input(Runtime& rt, lcm::LCM& lcm, std::string channel, Validator validate, Callback on_message, const auth::Key* key = nullptr)
+      : InputBase(rt, std::move(channel)), validate_(std::move(validate)), on_message_(std::move(on_message)), key_(key) {
     lcm.subscribe(channel_, &Input::handle, this);
   }
 
@@ -141,6 +182,9 @@ class Input final : public InputBase {
 
  private:
   void handle(const lcm::ReceiveBuffer* rbuf, const std::string& /*channel*/) {
+    if constexpr (auth::Signed<Msg>) {
+      if (!authentic(rbuf->data, rbuf->data_size, key_)) return;
+    }
     std::string why;
     try {
       const int used = spare_.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size));
@@ -150,9 +194,13 @@ class Input final : public InputBase {
     }
     if (why.empty() && stream_) {
       std::string held_why;
-      if (!in_window(spare_.tick)) {
+      if constexpr (Sourced<Msg>) {
+        held_why = second_source(spare_.source);
+        if (!held_why.empty()) ++second_sources_;
+      }
+      if (held_why.empty() && !in_window(spare_.tick)) {
         held_why = "tick";
-      } else {
+      } else if (held_why.empty()) {
         held_why = implausible_time(spare_.tick, spare_.utime, monotonic_s());
         if (!held_why.empty()) ++implausible_times_;
       }
@@ -173,7 +221,7 @@ class Input final : public InputBase {
     }
     held_ = false;
     std::swap(latest_, spare_);
-    accept(latest_.tick, latest_.utime);
+    accept(latest_.tick, latest_.utime, source_of(latest_));
     if (on_message_) on_message_(latest_);
     notify();
   }
@@ -195,7 +243,7 @@ class Input final : public InputBase {
       return false;
     }
     std::swap(latest_, held_msg_);
-    accept(latest_.tick, latest_.utime);
+    accept(latest_.tick, latest_.utime, source_of(latest_));
     if (on_message_) on_message_(latest_);
     notify();
     return true;
@@ -203,20 +251,52 @@ class Input final : public InputBase {
 
   Validator validate_;
   Callback on_message_;
+  const auth::Key* key_ = nullptr;
   Msg latest_{}, spare_{}, held_msg_{};
   std::size_t held_bytes_ = 0;
 };
 
-/// A typed output; encodes into a buffer reused across calls.
+/// The encoded offset of a Sourced type's `source`: after the 8-byte fingerprint, `tick` and `utime`.
+inline constexpr int kSourceOffset = 24;
+
+/// Encodes `m` into `buffer` (grown as needed); a Sourced type is stamped with `source` (0: as the
+/// message holds it), then a signed type with a key gets its authentication code. Returns the
+/// encoded size (negative: not encodable).
+template <class Msg>
+int encode_message(const Msg& m, std::vector<std::uint8_t>& buffer, const auth::Key* key, std::int64_t source = 0) {
+  const int n = m.getEncodedSize();
+  if (buffer.size() < static_cast<std::size_t>(n)) buffer.resize(static_cast<std::size_t>(n));
+  const int used = m.encode(buffer.data(), 0, n);
+  if constexpr (Sourced<Msg>) {
+    if (used >= kSourceOffset + 8 && source != 0) {
+      const auto u = static_cast<std::uint64_t>(source);
+      for (int b = 0; b < 8; ++b) buffer[static_cast<std::size_t>(kSourceOffset + b)] = static_cast<std::uint8_t>(u >> (56 - 8 * b));
+    }
+  }
+  if constexpr (auth::Signed<Msg>) {
+    if (used > 0 && key != nullptr) auth::sign(buffer.data(), static_cast<std::size_t>(used), *key);
+  }
+  return used;
+}
+
+/// Publishes `m` on `channel` signed with `key` (a tool's or a test's publication of a signed type).
+template <class Msg>
+void publish_signed(lcm::LCM& lcm, const std::string& channel, const Msg& m, const auth::Key& key) {
+  std::vector<std::uint8_t> buffer;
+  const int used = encode_message(m, buffer, &key);
+  if (used >= 0) lcm.publish(channel, buffer.data(), static_cast<unsigned>(used));
+}
+
+/// A typed output; encodes into a buffer reused across calls, stamped with the process's `source`
+/// (a Sourced type) and signed with `key` (a signed type).
 template <class Msg>
 class Output {
  public:
   Output() = default;
-  Output(lcm::LCM* lcm, std::string channel) : lcm_(lcm), channel_(std::move(channel)) {}
+  Output(lcm::LCM* lcm, std::string channel, const auth::Key* key = nullptr, std::int64_t source = 0)
+      : lcm_(lcm), channel_(std::move(channel)), key_(key), source_(source) {}
   void publish(const Msg& m) {
-    const int n = m.getEncodedSize();
-    if (buffer_.size() < static_cast<std::size_t>(n)) buffer_.resize(static_cast<std::size_t>(n));
-    const int used = m.encode(buffer_.data(), 0, n);
+    const int used = encode_message(m, buffer_, key_, source_);
     if (used >= 0) lcm_->publish(channel_, buffer_.data(), static_cast<unsigned>(used));
   }
   [[nodiscard]] const std::string& channel() const { return channel_; }
@@ -224,6 +304,8 @@ class Output {
  private:
   lcm::LCM* lcm_ = nullptr;
   std::string channel_;
+  const auth::Key* key_ = nullptr;
+  std::int64_t source_ = 0;
   std::vector<std::uint8_t> buffer_;
 };
 
@@ -265,6 +347,9 @@ struct RuntimeOptions {
   double tick_period_max_s = 0.01;
   /// [s] Beyond that, how far a message's time may run ahead (delivery jitter).
   double time_slack_s = 0.05;
+  /// Whether the channels that move or enable the robot are authenticated (lcm.authentication):
+  /// their inputs check the code with the key of auth::key_path(), their outputs sign.
+  bool authenticate = true;
   /// [s] Busy-poll window: from this long before the next message of a stepping input is due (its
   /// period estimated from the arrivals) until this long after, the loop polls LCM without
   /// sleeping, so the step starts without the core's wake-up (tens of microseconds on a virtual
@@ -302,7 +387,9 @@ class Runtime {
   template <class Msg>
   Input<Msg>& subscribe(const std::string& name, typename Input<Msg>::Validator validate = {},
                         typename Input<Msg>::Callback on_message = {}) {
-    auto in = std::make_unique<Input<Msg>>(*this, *lcm_, channel(name), std::move(validate), std::move(on_message));
+    const auth::Key* key = nullptr;
+    if constexpr (auth::Signed<Msg>) key = command_key();
+    auto in = std::make_unique<Input<Msg>>(*this, *lcm_, channel(name), std::move(validate), std::move(on_message), key);
     auto& ref = *in;
     inputs_.push_back(std::move(in));
     return ref;
@@ -310,8 +397,17 @@ class Runtime {
 
   template <class Msg>
   Output<Msg> advertise(const std::string& name) {
-    return Output<Msg>(lcm_.get(), channel(name));
+    const auth::Key* key = nullptr;
+    if constexpr (auth::Signed<Msg>) key = command_key();
+    return Output<Msg>(lcm_.get(), channel(name), key, source_id_);
   }
+  /// This process's identity on the clocked channels it publishes (random, nonzero, chosen at start).
+  [[nodiscard]] std::int64_t source_id() const { return source_id_; }
+
+  /// The key of the commanding channels, read on first use (throws auth::AuthError when it cannot
+  /// be); null when authentication is off (then logs once that anyone may command).
+  const auth::Key* command_key();
+  [[nodiscard]] bool authenticates() const { return options_.authenticate; }
 
   /// Runs `step` for every new tick of `primary` once the `synced` inputs have caught up, or after
   /// `timeout_s` without them (TickInfo::timed_out), or at once when the next primary tick arrives
@@ -431,6 +527,9 @@ class Runtime {
   std::vector<std::unique_ptr<ParameterSet>> parameters_;  ///< one per name answered
   bool parameters_announced_ = false;
   std::string last_request_;  // source and utime of the last OPERATOR request handled (copies repeat it)
+  std::unique_ptr<auth::Key> key_;
+  bool warned_unauthenticated_ = false;
+  std::int64_t source_id_ = 0;
 };
 
 

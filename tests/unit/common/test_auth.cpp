@@ -1,0 +1,155 @@
+// The commanding channels' authentication codes: libsodium's keyed BLAKE2b-256 checked against
+// Python's independent implementation (hashlib.blake2b, from the BLAKE2 reference code), any
+// changed bit refused, and the key file's rules (created whole once, mode 0600, refused when
+// open to others or of the wrong size, with the file named).
+#include <gtest/gtest.h>
+
+#include <humanoid/joint_command_t.hpp>
+#include <humanoid/operator_t.hpp>
+#include <humanoid/robot_sensors_t.hpp>
+#include <humanoid/supervisor_command_t.hpp>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "hpr/common/auth.hpp"
+#include "process_group.hpp"
+
+namespace {
+
+using hpr::auth::AuthError;
+using hpr::auth::Key;
+
+std::vector<std::uint8_t> from_hex(const std::string& h) {
+  std::vector<std::uint8_t> out;
+  for (std::size_t i = 0; i + 1 < h.size(); i += 2) out.push_back(static_cast<std::uint8_t>(std::stoi(h.substr(i, 2), nullptr, 16)));
+  return out;
+}
+
+/// The key 00 01 02 ... 1f.
+Key counting_key() {
+  Key k;
+  for (std::size_t i = 0; i < k.bytes.size(); ++i) k.bytes[i] = static_cast<std::uint8_t>(i);
+  return k;
+}
+
+/// `bytes` followed by room for the code, signed with counting_key(); returns the code.
+std::vector<std::uint8_t> code_of(std::vector<std::uint8_t> bytes) {
+  bytes.resize(bytes.size() + hpr::auth::kTagBytes);
+  hpr::auth::sign(bytes.data(), bytes.size(), counting_key());
+  EXPECT_TRUE(hpr::auth::verify(bytes.data(), bytes.size(), counting_key()));
+  return {bytes.end() - hpr::auth::kTagBytes, bytes.end()};
+}
+
+static_assert(hpr::auth::Signed<humanoid::joint_command_t>);
+static_assert(hpr::auth::Signed<humanoid::operator_t>);
+static_assert(hpr::auth::Signed<humanoid::supervisor_command_t>);
+static_assert(!hpr::auth::Signed<humanoid::robot_sensors_t>);
+
+TEST(Auth, TheCodeIsKeyedBlake2b256AsAnIndependentImplementationComputesIt) {
+  // python3 -c "import hashlib; print(hashlib.blake2b(MSG, key=bytes(range(32)), digest_size=32).hexdigest())"
+  const std::string hi = "Hi There";
+  EXPECT_EQ(code_of({hi.begin(), hi.end()}), from_hex("d02c63142fd8bcd3fe2d5841ceb976bd76642668bd0805c9bfa324c3e965dcb2"));
+  std::vector<std::uint8_t> counting(200);
+  for (std::size_t i = 0; i < counting.size(); ++i) counting[i] = static_cast<std::uint8_t>(i);
+  EXPECT_EQ(code_of(counting), from_hex("a39ff6e7e838226fd50e24a55375ff3a39419fd93e32cc463f3f74323291c425"));
+}
+
+TEST(Auth, EveryFlippedBitAnotherKeyAndATruncatedMessageAreRefused) {
+  std::vector<std::uint8_t> msg(200);
+  for (std::size_t i = 0; i < msg.size(); ++i) msg[i] = static_cast<std::uint8_t>(i * 37);
+  const Key key = counting_key();
+  hpr::auth::sign(msg.data(), msg.size(), key);
+  ASSERT_TRUE(hpr::auth::verify(msg.data(), msg.size(), key));
+  int accepted = 0;
+  for (std::size_t i = 0; i < msg.size(); ++i) {
+    for (int b = 0; b < 8; ++b) {
+      msg[i] ^= static_cast<std::uint8_t>(1U << b);
+      accepted += hpr::auth::verify(msg.data(), msg.size(), key) ? 1 : 0;
+      msg[i] ^= static_cast<std::uint8_t>(1U << b);
+    }
+  }
+  EXPECT_EQ(accepted, 0) << "of " << msg.size() * 8 << " single-bit changes";
+  Key other = key;
+  other.bytes[31] ^= 1;
+  EXPECT_FALSE(hpr::auth::verify(msg.data(), msg.size(), other));
+  EXPECT_FALSE(hpr::auth::verify(msg.data(), msg.size() - 1, key));
+  EXPECT_FALSE(hpr::auth::verify(msg.data(), 10, key));
+}
+
+TEST(AuthKey, CreatedOnceWithMode0600AndTheSameKeyForEveryCreatorAtOnce) {
+  const std::string dir = hpr::test::temp_dir("auth-key") + "/new/folder";
+  const std::string path = dir + "/lcm.key";
+  // Eight processes race to create it: all end with one key, written whole.
+  std::vector<pid_t> children;
+  for (int i = 0; i < 8; ++i) {
+    const pid_t pid = ::fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+      try {
+        const Key k = hpr::auth::load_or_create_key(path);
+        std::ofstream(path + ".seen." + std::to_string(::getpid()), std::ios::binary)
+            .write(reinterpret_cast<const char*>(k.bytes.data()), static_cast<std::streamsize>(k.bytes.size()));
+        ::_exit(0);
+      } catch (...) {
+        ::_exit(1);
+      }
+    }
+    children.push_back(pid);
+  }
+  for (const pid_t pid : children) {
+    int status = 0;
+    ASSERT_EQ(::waitpid(pid, &status, 0), pid);
+    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+  }
+  const Key key = hpr::auth::load_key(path);
+  std::set<std::string> seen;
+  for (const auto& e : std::filesystem::directory_iterator(dir)) {
+    const std::string name = e.path().filename().string();
+    if (name.rfind("lcm.key.seen.", 0) != 0) {
+      EXPECT_EQ(name, "lcm.key") << "a temporary file was left behind";
+      continue;
+    }
+    std::ifstream f(e.path(), std::ios::binary);
+    seen.insert(std::string(std::istreambuf_iterator<char>(f), {}));
+  }
+  ASSERT_EQ(seen.size(), 1U);
+  EXPECT_EQ(*seen.begin(), std::string(key.bytes.begin(), key.bytes.end()));
+  struct stat st {};
+  ASSERT_EQ(::stat(path.c_str(), &st), 0);
+  EXPECT_EQ(st.st_mode & 0777, 0600U);
+  EXPECT_EQ(st.st_size, 32);
+  EXPECT_NE(key.bytes, Key{}.bytes);
+}
+
+std::string error_of(const std::string& path) {
+  try {
+    (void)hpr::auth::load_key(path);
+  } catch (const AuthError& e) {
+    return e.what();
+  }
+  return {};
+}
+
+TEST(AuthKey, AFileOpenToOthersOfTheWrongSizeOrMissingIsRefusedNamingIt) {
+  const std::string dir = hpr::test::temp_dir("auth-key-bad");
+  const std::string path = dir + "/lcm.key";
+  EXPECT_NE(error_of(path).find(path + " does not exist"), std::string::npos) << error_of(path);
+  EXPECT_NE(error_of(path).find("supervisor"), std::string::npos) << error_of(path);
+  (void)hpr::auth::load_or_create_key(path);
+  ASSERT_EQ(::chmod(path.c_str(), 0644), 0);
+  EXPECT_NE(error_of(path).find(path + ": open to others (mode 0644): chmod 600"), std::string::npos) << error_of(path);
+  ASSERT_EQ(::chmod(path.c_str(), 0600), 0);
+  EXPECT_EQ(error_of(path), "");
+  std::ofstream(path, std::ios::app) << "x";
+  EXPECT_NE(error_of(path).find(path + ": holds 33 bytes, a key is 32"), std::string::npos) << error_of(path);
+}
+
+}  // namespace
