@@ -47,7 +47,6 @@
 
 #include <lcm/lcm-cpp.hpp>
 
-#include <concepts>
 #include <cstdint>
 #include <functional>
 #include <limits>
@@ -57,6 +56,7 @@
 #include <vector>
 
 #include "hpr/node/lifecycle.hpp"
+#include "hpr/node/output.hpp"
 #include "hpr/common/auth.hpp"
 #include "hpr/common/config.hpp"
 #include "hpr/common/log.hpp"
@@ -147,21 +147,6 @@ class InputBase {
   bool authentic(const void* bytes, std::size_t n, const auth::Key* key);
   friend class Runtime;
 };
-
-/// An lcm-gen type whose third field is `int64_t source` (the publisher's identity, bytes 24-31).
-template <class Msg>
-concept Sourced = requires(const Msg& m) {
-  { m.source } -> std::convertible_to<std::int64_t>;
-} && std::is_same_v<decltype(Msg::source), std::int64_t>;
-
-template <class Msg>
-std::int64_t source_of(const Msg& m) {
-  if constexpr (Sourced<Msg>) {
-    return m.source;
-  } else {
-    return 0;
-  }
-}
 
 /// A typed input. `Msg` is an lcm-gen type with an int64 `tick` field.
 template <class Msg>
@@ -254,59 +239,6 @@ class Input final : public InputBase {
   const auth::Key* key_ = nullptr;
   Msg latest_{}, spare_{}, held_msg_{};
   std::size_t held_bytes_ = 0;
-};
-
-/// The encoded offset of a Sourced type's `source`: after the 8-byte fingerprint, `tick` and `utime`.
-inline constexpr int kSourceOffset = 24;
-
-/// Encodes `m` into `buffer` (grown as needed); a Sourced type is stamped with `source` (0: as the
-/// message holds it), then a signed type with a key gets its authentication code. Returns the
-/// encoded size (negative: not encodable).
-template <class Msg>
-int encode_message(const Msg& m, std::vector<std::uint8_t>& buffer, const auth::Key* key, std::int64_t source = 0) {
-  const int n = m.getEncodedSize();
-  if (buffer.size() < static_cast<std::size_t>(n)) buffer.resize(static_cast<std::size_t>(n));
-  const int used = m.encode(buffer.data(), 0, n);
-  if constexpr (Sourced<Msg>) {
-    if (used >= kSourceOffset + 8 && source != 0) {
-      const auto u = static_cast<std::uint64_t>(source);
-      for (int b = 0; b < 8; ++b) buffer[static_cast<std::size_t>(kSourceOffset + b)] = static_cast<std::uint8_t>(u >> (56 - 8 * b));
-    }
-  }
-  if constexpr (auth::Signed<Msg>) {
-    if (used > 0 && key != nullptr) auth::sign(buffer.data(), static_cast<std::size_t>(used), *key);
-  }
-  return used;
-}
-
-/// Publishes `m` on `channel` signed with `key` (a tool's or a test's publication of a signed type).
-template <class Msg>
-void publish_signed(lcm::LCM& lcm, const std::string& channel, const Msg& m, const auth::Key& key) {
-  std::vector<std::uint8_t> buffer;
-  const int used = encode_message(m, buffer, &key);
-  if (used >= 0) lcm.publish(channel, buffer.data(), static_cast<unsigned>(used));
-}
-
-/// A typed output; encodes into a buffer reused across calls, stamped with the process's `source`
-/// (a Sourced type) and signed with `key` (a signed type).
-template <class Msg>
-class Output {
- public:
-  Output() = default;
-  Output(lcm::LCM* lcm, std::string channel, const auth::Key* key = nullptr, std::int64_t source = 0)
-      : lcm_(lcm), channel_(std::move(channel)), key_(key), source_(source) {}
-  void publish(const Msg& m) {
-    const int used = encode_message(m, buffer_, key_, source_);
-    if (used >= 0) lcm_->publish(channel_, buffer_.data(), static_cast<unsigned>(used));
-  }
-  [[nodiscard]] const std::string& channel() const { return channel_; }
-
- private:
-  lcm::LCM* lcm_ = nullptr;
-  std::string channel_;
-  const auth::Key* key_ = nullptr;
-  std::int64_t source_ = 0;
-  std::vector<std::uint8_t> buffer_;
 };
 
 /// An input that must reach the triggering tick (plus `tick_offset`) before the step runs.
