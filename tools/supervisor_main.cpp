@@ -83,7 +83,8 @@ options:
   --lcm-url URL     LCM URL for the group and the supervisors (default: lcm_url of the file, else
                     $LCM_DEFAULT_URL)
 
-The commanding channels (OPERATOR, JOINT_COMMAND, SUPERVISOR_COMMAND) are signed with the key file
+Commands and the control chain's samples (OPERATOR, JOINT_COMMAND, SUPERVISOR_COMMAND, ROBOT_SENSORS,
+ROBOT_STATE, ...) are signed with the key file
 $HPR_LCM_KEY_FILE (default ~/.config/hpr/lcm.key): `up` creates it when there is none and names it to
 every process; the other hosts of a multi-host group need a copy (mode 0600).
   --foreground      (up) stay attached; Ctrl-C stops the group

@@ -10,6 +10,7 @@
 #include "hpr/model/robot.hpp"
 #include "hpr/msg/robot_io.hpp"
 #include "hpr/sim/simulator.hpp"
+#include "hpr/common/auth.hpp"
 #include "lcm_listener.hpp"
 #include "process_group.hpp"
 #include "shell.hpp"
@@ -86,12 +87,17 @@ TEST(SimNode, LockstepRunsAreIdentical) {
   ASSERT_EQ(a.first.size(), 1000U);
   ASSERT_EQ(a.first.size(), b.first.size());
   ASSERT_EQ(a.second.size(), b.second.size());
-  // Byte for byte, but for the publisher's identity (`source`, bytes 24-31: each process draws its own).
-  const auto same = [](std::vector<uint8_t> x, std::vector<uint8_t> y) {
-    if (x.size() < 32 || y.size() < 32) return false;
+  // Byte for byte, but for the publisher's identity (`source`, bytes 24-31: each process draws its
+  // own) and the authentication code over it (the last 32 bytes, each valid for the deployment's key).
+  const hpr::auth::Key key = hpr::auth::load_key(hpr::auth::key_path());
+  const auto same = [&key](std::vector<uint8_t> x, std::vector<uint8_t> y) {
+    if (x.size() < 64 || y.size() < 64) return false;
+    if (!hpr::auth::verify(x.data(), x.size(), key) || !hpr::auth::verify(y.data(), y.size(), key)) return false;
     const bool other_source = !std::equal(x.begin() + 24, x.begin() + 32, y.begin() + 24);
-    std::fill(x.begin() + 24, x.begin() + 32, 0);
-    std::fill(y.begin() + 24, y.begin() + 32, 0);
+    for (auto* v : {&x, &y}) {
+      std::fill(v->begin() + 24, v->begin() + 32, 0);
+      std::fill(v->end() - static_cast<std::ptrdiff_t>(hpr::auth::kTagBytes), v->end(), 0);
+    }
     return other_source && x == y;
   };
   for (size_t k = 0; k < a.first.size(); ++k) ASSERT_TRUE(same(a.first[k], b.first[k])) << "ROBOT_SENSORS tick " << k;

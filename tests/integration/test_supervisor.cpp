@@ -211,9 +211,13 @@ TEST(Replay, RecordedPushExperimentReproducesExactlyAndADifferentGainDoesNot) {
     EXPECT_EQ(s["channels"][c]["different"].get<int>(), 0) << c;
   }
   // The four controllers composed in one process answer the same inputs with the same messages,
-  // bit for bit, on every channel the four processes published.
+  // bit for bit, on every channel the four processes published; re-run on another machine (another
+  // deployment key, which the re-run nodes check: replay_check signs the played inputs with it).
+  const std::string another_key = dir + "/another-machine/lcm.key";
   const auto composed = run_command({tool, log, "--rerun", "controllers", "--set", "balance.support=double", "--json",
-                                     dir + "/composed.json", "--work-dir", dir + "/composed"});
+                                     dir + "/composed.json", "--work-dir", dir + "/composed"},
+                                    "HPR_LCM_KEY_FILE=" + hpr::test::quote(another_key));
+  ASSERT_TRUE(std::filesystem::exists(another_key)) << "the re-run did not use its own key";
   EXPECT_EQ(composed.exit_code, 0) << composed.out;
   const json c = json::parse(std::ifstream(dir + "/composed.json"));
   EXPECT_TRUE(c["match"].get<bool>()) << c.dump(2);

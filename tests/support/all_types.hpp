@@ -83,6 +83,7 @@ class Filler {
     m.drive_status = gen<int32_t>(joints_, [&] { return i32(); });
     arr(m.imu_quat_WB); arr(m.imu_gyro_B); arr(m.imu_accel_B);
     m.num_ft = 2; m.ft_name = names(2); m.ft_wrench_S = mat(2, 6);
+    bytes(m.mac);
   }
   void fill(humanoid::robot_state_t& m) {
     m.tick = i64(); m.utime = i64(); m.source = i64();
@@ -91,6 +92,7 @@ class Filler {
     m.num_feet = 2; m.foot_name = names(2); m.foot_contact = gen<int8_t>(2, [&] { return static_cast<int8_t>(b()); });
     m.foot_force_z = vec(2); m.foot_wrench_W = mat(2, 6);
     arr(m.l_WCom); arr(m.ldot_WCom); m.status = i32();
+    bytes(m.mac);
   }
   void fill(humanoid::balance_status_t& m) {
     m.tick = i64(); m.utime = i64(); m.source = i64(); m.support = i8(); arr(m.p_WV); m.yaw_WV = r();
@@ -98,6 +100,7 @@ class Filler {
     arr(m.cop_V); arr(m.cop_measured_V); m.f_vz = r(); arr(m.w_des_WCom); arr(m.w_achieved_WCom);
     m.num_contacts = 2; m.contact_name = names(2); m.contact_wrench_W = mat(2, 6);
     m.qp_status = i32(); m.qp_iterations = i32(); m.qp_solve_time_us = r(); m.qp_fallback = b(); m.compute_time_us = r();
+    bytes(m.mac);
   }
   void fill(humanoid::cam_reference_t& m) {
     m.tick = i64(); m.utime = i64(); m.source = i64(); arr(m.l_ref_W); arr(m.ldot_ref_W); arr(m.l_ref_V); arr(m.ldot_ref_V);
@@ -105,6 +108,7 @@ class Filler {
     for (auto& p : m.phase) p = i8();
     for (auto& row : m.t_phase_start) arr(row);
     arr(m.tau_thres_V); arr(m.ldot_max_V); m.status = i32(); m.balance_tick = i64();
+    bytes(m.mac);
   }
   void fill(humanoid::wholebody_command_t& m) {
     m.tick = i64(); m.utime = i64(); m.source = i64(); m.support = i8();
@@ -118,6 +122,7 @@ class Filler {
     m.xa_min = vec(12); m.xa_max = vec(12); m.xad_min = vec(12); m.xad_max = vec(12);
     m.num_segments = 5; m.segment_name = names(5); m.segment_l_W = mat(5, 3);
     m.posture_error = r(); m.qp_status = i32(); m.qp_iterations = i32(); m.qp_solve_time_us = r(); m.status = i32();
+    bytes(m.mac);
   }
   void fill(humanoid::joint_command_t& m) {
     m.tick = i64(); m.utime = i64(); m.source = i64(); m.mode = i8(); m.num_joints = joints_; m.joint_name = names(joints_);
@@ -134,6 +139,7 @@ class Filler {
     m.num_feet = 2; m.foot_name = names(2); m.p_WF = mat(2, 3); m.quat_WF = mat(2, 4); m.contact_wrench_W = mat(2, 6);
     m.foot_contact = gen<int8_t>(2, [&] { return static_cast<int8_t>(b()); }); m.foot_tilt = vec(2);
     m.push_id = i64(); m.push_active = b(); arr(m.push_force_W); arr(m.push_impulse_W); arr(m.push_point_W); m.fallen = b(); m.sim_time = r();
+    bytes(m.mac);
   }
   void fill(humanoid::health_t& m) {
     m.tick = i64(); m.utime = i64(); m.node = s(); m.host = s(); m.pid = i32(); m.state = i8(); m.lifecycle = i8(); m.steps = i64();
@@ -159,6 +165,7 @@ class Filler {
     m.num_buses = 9; m.bus_name = names(9); m.bus_tx_fps = vec(9); m.bus_rx_fps = vec(9);
     m.bus_errors = gen<int64_t>(9, [&] { return i64(); }); m.bus_off = gen<int8_t>(9, [&] { return static_cast<int8_t>(b()); });
     m.commands_rejected = i64(); m.commands_stale = i64(); m.frames_malformed = i64();
+    bytes(m.mac);
   }
 
   void fill(humanoid::supervisor_status_t& m) {

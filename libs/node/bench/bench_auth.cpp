@@ -1,12 +1,15 @@
-// The cost of authenticating the commanding channels: a JOINT_COMMAND of 27 joints (the TORO-like
-// robot) encoded as the wbc's Output does it, without and with its code, and the check the hal and
-// the simulator make on every one before decoding it. At 1 kHz the per-message figure times 1000
-// is the share of a core per second.
+// The cost of authenticating what the processes exchange: a JOINT_COMMAND of 27 joints (the
+// TORO-like robot) encoded as the wbc's Output does it, without and with its code, and the check the
+// hal and the simulator make on every one before decoding it; then the code of a message of each
+// size the control chain sends (ROBOT_SENSORS, ROBOT_STATE, ... are 0.5 to 3 kB at 27 joints), from
+// which one tick's cost is the sum over the chain's messages of one signature and one check per
+// reader (docs/PERFORMANCE.md). At 1 kHz the per-message figure times 1000 is the share of a core.
 //
 //   bench_auth --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
 #include <benchmark/benchmark.h>
 
 #include <humanoid/joint_command_t.hpp>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -59,7 +62,28 @@ void BM_VerifyJointCommand(benchmark::State& state) {
   for (auto _ : state) benchmark::DoNotOptimize(hpr::auth::verify(buffer.data(), static_cast<std::size_t>(n), k));
 }
 
+/// Signing `state.range(0)` bytes (the code over all but the last 32).
+void BM_SignBytes(benchmark::State& state) {
+  std::vector<std::uint8_t> buffer(static_cast<std::size_t>(state.range(0)), 0x5a);
+  const auto k = key();
+  for (auto _ : state) {
+    hpr::auth::sign(buffer.data(), buffer.size(), k);
+    benchmark::DoNotOptimize(buffer.data());
+  }
+  state.SetBytesProcessed(static_cast<std::int64_t>(state.iterations()) * state.range(0));
+}
+
+void BM_VerifyBytes(benchmark::State& state) {
+  std::vector<std::uint8_t> buffer(static_cast<std::size_t>(state.range(0)), 0x5a);
+  const auto k = key();
+  hpr::auth::sign(buffer.data(), buffer.size(), k);
+  for (auto _ : state) benchmark::DoNotOptimize(hpr::auth::verify(buffer.data(), buffer.size(), k));
+  state.SetBytesProcessed(static_cast<std::int64_t>(state.iterations()) * state.range(0));
+}
+
 BENCHMARK(BM_EncodeJointCommand)->Arg(27)->Arg(12);
+BENCHMARK(BM_SignBytes)->Arg(256)->Arg(512)->Arg(1024)->Arg(2048)->Arg(4096);
+BENCHMARK(BM_VerifyBytes)->Arg(256)->Arg(512)->Arg(1024)->Arg(2048)->Arg(4096);
 BENCHMARK(BM_EncodeAndSignJointCommand)->Arg(27)->Arg(12);
 BENCHMARK(BM_VerifyJointCommand)->Arg(27)->Arg(12);
 

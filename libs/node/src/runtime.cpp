@@ -180,11 +180,11 @@ Runtime::Runtime(std::string node_name, const std::string& lcm_url, RuntimeOptio
 
 Runtime::~Runtime() = default;
 
-const auth::Key* Runtime::command_key() {
+const auth::Key* Runtime::deployment_key() {
   if (!options_.authenticate) {
     if (!warned_unauthenticated_) {
-      log::warn("lcm.authentication is off: commands (OPERATOR, JOINT_COMMAND, SUPERVISOR_COMMAND) are accepted from anyone "
-                "on the LCM network, and sent unsigned");
+      log::warn("lcm.authentication is off: commands (OPERATOR, JOINT_COMMAND, SUPERVISOR_COMMAND) and the control chain's "
+                "samples are accepted from anyone on the LCM network, and sent unsigned");
       warned_unauthenticated_ = true;
     }
     return nullptr;

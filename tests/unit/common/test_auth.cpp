@@ -1,13 +1,20 @@
-// The commanding channels' authentication codes: libsodium's keyed BLAKE2b-256 checked against
+// The authentication codes of the commands and the clocked channels: libsodium's keyed BLAKE2b-256 checked against
 // Python's independent implementation (hashlib.blake2b, from the BLAKE2 reference code), any
 // changed bit refused, and the key file's rules (created whole once, mode 0600, refused when
 // open to others or of the wrong size, with the file named).
 #include <gtest/gtest.h>
 
+#include <humanoid/balance_status_t.hpp>
+#include <humanoid/cam_reference_t.hpp>
+#include <humanoid/hal_status_t.hpp>
+#include <humanoid/health_t.hpp>
 #include <humanoid/joint_command_t.hpp>
 #include <humanoid/operator_t.hpp>
 #include <humanoid/robot_sensors_t.hpp>
+#include <humanoid/robot_state_t.hpp>
+#include <humanoid/sim_truth_t.hpp>
 #include <humanoid/supervisor_command_t.hpp>
+#include <humanoid/wholebody_command_t.hpp>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -48,10 +55,20 @@ std::vector<std::uint8_t> code_of(std::vector<std::uint8_t> bytes) {
   return {bytes.end() - hpr::auth::kTagBytes, bytes.end()};
 }
 
+// Every message a process acts on carries a code: the commands and every clocked channel of the
+// control chain (a forged or corrupted sample is as dangerous as a forged command). Reports that no
+// process acts on (HEALTH, PARAMS, SUPERVISOR_STATUS) and the simulator's test push are not signed.
 static_assert(hpr::auth::Signed<humanoid::joint_command_t>);
 static_assert(hpr::auth::Signed<humanoid::operator_t>);
 static_assert(hpr::auth::Signed<humanoid::supervisor_command_t>);
-static_assert(!hpr::auth::Signed<humanoid::robot_sensors_t>);
+static_assert(hpr::auth::Signed<humanoid::robot_sensors_t>);
+static_assert(hpr::auth::Signed<humanoid::robot_state_t>);
+static_assert(hpr::auth::Signed<humanoid::balance_status_t>);
+static_assert(hpr::auth::Signed<humanoid::cam_reference_t>);
+static_assert(hpr::auth::Signed<humanoid::wholebody_command_t>);
+static_assert(hpr::auth::Signed<humanoid::sim_truth_t>);
+static_assert(hpr::auth::Signed<humanoid::hal_status_t>);
+static_assert(!hpr::auth::Signed<humanoid::health_t>);
 
 TEST(Auth, TheCodeIsKeyedBlake2b256AsAnIndependentImplementationComputesIt) {
   // python3 -c "import hashlib; print(hashlib.blake2b(MSG, key=bytes(range(32)), digest_size=32).hexdigest())"

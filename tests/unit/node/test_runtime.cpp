@@ -28,6 +28,7 @@ class TickStream : public ::testing::Test {
     o.tick_window = 100;
     o.source_quiet_s = 0.05;
     o.health_period_s = 10.0;
+    o.authenticate = false;  // the stream rules, with unsigned samples (Authentication.* covers the codes)
     return o;
   }
 
@@ -438,6 +439,7 @@ TEST(BusyPoll, EveryTickIsSteppedAndTheNextArrivalIsEstimated) {
   RuntimeOptions o;
   o.health_period_s = 10.0;
   o.spin_s = 2e-4;
+  o.authenticate = false;
   Runtime rt{"test", "memq://", o};
   auto& sensors = rt.subscribe<humanoid::robot_sensors_t>("SENSORS");
   std::vector<std::int64_t> stepped;
@@ -463,7 +465,7 @@ TEST(BusyPoll, EveryTickIsSteppedAndTheNextArrivalIsEstimated) {
 
 }  // namespace
 
-// The commanding channels: an input of a signed type takes only what the deployment's key signed,
+// The signed channels (commands and clocked samples): an input of a signed type takes only what the deployment's key signed,
 // refusing (and counting, in HEALTH too) a message without the code, with another key's code, or
 // with one changed byte; with authentication off it takes anything.
 namespace {
@@ -498,7 +500,7 @@ TEST(Authentication, AnInputOfASignedTypeTakesOnlyWhatTheKeySigned) {
   rt.spin_once(0.0);
   // One byte of a signed message changed (the command: damp instead of enable).
   std::vector<std::uint8_t> bytes;
-  const int n = hpr::node::encode_message(m, bytes, rt.command_key());
+  const int n = hpr::node::encode_message(m, bytes, rt.deployment_key());
   ASSERT_GT(n, 40);
   humanoid::operator_t damp = m;
   damp.command = humanoid::operator_t::COMMAND_DAMP;
@@ -524,7 +526,7 @@ TEST(Authentication, OffTakesAnySenderAndSignsNothing) {
   RuntimeOptions o;
   o.authenticate = false;
   Runtime rt{"test", "memq://", o};
-  EXPECT_EQ(rt.command_key(), nullptr);
+  EXPECT_EQ(rt.deployment_key(), nullptr);
   auto& in = rt.subscribe<humanoid::operator_t>("OPERATOR");
   const humanoid::operator_t m = enable_request();
   rt.lcm().publish("OPERATOR", &m);

@@ -1,8 +1,11 @@
 #pragma once
 /// \file
-/// Message authentication for the channels that move or enable the robot (OPERATOR, JOINT_COMMAND,
-/// SUPERVISOR_COMMAND): a keyed hash over a message's encoded bytes with a per-deployment key, so
-/// that only holders of the key command the robot. The hash is keyed BLAKE2b with a 256-bit output
+/// Message authentication for every message a process acts on: the commands (OPERATOR,
+/// JOINT_COMMAND, SUPERVISOR_COMMAND) and every clocked channel of the control chain (ROBOT_SENSORS,
+/// ROBOT_STATE, BALANCE_STATUS, CAM_REFERENCE, WHOLEBODY_COMMAND, SIM_TRUTH, HAL_STATUS). A keyed
+/// hash over a message's encoded bytes with a per-deployment key, so that only holders of the key
+/// command the robot or feed its controllers: a forged or corrupted sample is refused before it is
+/// decoded, whatever it holds. The hash is keyed BLAKE2b with a 256-bit output
 /// (libsodium's crypto_generichash with a 32-byte key, its documented MAC use): about 3 us to sign
 /// or check a 27-joint JOINT_COMMAND where HMAC-SHA-512-256 (crypto_auth) took 12 us (bench_auth).
 ///

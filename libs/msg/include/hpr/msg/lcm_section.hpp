@@ -20,8 +20,8 @@ struct LcmSection {
   double tick_period_max_s = 0.01;     ///< [s] a stream's time may run this much per tick ahead of the wall clock
   double time_slack_s = 0.05;          ///< [s] and this much more
   double spin_s = 0.0;                 ///< [s] busy-poll window around the next sensor tick
-  /// `authentication: required` (the default) or `off` (a bench): whether the commanding channels
-  /// carry and are checked for the deployment key's code (hpr/common/auth.hpp).
+  /// `authentication: required` (the default) or `off` (a bench): whether the commands and the
+  /// clocked channels carry and are checked for the deployment key's code (hpr/common/auth.hpp).
   bool authenticate = true;
 
   /// The configuration's `lcm` section (defaults where it has none); throws ConfigError naming the

@@ -30,7 +30,7 @@
 ///    while that tick's step waits for its synced inputs (a source republishing its last sample,
 ///    flagged stale, because the chain is slow) is counted (repeats()) and dropped. How long a
 ///    lockstep round takes thus never changes what a step computes.
-///  - The channels that move or enable the robot carry an authentication code (hpr/common/auth.hpp):
+///  - The commands and every clocked channel carry an authentication code (hpr/common/auth.hpp):
 ///    an input of such a type refuses, before decoding it, a message whose code is missing or was
 ///    not made with the deployment's key (counted: unauthenticated(), HEALTH.unauthenticated), and
 ///    an output signs what it publishes. lcm.authentication: off (a bench) turns both off.
@@ -279,8 +279,9 @@ struct RuntimeOptions {
   double tick_period_max_s = 0.01;
   /// [s] Beyond that, how far a message's time may run ahead (delivery jitter).
   double time_slack_s = 0.05;
-  /// Whether the channels that move or enable the robot are authenticated (lcm.authentication):
-  /// their inputs check the code with the key of auth::key_path(), their outputs sign.
+  /// Whether the signed types (the commands and every clocked channel) are authenticated
+  /// (lcm.authentication): their inputs check the code with the key of auth::key_path(), their
+  /// outputs sign.
   bool authenticate = true;
   /// [s] Busy-poll window: from this long before the next message of a stepping input is due (its
   /// period estimated from the arrivals) until this long after, the loop polls LCM without
@@ -320,7 +321,7 @@ class Runtime {
   Input<Msg>& subscribe(const std::string& name, typename Input<Msg>::Validator validate = {},
                         typename Input<Msg>::Callback on_message = {}) {
     const auth::Key* key = nullptr;
-    if constexpr (auth::Signed<Msg>) key = command_key();
+    if constexpr (auth::Signed<Msg>) key = deployment_key();
     auto in = std::make_unique<Input<Msg>>(*this, *lcm_, channel(name), std::move(validate), std::move(on_message), key);
     auto& ref = *in;
     inputs_.push_back(std::move(in));
@@ -330,15 +331,16 @@ class Runtime {
   template <class Msg>
   Output<Msg> advertise(const std::string& name) {
     const auth::Key* key = nullptr;
-    if constexpr (auth::Signed<Msg>) key = command_key();
+    if constexpr (auth::Signed<Msg>) key = deployment_key();
     return Output<Msg>(lcm_.get(), channel(name), key, source_id_);
   }
   /// This process's identity on the clocked channels it publishes (random, nonzero, chosen at start).
   [[nodiscard]] std::int64_t source_id() const { return source_id_; }
 
-  /// The key of the commanding channels, read on first use (throws auth::AuthError when it cannot
-  /// be); null when authentication is off (then logs once that anyone may command).
-  const auth::Key* command_key();
+  /// The deployment's key (the code of every signed type: the commands and the clocked channels),
+  /// read on first use (throws auth::AuthError when it cannot be); null when authentication is off
+  /// (then logs once that anyone may command and feed the robot).
+  const auth::Key* deployment_key();
   [[nodiscard]] bool authenticates() const { return options_.authenticate; }
 
   /// Runs `step` for every new tick of `primary` once the `synced` inputs have caught up, or after
