@@ -17,13 +17,9 @@
 // outputs before the first of them only, and ends with exit status 3.
 #include <humanoid/balance_status_t.hpp>
 #include <humanoid/cam_reference_t.hpp>
-#include <humanoid/hal_status_t.hpp>
 #include <humanoid/health_t.hpp>
 #include <humanoid/joint_command_t.hpp>
-#include <humanoid/operator_t.hpp>
-#include <humanoid/robot_sensors_t.hpp>
 #include <humanoid/robot_state_t.hpp>
-#include <humanoid/sim_truth_t.hpp>
 #include <humanoid/wholebody_command_t.hpp>
 
 #include <algorithm>
@@ -46,6 +42,7 @@
 #include "hpr/common/time.hpp"
 #include "hpr/launch/process_group.hpp"
 #include "hpr/msg/graph.hpp"
+#include "hpr/msg/log_check.hpp"
 #include "hpr/msg/ticks.hpp"
 #include "hpr/node/lcm_url.hpp"
 #include "hpr/node/runtime.hpp"
@@ -78,24 +75,6 @@ std::vector<std::string> outputs_of(const std::string& node) {
   }
   return p->writes;
 }
-/// The fingerprints of the signed types (every played input: the clocked channels and OPERATOR).
-/// Their codes were made with the key of the deployment that recorded the log; the played copies
-/// are signed again with this one's, which the re-run nodes check (a log from another machine
-/// re-runs too). Nothing else in the played bytes changes.
-const std::set<std::int64_t>& signed_fingerprints() {
-  static const std::set<std::int64_t> k = {
-      humanoid::robot_sensors_t::getHash(), humanoid::robot_state_t::getHash(),    humanoid::balance_status_t::getHash(),
-      humanoid::cam_reference_t::getHash(), humanoid::wholebody_command_t::getHash(), humanoid::joint_command_t::getHash(),
-      humanoid::sim_truth_t::getHash(),     humanoid::hal_status_t::getHash(),      humanoid::operator_t::getHash()};
-  return k;
-}
-void sign_again(std::vector<std::uint8_t>& bytes, const hpr::auth::Key& key) {
-  if (bytes.size() < 8 + hpr::auth::kTagBytes) return;
-  std::uint64_t fingerprint = 0;
-  for (std::size_t b = 0; b < 8; ++b) fingerprint = (fingerprint << 8U) | bytes[b];
-  if (signed_fingerprints().count(static_cast<std::int64_t>(fingerprint)) != 0) hpr::auth::sign(bytes.data(), bytes.size(), key);
-}
-
 /// Channels never played back (each process publishes its own).
 const std::set<std::string> kNotPlayed = {"HEALTH", "PARAMS", "SUPERVISOR_STATUS", "SUPERVISOR_COMMAND"};
 
@@ -297,9 +276,14 @@ int main(int argc, char** argv) {
   double next_progress = hpr::monotonic_s() + 2.0;
   std::cerr << fmt::format("replay_check: re-running {} on {} (outputs compared: {})\n", fmt::join(nodes, ", "), log_path, fmt::join(outputs, ", "));
   std::vector<Event> flow = read_in_flow_order(log);
+  // The played inputs' codes were made with the key of the deployment that recorded the log: they
+  // are signed again with this one's, which the re-run nodes check (a log from another machine
+  // re-runs too). Nothing else in the played bytes changes.
   const hpr::auth::Key key = hpr::auth::load_or_create_key(group.key_path());
   for (Event& ev : flow) {
-    if (output_set.count(ev.channel) == 0) sign_again(ev.data, key);
+    if (output_set.count(ev.channel) == 0 && hpr::msg::carries_code(ev.channel) && ev.data.size() >= hpr::auth::kTagBytes) {
+      hpr::auth::sign(ev.data.data(), ev.data.size(), key);
+    }
   }
   // Played inputs the log lacks for a tick: nothing from that tick on can reproduce.
   hpr::msg::TickCoverage coverage;

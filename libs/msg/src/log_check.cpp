@@ -15,6 +15,8 @@
 #include <humanoid/supervisor_status_t.hpp>
 #include <humanoid/wholebody_command_t.hpp>
 
+#include "hpr/common/auth.hpp"
+
 namespace hpr::msg {
 namespace {
 
@@ -51,6 +53,12 @@ std::string type_of_channel(const std::string& channel) {
   std::string out;
   with_type(channel, [&]<class Msg>() { out = std::string("humanoid.") + Msg::getTypeName(); });
   return out;
+}
+
+bool carries_code(const std::string& channel) {
+  bool signed_type = false;
+  with_type(channel, [&]<class Msg>() { signed_type = auth::Signed<Msg>; });
+  return signed_type;
 }
 
 std::string check_message(const std::string& channel, const void* data, int size) {

@@ -29,6 +29,16 @@ TEST(DataFlow, NamesOnlyTheStacksChannelsWithOneTriggerEach) {
   }
 }
 
+// What a process acts on is authenticated: every channel a process reads carries a code, but the
+// simulator's test push; the reports no process acts on do not.
+TEST(DataFlow, EveryChannelAProcessReadsCarriesACodeButTheTestPush) {
+  for (const auto& p : data_flow()) {
+    for (const auto& r : p.reads) EXPECT_EQ(carries_code(r.channel), r.channel != "PUSH") << p.name << " reads " << r.channel;
+  }
+  for (const char* c : {"OPERATOR", "SUPERVISOR_COMMAND", "SIM_TRUTH", "HAL_STATUS", "robotA/ROBOT_STATE"}) EXPECT_TRUE(carries_code(c)) << c;
+  for (const char* c : {"HEALTH", "PARAMS", "SUPERVISOR_STATUS", "PUSH", "NOT_A_CHANNEL"}) EXPECT_FALSE(carries_code(c)) << c;
+}
+
 TEST(DataFlow, TheControlProcessesGetEveryRequiredInputFromTheChain) {
   // With a backend (the simulator or the hal), nothing required is missing, either way composed.
   EXPECT_TRUE(unmet_inputs({"sim_bullet", "estimator", "reference_gen", "motion_opt", "wbc"}).empty());

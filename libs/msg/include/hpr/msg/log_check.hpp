@@ -12,6 +12,10 @@ namespace hpr::msg {
 /// with any prefix ("robotA/ROBOT_SENSORS"); empty for a channel that is not the stack's.
 std::string type_of_channel(const std::string& channel);
 
+/// Whether the channel's type carries an authentication code (hpr/common/auth.hpp: the commands
+/// and the clocked channels); false for a channel that is not the stack's.
+bool carries_code(const std::string& channel);
+
 /// Empty when `data` decodes as the channel's type, or the channel is not the stack's; else why not.
 std::string check_message(const std::string& channel, const void* data, int size);
 

@@ -1,7 +1,7 @@
 #pragma once
 /// \file
 /// What a process publishes: the encoding of a message with the process's identity (`source`, on the
-/// clocked types) and the deployment's authentication code (on the commanding types), and the typed
+/// clocked types) and the deployment's authentication code (on the signed types), and the typed
 /// output that does both (docs/SAFETY.md, "Who may command the robot" and "Sources").
 
 #include <lcm/lcm-cpp.hpp>
