@@ -158,24 +158,34 @@ int init(hpr::ArgReader& args, const std::string& command) {
     const auto draft = hpr::onboard::draft_robot(description, options);
     const fs::path out_dir = fs::absolute(out).parent_path();
     const std::string urdf_rel = fs::relative(fs::absolute(urdf), out_dir).string();
+    std::vector<std::string> mesh_rel;
+    for (const auto& p : urdf_options.mesh_search_paths) mesh_rel.push_back(fs::relative(fs::absolute(p), out_dir).string());
     const std::string text = hpr::onboard::write_config(draft, read_file(hpr::experiments::find_in_config_dirs("templates/robot.yaml")), urdf_rel,
-                                                        command);
+                                                        command, mesh_rel);
+    // Written beside its final place (relative paths resolve the same) and loaded as every process
+    // reads it before it takes that place: a failed init leaves nothing behind.
+    const std::string partial = out + ".partial";
     {
-      std::ofstream f(out);
+      std::ofstream f(partial);
       f << text;
-      if (!f) throw std::runtime_error("cannot write " + out);
+      if (!f) throw std::runtime_error("cannot write " + partial);
     }
+    try {
+      (void)hpr::model::RobotSpec::load(hpr::Config::load(partial).section("robot"));
+    } catch (...) {
+      fs::remove(partial);
+      throw;
+    }
+    fs::rename(partial, out);
     for (const auto& r : description.repairs) std::printf("repair: %s\n", r.c_str());
     for (const auto& n : draft.notes) std::printf("%s\n", n.c_str());
-    // The file as every process reads it.
-    (void)hpr::model::RobotSpec::load(hpr::Config::load(out).section("robot"));
     std::printf("wrote %s\n", out.c_str());
     if (check_stand) return verify(fs::absolute(out).string(), draft);
   } catch (const hpr::model::ModelError& e) {
     std::cerr << "hpr_robot: " << e.what() << "\n";
     return 1;
   } catch (const hpr::ConfigError& e) {
-    std::cerr << "hpr_robot: the written configuration does not load: " << e.what() << "\n";
+    std::cerr << "hpr_robot: the configuration drafted for " << out << " does not load (nothing written): " << e.what() << "\n";
     return 1;
   } catch (const std::runtime_error& e) {
     std::cerr << "hpr_robot: " << e.what() << "\n";

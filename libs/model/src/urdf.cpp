@@ -14,6 +14,8 @@
 #include <sstream>
 #include <urdf_parser/urdf_parser.h>
 
+#include "hpr/model/mesh_path.hpp"
+
 namespace hpr::model {
 namespace {
 
@@ -210,66 +212,6 @@ Geometry to_geometry(const urdf::Geometry& geometry, const urdf::Pose& origin) {
     }
   }
   return g;
-}
-
-// The configured folders for mesh files, then HPR_MESH_PATH and ROS_PACKAGE_PATH (the URDF's folder
-// and its parents come first: resolve_mesh).
-std::vector<std::filesystem::path> mesh_search_dirs(const UrdfOptions& options) {
-  namespace fs = std::filesystem;
-  std::vector<fs::path> dirs;
-  for (const auto& p : options.mesh_search_paths) dirs.emplace_back(p);
-  for (const char* var : {"HPR_MESH_PATH", "ROS_PACKAGE_PATH"}) {
-    const char* v = std::getenv(var);
-    if (v == nullptr) continue;
-    std::stringstream ss(v);
-    std::string item;
-    while (std::getline(ss, item, ':')) {
-      if (!item.empty()) dirs.emplace_back(item);
-    }
-  }
-  return dirs;
-}
-
-std::string resolve_mesh(const std::string& uri, const std::string& source, const std::string& link,
-                         const std::vector<std::filesystem::path>& search) {
-  namespace fs = std::filesystem;
-  std::error_code ec;
-  const fs::path urdf_dir = fs::absolute(fs::path(source), ec).parent_path();
-  std::vector<fs::path> candidates;
-  constexpr std::string_view kPackage = "package://", kFile = "file://";
-  if (uri.rfind(kPackage, 0) == 0) {
-    const std::string rest = uri.substr(kPackage.size());
-    const auto slash = rest.find('/');
-    const std::string package = rest.substr(0, slash);
-    const std::string inside = slash == std::string::npos ? "" : rest.substr(slash + 1);
-    // The package's folder among the URDF's ancestors (the usual PACKAGE/urdf/robot.urdf layout).
-    for (fs::path d = urdf_dir; !d.empty(); d = d.parent_path()) {
-      if (d.filename() == package) candidates.push_back(d / inside);
-      candidates.push_back(d / package / inside);
-      if (d == d.root_path()) break;
-    }
-    for (const auto& s : search) {
-      candidates.push_back(s / package / inside);
-      candidates.push_back(s / inside);
-    }
-    candidates.push_back(urdf_dir / inside);
-  } else if (uri.rfind(kFile, 0) == 0) {
-    candidates.emplace_back(uri.substr(kFile.size()));
-  } else if (fs::path(uri).is_absolute()) {
-    candidates.emplace_back(uri);
-  } else {
-    candidates.push_back(urdf_dir / uri);
-    for (const auto& s : search) candidates.push_back(s / uri);
-  }
-  for (const auto& c : candidates) {
-    if (fs::is_regular_file(c, ec)) return fs::weakly_canonical(c, ec).string();
-  }
-  std::string looked;
-  for (size_t i = 0; i < candidates.size() && i < 6; ++i) looked += (i ? ", " : "") + candidates[i].string();
-  if (candidates.size() > 6) looked += fmt::format(" and {} more", candidates.size() - 6);
-  throw ModelError(fmt::format("{}: link '{}': mesh '{}' not found (looked for {}; add its folder with "
-                               "robot.mesh_search_paths or HPR_MESH_PATH)",
-                               source, link, uri, looked));
 }
 
 RobotDescription convert(const urdf::ModelInterface& m, const std::string& source) {
@@ -553,7 +495,7 @@ RobotDescription parse_urdf(const std::string& xml, const std::string& source, c
   check_structure(d);
   check_links(d);
   if (options.resolve_meshes) {
-    const auto search = mesh_search_dirs(options);
+    const auto search = mesh_search_dirs(options.mesh_search_paths);
     for (auto& l : d.links) {
       for (auto* list : {&l.collisions, &l.visuals}) {
         for (auto& g : *list) {

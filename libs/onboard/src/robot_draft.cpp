@@ -310,11 +310,15 @@ void replace_all(std::string& s, const std::string& key, const std::string& valu
 }  // namespace
 
 std::string write_config(const RobotDraft& r, const std::string& text, const std::string& urdf_in_config,
-                         const std::string& command) {
+                         const std::string& command, const std::vector<std::string>& mesh_paths_in_config) {
   std::string robot;
   auto line = [&robot](const std::string& s) { robot += s + "\n"; };
   line(fmt::format("  name: {}", r.name));
   line(fmt::format("  urdf: {}", urdf_in_config));
+  if (!mesh_paths_in_config.empty()) {
+    line(fmt::format("  mesh_search_paths: [{}]   # where the meshes were found (init --mesh-path), relative to this file",
+                     fmt::join(mesh_paths_in_config, ", ")));
+  }
   line(fmt::format("  base_link: {}", r.base_link));
   line("  feet:                      # the lowest links at the end of the leg chains; soles from their collision geometry");
   for (int k = 0; k < 2; ++k) {

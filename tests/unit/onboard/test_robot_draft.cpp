@@ -98,4 +98,41 @@ TEST(RobotDraft, G1HoldsItsFingersAndAdjustsTorsoAndArms) {
   EXPECT_NEAR(spec.q_joints_stand(l), 0.15, 1e-12);
 }
 
+// The G1's URDF alone in one folder, its meshes in the repository (init --mesh-path): the file
+// written names the mesh folder relative to itself, so it loads where it is and wherever the two
+// folders move together; without it the load fails naming the option.
+TEST(RobotDraft, TheMeshFolderGivenToInitIsWrittenRelativeToTheFileAndMovesWithIt) {
+  namespace fs = std::filesystem;
+  const fs::path root = fs::temp_directory_path() / ("hpr_mesh_path_" + std::to_string(::getpid()));
+  fs::remove_all(root);
+  const fs::path urdf = root / "robot/description/g1.urdf", meshes = root / "robot/assets", out = root / "robot/config/g1.yaml";
+  fs::create_directories(urdf.parent_path());
+  fs::create_directories(out.parent_path());
+  fs::create_directories(meshes);
+  fs::copy_file(test::source_dir() + "/models/unitree_g1/g1_29dof_with_hand.urdf", urdf);
+  fs::copy(test::source_dir() + "/models/unitree_g1/meshes", meshes / "meshes", fs::copy_options::recursive);
+  model::UrdfOptions urdf_options;
+  urdf_options.mesh_search_paths = {meshes.string()};
+  const auto draft = onboard::draft_robot(model::load_urdf(urdf.string(), urdf_options));
+  const std::string template_text = test::read_file(test::source_dir() + "/config/templates/robot.yaml");
+  const auto rel = [&](const fs::path& p) { return fs::relative(p, out.parent_path()).string(); };
+  std::ofstream(out) << onboard::write_config(draft, template_text, rel(urdf), "test", {rel(meshes)});
+  EXPECT_NE(test::read_file(out.string()).find("mesh_search_paths: [../assets]"), std::string::npos);
+  EXPECT_EQ(model::RobotSpec::load(Config::load(out.string()).section("robot")).model.nj, 29);
+  const fs::path moved = root / "elsewhere";
+  fs::rename(root / "robot", moved);
+  EXPECT_EQ(model::RobotSpec::load(Config::load((moved / "config/g1.yaml").string()).section("robot")).model.nj, 29);
+  std::ofstream(moved / "config/g1.yaml") << onboard::write_config(draft, template_text, rel(urdf), "test");
+  try {
+    (void)model::RobotSpec::load(Config::load((moved / "config/g1.yaml").string()).section("robot"));
+    ADD_FAILURE() << "loaded without its mesh folder";
+  } catch (const ConfigError& e) {  // naming the file and key, then the mesh and the fix
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("config/g1.yaml:"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("robot.urdf = ../description/g1.urdf"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("--mesh-path DIR"), std::string::npos) << msg;
+  }
+  fs::remove_all(root);
+}
+
 }  // namespace

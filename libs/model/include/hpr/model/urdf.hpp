@@ -79,8 +79,8 @@ struct RobotDescription {
 };
 
 struct UrdfOptions {
-  /// Folders in which `package://NAME/...` and relative mesh paths are looked up (after the URDF's
-  /// own folder and its parents); HPR_MESH_PATH and ROS_PACKAGE_PATH (colon-separated) are added.
+  /// Folders in which `package://NAME/...` and relative mesh paths are looked up besides the URDF's
+  /// repository (hpr/model/mesh_path.hpp); HPR_MESH_PATH and ROS_PACKAGE_PATH (colon-separated) are added.
   std::vector<std::string> mesh_search_paths;
   /// Resolve every mesh to a file that exists (a missing one is an error naming it). Off only for
   /// URDF text without files behind it.

@@ -55,8 +55,10 @@ struct RobotDraft {
 RobotDraft draft_robot(const model::RobotDescription& description, const DraftOptions& options = {});
 
 /// The configuration file: `template_text` (config/templates/robot.yaml) with the draft filled in;
-/// `urdf_in_config` is the URDF path as the file names it (relative to the file's folder).
+/// `urdf_in_config` is the URDF path as the file names it (relative to the file's folder), and
+/// `mesh_paths_in_config` the folders its meshes were found in besides the URDF's repository
+/// (robot.mesh_search_paths, relative to the file's folder: `init --mesh-path`).
 std::string write_config(const RobotDraft& draft, const std::string& template_text, const std::string& urdf_in_config,
-                         const std::string& command);
+                         const std::string& command, const std::vector<std::string>& mesh_paths_in_config = {});
 
 }  // namespace hpr::onboard
