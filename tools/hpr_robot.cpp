@@ -7,6 +7,9 @@
 // prints its tree, joint counts, mass, centre of mass, meshes and candidate feet with their soles.
 // init writes a complete configuration (config/templates/robot.yaml filled in) and, with --verify,
 // stands the robot in the simulator and pushes it from behind and from the front.
+#include <spawn.h>
+#include <sys/wait.h>
+
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -14,13 +17,20 @@
 #include <fstream>
 #include <iostream>
 #include <sstream>
+#include <thread>
+
+#include <fmt/format.h>
+#include <unistd.h>
 
 #include "hpr/common/args.hpp"
+#include "hpr/experiments/executor.hpp"
 #include "hpr/experiments/trial.hpp"
 #include "hpr/model/model.hpp"
 #include "hpr/model/robot.hpp"
 #include "hpr/onboard/robot_check.hpp"
 #include "hpr/onboard/robot_draft.hpp"
+
+extern "C" char** environ;
 
 namespace {
 
@@ -39,13 +49,16 @@ sole rectangle their collision geometry gives.
   --base LINK       floating base (default: the URDF root, or the child of its floating joint)
 
 init: writes a complete, commented configuration for the robot: the feet (the lowest links at the end
-of the leg chains) with their soles from the collision geometry, the IMU (a link named imu on the
-base, else the base), held joints (hands, fingers, grippers, head: names containing hand, finger,
+of the leg chains) with their soles from the collision geometry (the largest rectangle along the
+sole's long axis inside its lowest face, sole_rpy when that axis is yawed in the link), the IMU (a
+link named imu, imu_link, *_imu* anywhere on the tree, rigidly on the base first, else the base),
+held joints (hands, fingers, grippers, head: names containing hand, finger,
 thumb, index, middle, ring, pinky, little, gripper, head, neck, eye), a standing posture by inverse
 kinematics (hips at a fraction of the straight leg above the soles, soles flat, CoM over their
 middle, shoulders 0.15 rad out, elbows bent 0.4 rad), segments, the motion optimiser's adjusted
 coordinates (base rotation, torso, first four joints of each arm) and gains scaled to the robot's
-mass and inertia; the rest is the stack's defaults (config/templates/robot.yaml).
+mass and inertia; the rest is the stack's defaults (config/templates/robot.yaml). The file is
+loaded as the processes load it before it takes its place: a failed init writes nothing.
 
   --out FILE            the configuration to write (required; an existing file is not overwritten
                         without --force)
@@ -53,11 +66,20 @@ mass and inertia; the rest is the stack's defaults (config/templates/robot.yaml)
   --leg-height F        hips at F times the straight leg's length above the soles (default 0.90)
   --hold JOINT          hold this joint too (repeatable)
   --keep JOINT          never hold this joint (repeatable)
-  --mesh-path DIR, --base LINK   as for check
+  --mesh-path DIR       as for check, and written into FILE as robot.mesh_search_paths (relative
+                        to FILE, so that it loads wherever the two move together)
+  --base LINK           as for check
   --force               overwrite FILE
-  --verify              then stand the robot 10 s in the simulator and push it from behind and from
-                        the front with the CAM and the ankle strategies (impulses of 0.5 and 1 times
-                        the ankle strategy's bound m w d, d the sole's half length)
+  --verify              then a standing trial of 10 s in the simulator (every process loads FILE), and
+                        the largest push from behind and from the front that the default controller
+                        and the ankle strategy alone recover (a bisection each, in process; pushes
+                        of max(20, 2 m) N peak), with the legend of the outcomes
+  --tune                then push_tune for the robot (alpha, beta, Q_l, Q_p, K_p; pushes scaled as
+                        --verify's, from behind and from the front) into FILE-tune/, its best values
+                        written as the overlay FILE.tuned.yaml beside FILE (--overlay for the tools)
+  --tune-evaluations N  push_tune's evaluations (default push_tune's, 60)
+  --jobs N              --verify's searches and --tune's directions at the same time (default: the
+                        number of cores)
 
 Exit status: 0 the description loads (init: and with --verify the robot stands), 1 it does not (the
 error names the file, element and value), 2 bad arguments.
@@ -70,45 +92,122 @@ std::string read_file(const std::string& path) {
   return ss.str();
 }
 
-// Stands the robot 10 s, then pushes it from behind and from the front with both strategies.
-int verify(const std::string& config, const hpr::onboard::RobotDraft& draft) {
+// A standing trial of 10 s through the processes (each loads the file), then the largest push each
+// of the default controller and the ankle strategy alone recovers from behind and from the front
+// (in process, a bisection per case, `jobs` at a time).
+int verify(const std::string& config, const hpr::onboard::RobotDraft& draft, int jobs) {
+  using hpr::experiments::SearchSpec;
   using hpr::experiments::Strategy;
   hpr::experiments::TrialSpec stand;
   stand.config = config;
-  stand.impulse = 0.5;
-  stand.peak = 5.0;
-  stand.push_time = 10.0;
-  stand.after = 2.0;
-  std::printf("verify: standing 10 s ...\n");
+  stand.impulse = 0.0;
+  stand.duration = 0.0;
+  stand.after = 10.0;
+  std::printf("verify: a standing trial of 10 s ...\n");
   std::fflush(stdout);
   const auto st = hpr::experiments::run_trial(stand);
-  if (st.fallen || st.sim_time < stand.push_time) {
-    std::printf("verify: the robot does not stand (%s)\n", st.failure.empty() ? "fell" : st.failure.c_str());
+  if (!st.recovered) {
+    std::printf("verify: the robot does not stand: %s (%s)\n\n%s", st.outcome.c_str(), st.failure.c_str(),
+                hpr::experiments::kOutcomeLegend);
     return 1;
   }
-  std::printf("verify: stands 10 s (a 0.5 N s nudge then moved the CoM by %.1f mm at most)\n", 1e3 * st.max_com_deviation);
+  std::printf("verify: stood 10 s (CoM within %.1f mm, soles within %.2f deg and %.1f mm)\n", 1e3 * st.max_com_deviation,
+              st.max_tilt_deg, 1e3 * st.max_slip);
   const double omega = std::sqrt(9.81 / draft.com_height);
   const double d = 0.5 * draft.feet[0].sole.length;
   const double bound = draft.mass * omega * d;
-  std::printf("\n  ankle strategy's bound m w d = %.1f kg x %.2f 1/s x %.3f m = %.1f N s\n\n", draft.mass, omega, d, bound);
-  std::printf("  %-8s %-6s %9s  %-10s %14s %13s\n", "from", "strategy", "impulse", "result", "CoP margin mm", "peak CAM Nms");
-  for (double dir : {0.0, 180.0}) {
-    for (double f : {0.5, 1.0}) {
-      for (Strategy s : {Strategy::kCam, Strategy::kAnkle}) {
-        hpr::experiments::TrialSpec t;
-        t.config = config;
-        t.strategy = s;
-        t.direction_deg = dir;
-        t.impulse = f * bound;
-        t.peak = std::max(20.0, 2.0 * draft.mass);
-        const auto r = hpr::experiments::run_trial(t);
-        std::printf("  %-8s %-8s %7.1f  %-10s %14.1f %13.2f\n", dir == 0.0 ? "behind" : "front", to_string(s), t.impulse,
-                    r.recovered ? "recovered" : (r.fallen ? "fell" : "failed"), 1e3 * r.min_cop_margin,
-                    r.peak_cam.norm());
-        std::fflush(stdout);
-      }
+  const double peak = std::max(20.0, 2.0 * draft.mass);
+  std::printf("\n  ankle strategy's bound m w d = %.1f kg x %.2f 1/s x %.3f m = %.1f N s; pushes of %.0f N peak\n", draft.mass,
+              omega, d, bound, peak);
+  std::vector<SearchSpec> searches;
+  for (const double dir : {0.0, 180.0}) {
+    for (const Strategy s : {Strategy::kCam, Strategy::kAnkle}) {
+      SearchSpec sp;
+      sp.base.config = config;
+      sp.base.strategy = s;
+      sp.base.direction_deg = dir;
+      sp.base.peak = peak;
+      sp.base.in_process = true;
+      sp.base.stop_when_decided = true;
+      sp.start = std::round(5.0 * bound) / 10.0;
+      sp.max_impulse = std::round(40.0 * bound) / 10.0;
+      sp.resolution = std::max(0.25, std::round(20.0 * bound) / 1000.0);
+      searches.push_back(sp);
     }
   }
+  std::printf("  largest recovered push, bisection to %.2f N s (%zu searches, %d at a time):\n", searches.front().resolution,
+              searches.size(), jobs);
+  std::fflush(stdout);
+  namespace fs = std::filesystem;
+  const fs::path store = fs::temp_directory_path() / fmt::format("hpr-verify-{}", ::getpid());
+  hpr::experiments::ExecutorEvents events;
+  events.trial = [](const SearchSpec& sp, const hpr::experiments::TrialOutcome& t, bool) {
+    std::printf("    %-16s %6.2f N s: %s\n", sp.label().c_str(), t.impulse, t.result.outcome.c_str());
+    std::fflush(stdout);
+  };
+  const auto results = hpr::experiments::make_local_executor(jobs, store.string(), false, events)->run(searches);
+  fs::remove_all(store);
+  std::printf("\n  %-8s %-22s %12s  %s\n", "from", "controller", "largest N s", "smallest lost N s");
+  double largest[2][2] = {};
+  for (size_t i = 0; i < results.size(); ++i) {
+    const auto& sp = searches[i];
+    const auto& r = results[i];
+    const int di = sp.base.direction_deg == 0.0 ? 0 : 1, si = sp.base.strategy == Strategy::kCam ? 0 : 1;
+    largest[di][si] = r.bracket.max_recovered;
+    std::printf("  %-8s %-22s %12.2f  %s%s\n", di == 0 ? "behind" : "front", si == 0 ? "default (CAM strategy)" : "ankle strategy alone",
+                r.bracket.max_recovered, r.bracket.reached_max ? "none: every push tried recovered" : fmt::format("{:.2f}", r.bracket.min_lost).c_str(),
+                r.failed ? fmt::format(" (search failed: {})", r.failure).c_str() : r.inconclusive ? " (a trial stayed inconclusive: may be low)" : "");
+  }
+  for (int di = 0; di < 2; ++di) {
+    std::printf("  from %s: the default controller recovers x%.2f what the ankle strategy alone does\n", di == 0 ? "behind" : "the front",
+                largest[di][1] > 0 ? largest[di][0] / largest[di][1] : 0.0);
+  }
+  std::printf("\n%s", hpr::experiments::kOutcomeLegend);
+  return 0;
+}
+
+/// A program installed beside this one (build/bin/push_tune next to build/bin/hpr_robot).
+std::string sibling(const std::string& name) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::path p = fs::read_symlink("/proc/self/exe", ec).parent_path() / name;
+  if (!fs::exists(p, ec)) throw std::runtime_error(name + " not found next to hpr_robot (" + p.string() + ")");
+  return p.string();
+}
+
+// push_tune for the new robot (its pushes scaled as --verify's), and its result as an overlay
+// beside the configuration: FILE.yaml -> FILE.tuned.yaml.
+int tune(const std::string& config, const hpr::onboard::RobotDraft& draft, int jobs, int evaluations) {
+  namespace fs = std::filesystem;
+  const double bound = draft.mass * std::sqrt(9.81 / draft.com_height) * 0.5 * draft.feet[0].sole.length;
+  const fs::path cfg(config);
+  const fs::path out = cfg.parent_path() / (cfg.stem().string() + "-tune");
+  const fs::path overlay = cfg.parent_path() / (cfg.stem().string() + ".tuned.yaml");
+  std::vector<std::string> a{sibling("push_tune"), "--robot", config, "--peak", fmt::format("{:.0f}", std::max(20.0, 2.0 * draft.mass)),
+                             "--start", fmt::format("{:.1f}", 0.5 * bound), "--max-impulse", fmt::format("{:.1f}", 4.0 * bound),
+                             "--resolution", fmt::format("{:.2f}", std::max(0.25, 0.02 * bound)), "--jobs", std::to_string(jobs),
+                             "--out", out.string()};
+  if (evaluations > 0) a.insert(a.end(), {"--evaluations", std::to_string(evaluations)});
+  std::string line;
+  for (const auto& x : a) line += (line.empty() ? "" : " ") + x;
+  std::printf("tune: %s\n", line.c_str());
+  std::fflush(stdout);
+  std::vector<char*> argv;
+  for (auto& x : a) argv.push_back(x.data());
+  argv.push_back(nullptr);
+  pid_t pid = 0;
+  if (posix_spawn(&pid, argv[0], nullptr, nullptr, argv.data(), environ) != 0) throw std::runtime_error("cannot start " + a[0]);
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0) {
+  }
+  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
+    std::printf("tune: push_tune failed (exit %d); its results so far are in %s (push_tune --resume)\n",
+                WIFEXITED(status) ? WEXITSTATUS(status) : 128, out.string().c_str());
+    return 1;
+  }
+  fs::copy_file(out / "tuned.yaml", overlay, fs::copy_options::overwrite_existing);
+  std::printf("tune: overlay %s (push_trial, push_sweep and push_tune take it with --overlay %s)\n", overlay.string().c_str(),
+              overlay.string().c_str());
   return 0;
 }
 
@@ -116,6 +215,9 @@ int verify(const std::string& config, const hpr::onboard::RobotDraft& draft) {
 int init(hpr::ArgReader& args, const std::string& command) {
   std::string urdf, out;
   bool force = false, check_stand = false;
+  int jobs = static_cast<int>(std::max(1U, std::thread::hardware_concurrency()));
+  bool run_tune = false;
+  int evaluations = 0;
   hpr::onboard::DraftOptions options;
   hpr::model::UrdfOptions urdf_options;
   while (args.next()) {
@@ -140,6 +242,14 @@ int init(hpr::ArgReader& args, const std::string& command) {
       force = true;
     } else if (args.is("--verify")) {
       check_stand = true;
+    } else if (args.is("--tune")) {
+      run_tune = true;
+    } else if (args.is("--tune-evaluations")) {
+      evaluations = static_cast<int>(args.number());
+      if (evaluations < 1) throw hpr::UsageError("--tune-evaluations: at least 1");
+    } else if (args.is("--jobs")) {
+      jobs = static_cast<int>(args.number());
+      if (jobs < 1) throw hpr::UsageError("--jobs: at least 1");
     } else if (args.positional() && urdf.empty()) {
       urdf = args.current();
     } else {
@@ -165,6 +275,7 @@ int init(hpr::ArgReader& args, const std::string& command) {
     // Written beside its final place (relative paths resolve the same) and loaded as every process
     // reads it before it takes that place: a failed init leaves nothing behind.
     const std::string partial = out + ".partial";
+    fs::create_directories(out_dir);
     {
       std::ofstream f(partial);
       f << text;
@@ -180,7 +291,11 @@ int init(hpr::ArgReader& args, const std::string& command) {
     for (const auto& r : description.repairs) std::printf("repair: %s\n", r.c_str());
     for (const auto& n : draft.notes) std::printf("%s\n", n.c_str());
     std::printf("wrote %s\n", out.c_str());
-    if (check_stand) return verify(fs::absolute(out).string(), draft);
+    if (check_stand) {
+      const int rc = verify(fs::absolute(out).string(), draft, jobs);
+      if (rc != 0) return rc;
+    }
+    if (run_tune) return tune(fs::absolute(out).string(), draft, jobs, evaluations);
   } catch (const hpr::model::ModelError& e) {
     std::cerr << "hpr_robot: " << e.what() << "\n";
     return 1;
@@ -238,7 +353,11 @@ int main(int argc, char** argv) {
       std::string command;
       for (int i = 2; i < argc; ++i) {
         const std::string a = argv[i];
-        if (a != "--force" && a != "--verify") command += (command.empty() ? "" : " ") + a;
+        if (a == "--jobs" || a == "--tune-evaluations") {
+          ++i;
+          continue;
+        }
+        if (a != "--force" && a != "--verify" && a != "--tune") command += (command.empty() ? "" : " ") + a;
       }
       return init(args, command);
     }

@@ -34,7 +34,10 @@ tilt, maximum sole slip, peak CAM per axis, minimum CoP margin, time to return t
   --support S           double | left | right (default double)
   --strategy S          cam | ankle (ankle: the wbc holds the posture, no CAM reference) (default cam)
   --direction DEG       push direction: 0 = pushed forward from behind, 90 = towards +y, 180 = from the front
-  --impulse NS          impulse of the half-sine push [N s] (default 18)
+  --impulse NS          impulse of the half-sine push [N s] (default 18; 0 with no --duration: no push,
+                        a standing trial judged alike)
+  --stand S             a standing trial of S seconds (at least 5) from when the push would have come:
+                        --impulse 0 --after S
   --duration S          push duration [s] (default: from impulse and peak, I = 2 F T / pi)
   --log FILE            record the LCM log of the run
   --work-dir DIR        keep the processes' output there
@@ -99,6 +102,14 @@ int main(int argc, char** argv) {
         spec.direction_deg = args.number();
       } else if (args.is("--impulse")) {
         spec.impulse = args.number();
+      } else if (args.is("--stand")) {
+        spec.impulse = 0.0;
+        spec.duration = 0.0;
+        spec.after = args.number();
+        if (!(spec.after >= hpr::experiments::TrialEvaluator::kSettleTime)) {
+          throw std::invalid_argument(fmt::format("--stand {}: a standing trial's verdict needs at least {:.0f} s", spec.after,
+                                                  hpr::experiments::TrialEvaluator::kSettleTime));
+        }
       } else if (args.is("--duration")) {
         spec.duration = args.number();
       } else if (args.is("--log")) {
@@ -122,8 +133,8 @@ int main(int argc, char** argv) {
     if (spec.support != "double" && spec.support != "left" && spec.support != "right") {
       throw std::invalid_argument("--support '" + spec.support + "': expected double, left or right");
     }
-    if (!(spec.peak > 0) || spec.impulse < 0 || spec.duration < 0 || (spec.impulse == 0 && spec.duration == 0)) {
-      throw std::invalid_argument("the push needs --peak > 0 and a positive --impulse or --duration");
+    if (!(spec.peak > 0) || spec.impulse < 0 || spec.duration < 0) {
+      throw std::invalid_argument("the push needs --peak > 0 and a positive --impulse or --duration (--impulse 0: no push)");
     }
     spec.config = find_config(spec.config);
     if (spec.truth_state && !spec.in_process) throw std::invalid_argument("--truth-state needs --in-process");
@@ -140,7 +151,10 @@ int main(int argc, char** argv) {
     return 2;
   }
   try {
-    if (!quiet) {
+    if (!quiet && spec.standing()) {
+      std::fprintf(stderr, "push_trial: %s, %s support, %s strategy, standing %.3g s without a push\n", spec.config.c_str(),
+                   spec.support.c_str(), to_string(spec.strategy), spec.after);
+    } else if (!quiet) {
       std::fprintf(stderr, "push_trial: %s, %s support, %s strategy, %.4g N s at %.0f deg (%.0f N peak, %.3f s)\n",
                    spec.config.c_str(), spec.support.c_str(), to_string(spec.strategy), spec.impulse, spec.direction_deg,
                    spec.peak, spec.push_duration());
@@ -158,12 +172,14 @@ int main(int argc, char** argv) {
       }
     }
     if (!quiet) {
-      std::fprintf(stderr, "push_trial: %s%s (%.1f s simulated in %.1f s)\n",
-                   r.recovered ? "recovered" : (r.inconclusive ? "INCONCLUSIVE: " : "NOT recovered: "), r.failure.c_str(), r.sim_time,
-                   r.wall_time);
+      std::fprintf(stderr, "push_trial: %s%s%s (minimum CoP margin %.1f mm; %.1f s simulated in %.1f s)\n\n%s", r.outcome.c_str(),
+                   r.failure.empty() ? "" : ": ", r.failure.c_str(), 1e3 * r.min_cop_margin, r.sim_time, r.wall_time,
+                   kOutcomeLegend);
     }
     if (!video_file.empty()) {
-      if (video_label.empty()) {
+      if (video_label.empty() && spec.standing()) {
+        video_label = fmt::format("{}, standing", spec.strategy == Strategy::kCam ? "CAM strategy" : "ankle strategy alone");
+      } else if (video_label.empty()) {
         video_label = fmt::format("{}, {:.3g} N s at {:.0f} deg", spec.strategy == Strategy::kCam ? "CAM strategy" : "ankle strategy alone",
                                   spec.impulse, spec.direction_deg);
       }

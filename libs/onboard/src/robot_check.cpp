@@ -1,16 +1,20 @@
 #include "hpr/onboard/robot_check.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <algorithm>
 #include <cmath>
+#include <cctype>
 #include <functional>
 #include <limits>
 #include <map>
 #include <set>
+#include <tuple>
 
 #include "hpr/mesh/mesh.hpp"
 #include "hpr/model/algorithms.hpp"
+#include "hpr/onboard/sole_outline.hpp"
 
 namespace hpr::onboard {
 
@@ -20,7 +24,8 @@ using model::SE3;
 
 namespace {
 
-// Points of a geometry (in its link's frame) that can touch a plane below the link.
+// Points of a geometry (in its link's frame) that can touch a plane below the link; a mesh gives
+// `hull_points` points of its hull, or every vertex when hull_points is 0.
 std::vector<Vector3d> contact_points(const Geometry& g, int hull_points) {
   std::vector<Vector3d> local;
   switch (g.type) {
@@ -42,9 +47,11 @@ std::vector<Vector3d> contact_points(const Geometry& g, int hull_points) {
       local.push_back(down);
       break;
     }
-    case Geometry::Type::kMesh:
-      local = mesh::hull_points(mesh::load(g.mesh, g.mesh_scale).vertices, hull_points);
+    case Geometry::Type::kMesh: {
+      auto v = mesh::load(g.mesh, g.mesh_scale).vertices;
+      local = hull_points > 0 ? mesh::hull_points(v, hull_points) : std::move(v);
       break;
+    }
   }
   std::vector<Vector3d> out;
   out.reserve(local.size());
@@ -57,55 +64,53 @@ const char* type_name(Geometry::Type t) {
     case Geometry::Type::kBox: return "box";
     case Geometry::Type::kCylinder: return "cylinder";
     case Geometry::Type::kSphere: return "sphere";
-    case Geometry::Type::kMesh: return "mesh hull";
+    case Geometry::Type::kMesh: return "mesh";
   }
   return "?";
 }
 
 }  // namespace
 
-Sole sole_from_geometry(const model::LinkDesc& link, int hull_points, double tolerance) {
+Sole sole_from_geometry(const model::LinkDesc& link, double tolerance, double forward_yaw) {
   if (link.collisions.empty()) {
     throw model::ModelError(fmt::format("link '{}' has no collision geometry to take a sole from", link.name));
   }
   std::vector<Vector3d> pts;
   std::map<std::string, int> kinds;
   for (const auto& g : link.collisions) {
-    const auto p = contact_points(g, hull_points);
+    const auto p = contact_points(g, 0);
     pts.insert(pts.end(), p.begin(), p.end());
     ++kinds[type_name(g.type)];
   }
   double z_min = std::numeric_limits<double>::infinity();
   for (const auto& p : pts) z_min = std::min(z_min, p.z());
-  std::vector<Vector3d> low;
+  std::vector<Eigen::Vector2d> outline;
   for (const auto& p : pts) {
-    if (p.z() <= z_min + tolerance) low.push_back(p);
+    if (p.z() <= z_min + tolerance) outline.push_back(p.head<2>());
   }
-  double x_lo = low.front().x(), x_hi = x_lo;
-  for (const auto& p : low) {
-    x_lo = std::min(x_lo, p.x());
-    x_hi = std::max(x_hi, p.x());
-  }
-  // The y-extent at the heel and at the toe (points within 1 cm of each end): a rectangle over the
-  // whole length fits inside both (the support is convex), so its width is the smaller overlap.
-  auto y_range = [&](double x_end) {
-    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
-    for (const auto& p : low) {
-      if (std::abs(p.x() - x_end) <= 0.01) {
-        lo = std::min(lo, p.y());
-        hi = std::max(hi, p.y());
-      }
-    }
-    return std::pair{lo, hi};
-  };
-  const auto [heel_lo, heel_hi] = y_range(x_lo);
-  const auto [toe_lo, toe_hi] = y_range(x_hi);
-  const double y_lo = std::max(heel_lo, toe_lo), y_hi = std::min(heel_hi, toe_hi);
+  const SoleRectangle r = sole_rectangle(outline, forward_yaw);
   Sole s;
-  s.length = x_hi - x_lo;
-  s.width = std::max(0.0, y_hi - y_lo);
-  s.centre = Vector3d(0.5 * (x_lo + x_hi), 0.5 * (y_lo + y_hi), z_min);
+  s.length = r.length;
+  s.width = r.width;
+  s.yaw = r.yaw;
+  s.centre = Vector3d(r.centre.x(), r.centre.y(), z_min);
   for (const auto& [kind, n] : kinds) s.from += (s.from.empty() ? "" : ", ") + fmt::format("{} {}", n, kind) + (n > 1 ? "s" : "");
+  if (s.length < 0.01 || s.width < 0.01) {
+    s.warnings.push_back(fmt::format("the sole of '{}' is degenerate ({:.3f} x {:.3f} m from {}: its lowest face, within {:.0f} mm "
+                                     "of its lowest point, spans no area); give robot.feet.<side>.sole_xyz and sole_size by hand",
+                                     link.name, s.length, s.width, s.from, tolerance * 1e3));
+  }
+  // Sideways offset of the sole's centre from the link's origin, across the sole.
+  const double lateral = -std::sin(s.yaw) * s.centre.x() + std::cos(s.yaw) * s.centre.y();
+  if (s.width > 0 && std::abs(lateral) > 0.25 * s.width) {
+    s.warnings.push_back(fmt::format("the sole of '{}' is centred {:.1f} cm to the side of the link's origin, more than a quarter "
+                                     "of its width ({:.3f} m): check its collision geometry",
+                                     link.name, lateral * 100.0, s.width));
+  }
+  if (std::abs(std::remainder(s.yaw - forward_yaw, 2 * M_PI)) > 0.25 * M_PI && s.length > 0) {
+    s.warnings.push_back(fmt::format("the sole of '{}' is longest {:.0f} deg away from the robot's forward direction",
+                                     link.name, std::remainder(s.yaw - forward_yaw, 2 * M_PI) * 180.0 / M_PI));
+  }
   return s;
 }
 
@@ -148,8 +153,44 @@ std::array<FootCandidate, 2> find_feet(const model::Model& m, const model::Robot
                                         "or more joints on that side",
                                         m.source, !found[0] ? "right (-y)" : "left (+y)", min_leg_joints));
   }
-  for (auto& f : feet) f.sole = sole_from_geometry(*d.find_link(f.link));
+  for (auto& f : feet) {
+    // The base's x at q = 0, seen in the foot link's x-y plane: the robot's forward direction.
+    const Vector3d fwd = data.oMf[static_cast<size_t>(m.frame_index(f.link))].R.transpose() * Vector3d::UnitX();
+    double forward_yaw = std::atan2(fwd.y(), fwd.x());
+    if (std::abs(forward_yaw) < 1e-9) forward_yaw = 0.0;
+    f.sole = sole_from_geometry(*d.find_link(f.link), 0.003, forward_yaw);
+  }
   return feet;
+}
+
+ImuChoice find_imu(const model::Model& m) {
+  auto rank = [](std::string n) {
+    for (auto& c : n) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    if (n == "imu" || n == "imu_link") return 0;
+    if (n.rfind("imu_", 0) == 0 || n.find("_imu") != std::string::npos) return 1;
+    return n.find("imu") != std::string::npos ? 2 : 3;
+  };
+  const model::Frame* best = nullptr;
+  std::tuple<int, size_t, std::string> best_key{3, 0, ""};
+  for (const auto& f : m.frames) {
+    const std::tuple<int, size_t, std::string> key{rank(f.name), m.support[static_cast<size_t>(f.body)].size(), f.name};
+    if (std::get<0>(key) < 3 && (best == nullptr || key < best_key)) {
+      best = &f;
+      best_key = key;
+    }
+  }
+  if (best == nullptr) {
+    return {m.body_name.front(), "no link named like an IMU (imu, imu_link, *_imu*): the base link; set robot.imu.link and "
+                                 "xyz/rpy to where the IMU is mounted"};
+  }
+  const auto& chain = m.support[static_cast<size_t>(best->body)];
+  if (chain.empty()) return {best->name, "named like an IMU, rigidly on the base"};
+  std::vector<std::string> joints;
+  for (int j : chain) joints.push_back(m.joint_name[static_cast<size_t>(j)]);
+  return {best->name, fmt::format("named like an IMU, on '{}', {} moving joint{} from the base ({}): the estimator takes the "
+                                  "base's orientation through {} encoder{}",
+                                  m.body_name[static_cast<size_t>(best->body)], chain.size(), chain.size() > 1 ? "s" : "",
+                                  fmt::join(joints, ", "), chain.size() > 1 ? "their" : "its", chain.size() > 1 ? "s" : "")};
 }
 
 std::string check_report(const model::RobotDescription& d, const model::Model& m) {
@@ -192,6 +233,9 @@ std::string check_report(const model::RobotDescription& d, const model::Model& m
   for (const auto& r : d.repairs) line("  " + r);
   for (const auto& w : m.warnings) line("  " + w);
 
+  const ImuChoice imu = find_imu(m);
+  line(fmt::format("  IMU: '{}' ({})", imu.link, imu.why));
+
   line("kinematic tree (moving joints; [limits] rad, effort N m):");
   std::function<void(int, int)> tree = [&](int body, int depth) {
     for (int b = body + 1; b < m.nb; ++b) {
@@ -209,10 +253,13 @@ std::string check_report(const model::RobotDescription& d, const model::Model& m
     line("candidate feet (lowest links at the end of the leg chains):");
     for (int k = 0; k < 2; ++k) {
       const auto& f = feet[static_cast<size_t>(k)];
-      line(fmt::format("  {}: {} ({} leg joints), sole {:.3f} x {:.3f} m centred at ({:.3f}, {:.3f}, {:.3f}) in the link "
+      line(fmt::format("  {}: {} ({} leg joints), sole {:.3f} x {:.3f} m centred at ({:.3f}, {:.3f}, {:.3f}){} in the link "
                        "frame, from {}",
                        k == 0 ? "right" : "left", f.link, f.leg_joints.size(), f.sole.length, f.sole.width,
-                       f.sole.centre.x(), f.sole.centre.y(), f.sole.centre.z(), f.sole.from));
+                       f.sole.centre.x(), f.sole.centre.y(), f.sole.centre.z(),
+                       f.sole.yaw != 0.0 ? fmt::format(", its length {:.1f} deg from the link's x", f.sole.yaw * 180.0 / M_PI) : "",
+                       f.sole.from));
+      for (const auto& w : f.sole.warnings) line("  warning: " + w);
     }
   } catch (const model::ModelError& e) {
     line(fmt::format("candidate feet: none ({})", e.what()));

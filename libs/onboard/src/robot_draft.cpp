@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <Eigen/Cholesky>
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cctype>
 #include <cmath>
@@ -57,6 +58,9 @@ RobotDraft draft_robot(const model::RobotDescription& d, const DraftOptions& o) 
   const Model full = Model::build(d, full_options);
   r.base_link = full.body_name.front();
   r.feet = find_feet(full, d);
+  for (const auto& f : r.feet) {
+    for (const auto& w : f.sole.warnings) r.notes.push_back("warning: " + w);
+  }
   std::set<std::string> leg;
   for (const auto& f : r.feet) leg.insert(f.leg_joints.begin(), f.leg_joints.end());
 
@@ -77,19 +81,13 @@ RobotDraft draft_robot(const model::RobotDescription& d, const DraftOptions& o) 
   for (int k = 0; k < 2; ++k) {
     SE3 X;
     X.p = r.feet[static_cast<size_t>(k)].sole.centre;
+    X.R = Eigen::AngleAxisd(r.feet[static_cast<size_t>(k)].sole.yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
     sole[static_cast<size_t>(k)] = m.add_frame(std::string(model::kFootNames[static_cast<size_t>(k)]) + "_sole",
                                                r.feet[static_cast<size_t>(k)].link, X);
   }
-  // IMU: a link named like one on the base body, else the base link.
-  r.imu_link = r.base_link;
-  for (const auto& f : m.frames) {
-    if (lower(f.name).find("imu") != std::string::npos && f.body == 0) {
-      r.imu_link = f.name;
-      break;
-    }
-  }
-  r.notes.push_back(fmt::format("IMU at link '{}'{}", r.imu_link,
-                                r.imu_link == r.base_link ? " (no link named imu on the base body)" : ""));
+  const ImuChoice imu = find_imu(m);
+  r.imu_link = imu.link;
+  r.notes.push_back(fmt::format("IMU at link '{}' ({})", imu.link, imu.why));
 
   // Standing posture: knees bent until each hip stands leg_height_fraction of the straight leg above
   // its sole, soles flat and level, the CoM over the middle of the support; arms relaxed.
@@ -327,6 +325,10 @@ std::string write_config(const RobotDraft& r, const std::string& text, const std
     line(fmt::format("      link: {}", f.link));
     line(fmt::format("      sole_xyz: [{:.4f}, {:.4f}, {:.4f}]   # centre of the sole in the link frame [m] ({})",
                      f.sole.centre.x(), f.sole.centre.y(), f.sole.centre.z(), f.sole.from));
+    if (f.sole.yaw != 0.0) {
+      line(fmt::format("      sole_rpy: [0.0, 0.0, {:.4f}]   # the sole's length {:.1f} deg from the link's x [rad]", f.sole.yaw,
+                       f.sole.yaw * 180.0 / M_PI));
+    }
     line(fmt::format("      sole_size: [{:.4f}, {:.4f}]          # length (x), width (y) [m]", f.sole.length, f.sole.width));
     line(fmt::format("      ft_link: {}   # ankle force/torque sensor frame", f.link));
   }

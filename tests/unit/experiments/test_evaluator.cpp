@@ -61,6 +61,25 @@ TEST(TrialEvaluator, StandingThroughTheWindowIsRecovered) {
   EXPECT_FALSE(r.inconclusive);
   EXPECT_NEAR(r.impulse_W.x(), 12.0, 1e-12);
   EXPECT_NEAR(r.min_cop_margin, 0.05, 1e-9) << "CoP at the sole centre: half the sole width";
+  EXPECT_EQ(r.outcome, "recovered");
+}
+
+TEST(TrialEvaluator, AWindowWithoutAPushIsAStandingTrialThatStood) {
+  // push_trial --stand: the window opens and closes at the same time, judged alike.
+  static const auto robot = hpr::test::load_robot("toro");
+  const double weight = robot.model.mass * robot.model.gravity.norm();
+  TrialEvaluator eval(robot, "double", kPushStart, kPushStart);
+  for (int k = 500; k <= 6010; ++k) eval.on_truth(standing(k * 1e-3, weight));
+  const TrialResult r = eval.result();
+  EXPECT_TRUE(r.recovered) << r.failure;
+  EXPECT_EQ(r.outcome, "stood");
+  TrialEvaluator fell(robot, "double", kPushStart, kPushStart);
+  for (int k = 500; k <= 3000; ++k) {
+    auto m = standing(k * 1e-3, weight);
+    m.fallen = k >= 2000;
+    fell.on_truth(m);
+  }
+  EXPECT_EQ(fell.result().outcome, "fell");
 }
 
 TEST(TrialEvaluator, ARunThatEndsEarlyIsInconclusive) {
@@ -69,6 +88,7 @@ TEST(TrialEvaluator, ARunThatEndsEarlyIsInconclusive) {
   EXPECT_FALSE(r.recovered);
   EXPECT_TRUE(r.inconclusive);
   EXPECT_NE(r.failure.find("run ended at t = 4.00 s"), std::string::npos) << r.failure;
+  EXPECT_EQ(r.outcome, "inconclusive");
 }
 
 TEST(TrialEvaluator, AFallOrATiltDecidesAShortRun) {
@@ -76,10 +96,16 @@ TEST(TrialEvaluator, AFallOrATiltDecidesAShortRun) {
   EXPECT_TRUE(fell.fallen);
   EXPECT_FALSE(fell.recovered);
   EXPECT_FALSE(fell.inconclusive);
+  EXPECT_EQ(fell.outcome, "fell");
   const TrialResult tilted = evaluate({4.0, -1.0, 2.0});
   EXPECT_FALSE(tilted.recovered);
   EXPECT_FALSE(tilted.inconclusive);
   EXPECT_NE(tilted.failure.find("sole tilt 3.0 deg"), std::string::npos) << tilted.failure;
+  EXPECT_EQ(tilted.outcome, "tilted");
+  // Every outcome word is in the legend the tools print.
+  for (const char* w : {"recovered", "stood", "fell", "tilted", "slipped", "unsettled", "inconclusive", "error", "CoP margin"}) {
+    EXPECT_NE(std::string(hpr::experiments::kOutcomeLegend).find(std::string("  ") + w + " "), std::string::npos) << w;
+  }
 }
 
 TEST(TrialEvaluator, WithStepsASoleThatLiftsAndLandsElsewhereIsAStepNotASlip) {
@@ -111,6 +137,7 @@ TEST(TrialEvaluator, WithStepsASoleThatLiftsAndLandsElsewhereIsAStepNotASlip) {
   const TrialResult s = standing_only.result();
   EXPECT_FALSE(s.recovered);
   EXPECT_NE(s.failure.find("sole slip"), std::string::npos) << s.failure;
+  EXPECT_EQ(s.outcome, "slipped");
   EXPECT_EQ(s.steps, 0) << "steps are counted only when they are allowed";
   EXPECT_TRUE(hpr::experiments::steps_enabled({"a.b=1", "balance.stepping.enabled=true"}));
   EXPECT_FALSE(hpr::experiments::steps_enabled({"balance.stepping.enabled=true", "balance.stepping.enabled=false"}));
@@ -123,6 +150,7 @@ TEST(TrialEvaluator, AResultReadBackFromItsJsonIsTheSameToTheLastBit) {
   r.fallen = true;
   r.completed = true;
   r.failure = "fell; sole tilt 3.1 deg";
+  r.outcome = "fell";
   r.impulse_W = Eigen::Vector3d(0.1 / 3.0, -2.0 / 7.0, 0.0);
   r.max_tilt_deg = M_PI;
   r.max_slip = 1e-17;
@@ -150,6 +178,7 @@ TEST(TrialEvaluator, AResultReadBackFromItsJsonIsTheSameToTheLastBit) {
   EXPECT_EQ(back.return_time, r.return_time);
   EXPECT_EQ(back.completed, r.completed);
   EXPECT_EQ(back.final_base_angle_deg, r.final_base_angle_deg);
+  EXPECT_EQ(back.outcome, "fell");
   r.return_time.reset();
   EXPECT_FALSE(TrialResult::from_json(r.to_json(spec)).return_time.has_value());
   EXPECT_THROW((void)TrialResult::from_json("{\"recovered\": true}"), std::exception);

@@ -4,6 +4,7 @@
 
 #include "hpr/onboard/robot_check.hpp"
 #include "model_fixture.hpp"
+#include "shell.hpp"
 
 namespace {
 
@@ -58,7 +59,40 @@ TEST(RobotCheck, SoleOfAMeshFootIsItsHullsBottomFace) {
   EXPECT_NEAR(sole.length, 0.2, 1e-6);
   EXPECT_NEAR(sole.width, 0.2, 1e-6);
   EXPECT_NEAR(sole.centre.z(), -0.1, 1e-6);
-  EXPECT_EQ(sole.from, "1 mesh hull");
+  EXPECT_EQ(sole.from, "1 mesh");
+}
+
+TEST(RobotCheck, TheImuIsFoundByNameAnywhereOnTheTreeAndTheReportSaysWhy) {
+  // The fixture biped's imu_link sits on the torso, one waist joint from the pelvis.
+  const auto d = model::load_urdf(test::source_dir() + "/tests/unit/onboard/fixtures/biped-description-main/urdf/biped.urdf");
+  const model::Model m = model::Model::build(d);
+  const auto imu = onboard::find_imu(m);
+  EXPECT_EQ(imu.link, "imu_link");
+  EXPECT_NE(imu.why.find("on 'torso', 1 moving joint from the base (waist_yaw_joint)"), std::string::npos) << imu.why;
+  const std::string report = onboard::check_report(d, m);
+  EXPECT_NE(report.find("IMU: 'imu_link'"), std::string::npos) << report;
+  EXPECT_EQ(report.find("warning"), std::string::npos) << report;
+  // The G1 has one in the pelvis and one in the torso: the one rigidly on the base.
+  const auto g1 = model::load_urdf(test::source_dir() + "/models/unitree_g1/g1_29dof_with_hand.urdf");
+  const auto g1_imu = onboard::find_imu(model::Model::build(g1));
+  EXPECT_EQ(g1_imu.link, "imu_in_pelvis");
+  EXPECT_NE(g1_imu.why.find("rigidly on the base"), std::string::npos) << g1_imu.why;
+  // None: the base, and what to do.
+  const auto toro = model::Model::build(test::load_robot("toro").description);
+  const auto none = onboard::find_imu(toro);
+  EXPECT_EQ(none.link, toro.body_name.front());
+  EXPECT_NE(none.why.find("set robot.imu.link"), std::string::npos) << none.why;
+}
+
+TEST(RobotCheck, AFootMeshOffToTheSideIsWarnedAboutInTheReport) {
+  std::string xml = test::read_file(test::source_dir() + "/tests/unit/onboard/fixtures/biped-description-main/urdf/biped.urdf");
+  const std::string centred = R"(<origin xyz="0.03 0 -0.06" rpy="0 0 1.5707963267948966"/>)";
+  const std::string aside = R"(<origin xyz="0.03 0.042 -0.06" rpy="0 0 1.5707963267948966"/>)";
+  for (size_t at = xml.find(centred); at != std::string::npos; at = xml.find(centred)) xml.replace(at, centred.size(), aside);
+  const auto d = model::parse_urdf(xml, test::source_dir() + "/tests/unit/onboard/fixtures/biped-description-main/urdf/biped.urdf");
+  const std::string report = onboard::check_report(d, model::Model::build(d));
+  EXPECT_NE(report.find("warning: the sole of 'l_foot' is centred 4.2 cm to the side"), std::string::npos) << report;
+  EXPECT_NE(report.find("warning: the sole of 'r_foot' is centred 4.2 cm to the side"), std::string::npos) << report;
 }
 
 }  // namespace

@@ -2,6 +2,7 @@
 // flat and level, the CoM over their middle and the hips at the asked height.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <unistd.h>
@@ -133,6 +134,68 @@ TEST(RobotDraft, TheMeshFolderGivenToInitIsWrittenRelativeToTheFileAndMovesWithI
     EXPECT_NE(msg.find("--mesh-path DIR"), std::string::npos) << msg;
   }
   fs::remove_all(root);
+}
+
+// A biped as robot repositories publish it (tests/unit/onboard/fixtures/make_biped.py): the package
+// in a folder of another name, feet a mesh turned 90 deg in the link, the IMU on the torso one
+// waist joint from the pelvis. init's draft loads with no hand edit: soles 0.19 x 0.08 m along the
+// link's x and centred, the IMU at imu_link, the standing posture as asked.
+TEST(RobotDraft, ABipedAsPublishedWithYawedFootMeshesAndItsImuOnTheTorso) {
+  const std::string urdf = test::source_dir() + "/tests/unit/onboard/fixtures/biped-description-main/urdf/biped.urdf";
+  const auto draft = onboard::draft_robot(model::load_urdf(urdf));
+  for (const auto& f : draft.feet) {
+    EXPECT_NEAR(f.sole.length, 0.19, 1e-6) << f.link;
+    EXPECT_NEAR(f.sole.width, 0.08, 1e-6) << f.link;
+    EXPECT_EQ(f.sole.yaw, 0.0) << f.link;
+    EXPECT_LT((f.sole.centre - Eigen::Vector3d(0.03, 0.0, -0.06)).norm(), 1e-6) << f.link;
+    EXPECT_TRUE(f.sole.warnings.empty()) << f.sole.warnings.front();
+  }
+  EXPECT_EQ(draft.imu_link, "imu_link");
+  const auto note = std::find_if(draft.notes.begin(), draft.notes.end(), [](const std::string& n) { return n.rfind("IMU", 0) == 0; });
+  ASSERT_NE(note, draft.notes.end());
+  EXPECT_NE(note->find("1 moving joint from the base (waist_yaw_joint)"), std::string::npos) << *note;
+  const model::RobotSpec spec = write_and_load(draft, urdf, "biped.yaml");
+  EXPECT_EQ(spec.model.frames[static_cast<size_t>(spec.imu_frame)].body, spec.model.frames[static_cast<size_t>(spec.model.frame_index("torso"))].body);
+  expect_standing_posture(spec, onboard::DraftOptions{}.leg_height_fraction);
+}
+
+// A foot whose sole is yawed in its link (a box turned 0.3 rad): init writes sole_rpy, and the sole
+// frame of the loaded configuration lies along the robot's x, flat, in the standing posture.
+TEST(RobotDraft, ASoleYawedInItsLinkIsWrittenAsSoleRpy) {
+  std::string xml = test::read_file(test::source_dir() + "/tests/unit/onboard/fixtures/biped-description-main/urdf/biped.urdf");
+  const std::string mesh = R"(<origin xyz="0.03 0 -0.06" rpy="0 0 1.5707963267948966"/><geometry><mesh filename="package://biped_description/meshes/chamfered_foot.stl"/></geometry>)";
+  const std::string box = R"(<origin xyz="0.03 0 -0.06" rpy="0 0 0.3"/><geometry><box size="0.2 0.08 0.04"/></geometry>)";
+  for (size_t at = xml.find(mesh); at != std::string::npos; at = xml.find(mesh)) xml.replace(at, mesh.size(), box);
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / ("hpr_yawed_sole_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const std::string urdf = (dir / "biped_box_feet.urdf").string();
+  std::ofstream(urdf) << xml;
+  const auto draft = onboard::draft_robot(model::load_urdf(urdf));
+  for (const auto& f : draft.feet) {
+    EXPECT_NEAR(f.sole.yaw, 0.3, 1e-9);
+    EXPECT_NEAR(f.sole.length, 0.2, 1e-9);
+    EXPECT_NEAR(f.sole.width, 0.08, 1e-9);
+  }
+  const std::string text = onboard::write_config(draft, test::read_file(test::source_dir() + "/config/templates/robot.yaml"), urdf, "test");
+  EXPECT_NE(text.find("sole_rpy: [0.0, 0.0, 0.3000]"), std::string::npos) << text.substr(0, 2000);
+  const model::RobotSpec spec = write_and_load(draft, urdf, "biped_box_feet.yaml");
+  expect_standing_posture(spec, onboard::DraftOptions{}.leg_height_fraction);
+  fs::remove_all(dir);
+}
+
+// config/g1.yaml is init's output for the published G1, unedited: the draft written today from the
+// URDF and the template is that file byte for byte (a change to the template or the draft shows
+// here, and the file is written again with the command in its header).
+TEST(RobotDraft, TheShippedG1ConfigurationIsInitsOutputByteForByte) {
+  const std::string urdf = test::source_dir() + "/models/unitree_g1/g1_29dof_with_hand.urdf";
+  onboard::DraftOptions o;
+  o.name = "g1";
+  const auto draft = onboard::draft_robot(model::load_urdf(urdf), o);
+  const std::string text = onboard::write_config(draft, test::read_file(test::source_dir() + "/config/templates/robot.yaml"),
+                                                 "../models/unitree_g1/g1_29dof_with_hand.urdf",
+                                                 "models/unitree_g1/g1_29dof_with_hand.urdf --name g1 --out config/g1.yaml");
+  EXPECT_EQ(text, test::read_file(test::source_dir() + "/config/g1.yaml"));
 }
 
 }  // namespace

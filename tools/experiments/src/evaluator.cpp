@@ -156,6 +156,7 @@ TrialResult TrialEvaluator::result() const {
     r.return_time = std::max(0.0, last_out_of_posture_ - push_end_);
   }
   std::vector<std::string> why;
+  const bool standing = push_end_ <= push_start_;
   if (r.fallen) why.emplace_back("fell");
   const bool decided = failed();
   r.inconclusive = !r.completed && !decided;
@@ -168,6 +169,19 @@ TrialResult TrialEvaluator::result() const {
   }
   r.recovered = why.empty();
   for (size_t i = 0; i < why.size(); ++i) r.failure += (i > 0 ? "; " : "") + why[i];
+  if (r.recovered) {
+    r.outcome = standing ? "stood" : "recovered";
+  } else if (r.fallen) {
+    r.outcome = "fell";
+  } else if (r.inconclusive) {
+    r.outcome = "inconclusive";
+  } else if (!steps_allowed_ && r.max_tilt_deg >= kTiltLimitDeg) {
+    r.outcome = "tilted";
+  } else if (!steps_allowed_ && r.max_slip >= kSlipLimit) {
+    r.outcome = "slipped";
+  } else {
+    r.outcome = "unsettled";
+  }
   return r;
 }
 
@@ -183,6 +197,7 @@ std::string TrialResult::to_json(const TrialSpec& spec) const {
   j["recovered"] = recovered;
   j["fallen"] = fallen;
   j["completed"] = completed;
+  j["outcome"] = outcome;
   j["failure"] = failure;
   j["inconclusive"] = inconclusive;
   j["applied_impulse_Ns"] = impulse_W.norm();
@@ -223,6 +238,7 @@ TrialResult TrialResult::from_json(const std::string& json) {
   r.completed = j.at("completed").get<bool>();
   r.inconclusive = j.at("inconclusive").get<bool>();
   r.failure = j.at("failure").get<std::string>();
+  r.outcome = j.contains("outcome") ? j.at("outcome").get<std::string>() : (r.recovered ? "recovered" : r.fallen ? "fell" : "not recovered");
   r.impulse_W = vec("applied_impulse_W_Ns");
   r.max_tilt_deg = j.at("max_foot_tilt_deg").get<double>();
   r.max_slip = j.at("max_sole_slip_m").get<double>();

@@ -69,7 +69,7 @@ struct InProcessRun {
   TrialResult finish(const TrialSpec& spec, const TrialPlan& plan_of_push,
                      const std::function<void(const std::string&)>& progress, std::chrono::steady_clock::time_point wall0) {
     const double t_push = plan_of_push.push.start, t_end = t_push + plan_of_push.push.duration;
-    loop.sim.add_push(plan_of_push.push);
+    if (!spec.standing()) loop.sim.add_push(plan_of_push.push);
     eval.set_push_end(t_end);
     TrialWatch watch(spec, eval, t_push, t_end, progress, wall0);
     while (loop.sim.time() < plan_of_push.sim_duration && tick(watch)) {

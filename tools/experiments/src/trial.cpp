@@ -61,7 +61,25 @@ std::string find_config(const std::string& robot) {
   }
 }
 
+const char* const kOutcomeLegend =
+    "outcomes (judged from 5 s after the push ends; a standing trial from when the push would have come):\n"
+    "  recovered     no fall; stance soles flat (tilt < 2 deg) and in place (slip < 1 cm); CoM, base and every\n"
+    "                free joint back within 1 cm and 1 deg of the pre-push posture within 5 s (with stepping:\n"
+    "                at rest on flat soles, base within 5 deg, wherever the steps took it)\n"
+    "  stood         the same for a trial without a push\n"
+    "  fell          the simulator saw the robot fall\n"
+    "  tilted        a stance sole rolled onto an edge (tilt of 2 deg or more)\n"
+    "  slipped       a stance sole slid 1 cm or more\n"
+    "  unsettled     still standing on flat soles, but not back in the posture within 5 s\n"
+    "  inconclusive  the run ended before the verdict (nothing decided yet); a sweep runs it again\n"
+    "  error         the run itself failed (a process, the configuration): no verdict\n"
+    "  CoP margin    the smallest distance of a loaded stance sole's centre of pressure inside the sole\n"
+    "                rectangle the controllers use (robot.feet.*.sole_size); negative: on the part of the\n"
+    "                collision geometry the rectangle leaves out. A measurement, not a criterion: a sole\n"
+    "                whose pressure reaches the real edge rolls about it, which the tilt judges.\n";
+
 double TrialSpec::push_duration() const {
+  if (standing()) return 0.0;
   if (duration > 0.0) return duration;
   return impulse * M_PI / (2.0 * peak);
 }
@@ -154,7 +172,9 @@ TrialPlan plan_trial(const TrialSpec& spec) {
   if (spec.support != "double" && spec.support != "left" && spec.support != "right") {
     throw std::invalid_argument("support '" + spec.support + "': expected double, left or right");
   }
-  if (!(spec.peak > 0.0) || !(spec.push_duration() > 0.0)) throw std::invalid_argument("the push needs a positive peak force and duration");
+  if (!spec.standing() && (!(spec.peak > 0.0) || !(spec.push_duration() > 0.0))) {
+    throw std::invalid_argument("the push needs a positive peak force and duration (or impulse and duration 0: no push)");
+  }
   // When the push comes: 1 s after the support is settled.
   const Config balance = cfg.section("balance");
   double settled = balance.real_or("init_time", 1.0);
@@ -214,9 +234,13 @@ TrialResult run_trial(const TrialSpec& spec, const std::function<void(const std:
   const std::string scenario = work + "/push.yaml";
   {
     std::ofstream f(scenario);
-    f << fmt::format("pushes:\n  - {{link: {}, point: [{:.6f}, {:.6f}, {:.6f}], force: [{:.6f}, {:.6f}, 0.0], start: {:.6f}, "
-                     "duration: {:.6f}, profile: half_sine}}\n",
-                     link, point_L.x(), point_L.y(), point_L.z(), force.x(), force.y(), t_push, plan.push.duration);
+    if (spec.standing()) {
+      f << "pushes: []\n";
+    } else {
+      f << fmt::format("pushes:\n  - {{link: {}, point: [{:.6f}, {:.6f}, {:.6f}], force: [{:.6f}, {:.6f}, 0.0], start: {:.6f}, "
+                       "duration: {:.6f}, profile: half_sine}}\n",
+                       link, point_L.x(), point_L.y(), point_L.z(), force.x(), force.y(), t_push, plan.push.duration);
+    }
   }
   std::vector<std::string> common = {"--config", config};
   for (const auto& o : plan.overrides) {

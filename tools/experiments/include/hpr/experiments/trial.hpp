@@ -6,7 +6,9 @@
 /// "Recovered" means: not fallen 5 s after the push ends, the stance soles flat (tilt below 2°) and
 /// sliding less than 1 cm from the push on, and the posture back within 1 cm and 1° of the
 /// pre-push posture within 5 s of the push end (CoM position; base orientation and every free
-/// joint within 1°).
+/// joint within 1°). A trial without a push (impulse and duration 0) is a standing trial judged
+/// alike from the time the push would have come; its success is "stood". kOutcomeLegend says every
+/// outcome in words.
 
 #include <humanoid/robot_sensors_t.hpp>
 #include <humanoid/sim_truth_t.hpp>
@@ -29,6 +31,9 @@ class ArgReader;
 
 namespace hpr::experiments {
 
+/// The outcomes of a trial in words, one line each, as every tool prints them under its results.
+extern const char* const kOutcomeLegend;
+
 enum class Strategy { kCam, kAnkle };
 const char* to_string(Strategy s);
 Strategy strategy_from_string(const std::string& s);
@@ -50,7 +55,7 @@ struct TrialSpec {
   std::string support = "double";     ///< double | left | right
   Strategy strategy = Strategy::kCam; ///< cam: reference_gen + motion_opt + wbc; ankle: wbc holding the posture
   double direction_deg = 0.0;         ///< push direction: 0 = pushed forward from behind (+x), 90 = towards +y
-  double impulse = 18.0;              ///< [N s] of the half-sine (0: from peak and duration)
+  double impulse = 18.0;              ///< [N s] of the half-sine (0: from peak and duration; both 0: no push)
   double peak = 65.0;                 ///< peak force [N]
   double duration = 0.0;              ///< [s] (0: from impulse and peak, I = 2 F T / π)
   std::string link;                   ///< link pushed (default: the base link)
@@ -67,8 +72,11 @@ struct TrialSpec {
   bool in_process = false;            ///< through the in-process pipeline, not the processes (no log)
   bool truth_state = false;           ///< in process: the controllers see the simulator's truth, no estimator
 
-  /// The push's duration from impulse and peak when not given.
+  /// The push's duration from impulse and peak when not given (0 for a standing trial).
   [[nodiscard]] double push_duration() const;
+  /// No push (impulse and duration 0): the robot stands `after` seconds from the time the push
+  /// would have come, judged as after a push.
+  [[nodiscard]] bool standing() const { return impulse == 0.0 && duration == 0.0; }
   /// The command-line flags that reproduce this spec with push_trial.
   [[nodiscard]] std::string describe() const;
 };
@@ -79,6 +87,8 @@ struct TrialResult {
   /// closed with nothing decided yet (no fall, tilt or slip). A sweep runs such a trial again.
   bool inconclusive = false;
   std::string failure;                 ///< why not recovered ("" when recovered)
+  /// One word of kOutcomeLegend: recovered, stood, fell, tilted, slipped, unsettled, inconclusive.
+  std::string outcome;
   Eigen::Vector3d impulse_W = Eigen::Vector3d::Zero();  ///< applied impulse [N s]
   double max_tilt_deg = 0.0;           ///< stance soles, from the push on
   double max_slip = 0.0;               ///< [m] stance soles, horizontal, from the push on
