@@ -350,6 +350,22 @@ Simulator::Simulator(const model::RobotSpec& robot, SimConfig config)
         I.shapes.push_back(std::move(shape));
       }
     }
+    for (int k = 0; k < 2; ++k) {
+      // A foot without collision geometry (a description with inertias only) stands on the sole the
+      // configuration declares: a box of its rectangle, 2 cm thick, its bottom face on the sole.
+      const auto ku = static_cast<size_t>(k);
+      if (b != foot_bodies[ku] || compound->getNumChildShapes() != 0) continue;
+      const model::FootSpec& foot = robot.feet[ku];
+      constexpr double kThickness = 0.02;
+      SE3 X_SC;
+      X_SC.p = Vector3d(0.0, 0.0, 0.5 * kThickness);
+      const SE3 X_BS = m.frames[static_cast<size_t>(sole_frame_[ku])].X_BF;
+      auto box = std::make_unique<btBoxShape>(to_bt(Vector3d(0.5 * foot.length, 0.5 * foot.width, 0.5 * kThickness)));
+      compound->addChildShape(to_bt(X_LB * X_BS * X_SC), box.get());
+      I.shapes.push_back(std::move(box));
+      log::info("the {} foot link '{}' has no collision geometry: it collides with its configured sole, a box of {:.3f} x {:.3f} x "
+                "{:.3f} m", model::kFootNames[ku], foot.link, foot.length, foot.width, kThickness);
+    }
     if (compound->getNumChildShapes() == 0) continue;
     auto collider = std::make_unique<btMultiBodyLinkCollider>(mb, b - 1);
     collider->setCollisionShape(compound.get());
@@ -371,13 +387,7 @@ Simulator::Simulator(const model::RobotSpec& robot, SimConfig config)
     I.shapes.push_back(std::move(compound));
     I.colliders.push_back(std::move(collider));
   }
-  for (int k = 0; k < 2; ++k) {
-    I.foot_body[static_cast<size_t>(k)] = foot_bodies[static_cast<size_t>(k)];
-    if (I.body_collider[static_cast<size_t>(I.foot_body[static_cast<size_t>(k)])] == nullptr) {
-      throw model::ModelError(fmt::format("{}: the {} foot link '{}' has no collision geometry", m.source,
-                                          model::kFootNames[static_cast<size_t>(k)], robot.feet[static_cast<size_t>(k)].link));
-    }
-  }
+  for (int k = 0; k < 2; ++k) I.foot_body[static_cast<size_t>(k)] = foot_bodies[static_cast<size_t>(k)];
   if (config_.joint_limits) {
     for (int j = 0; j < m.nj; ++j) {
       const double lo = m.q_lower[static_cast<size_t>(j)], hi = m.q_upper[static_cast<size_t>(j)];

@@ -454,6 +454,16 @@ TEST(Onboarding, ABipedAsPublishedIsInitialisedStandsAndRecoversPushesFromBehind
   ASSERT_TRUE(fs::exists(overlay)) << out;
   const json tuned = trial("--in-process --robot " + cfg + " --overlay " + overlay + " --stand 5");
   EXPECT_EQ(tuned["outcome"], "stood") << tuned.dump();
+  // The same robot with inertias only: init guesses the soles (and says so), the simulator stands
+  // each foot on its configured sole, and the robot stands.
+  ASSERT_EQ(run(bin("hpr_robot") + " init " + hpr::test::source_dir() + "/tests/unit/onboard/fixtures/inertias_only.urdf --out " +
+                    (root / "config/inertias_only.yaml").string() + " --force",
+                &out),
+            0)
+      << out;
+  EXPECT_NE(out.find("warning: the foot link 'r_foot' has no collision geometry"), std::string::npos) << out;
+  const json bare = trial("--in-process --robot " + (root / "config/inertias_only.yaml").string() + " --stand 5");
+  EXPECT_EQ(bare["outcome"], "stood") << bare.dump();
 }
 
 }  // namespace

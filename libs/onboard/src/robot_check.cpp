@@ -120,12 +120,26 @@ std::array<FootCandidate, 2> find_feet(const model::Model& m, const model::Robot
   q(6) = 1.0;
   model::forward_kinematics(m, data, q);
   model::update_frame_placements(m, data);
-  std::vector<FootCandidate> all;
+  // A body with a child body is no end of a chain.
+  std::vector<bool> leaf(static_cast<size_t>(m.nb), true);
+  for (int b = 1; b < m.nb; ++b) leaf[static_cast<size_t>(m.parent[static_cast<size_t>(b)])] = false;
+  std::vector<FootCandidate> all, bare;
   for (size_t f = 0; f < m.frames.size(); ++f) {
     const model::Frame& fr = m.frames[f];
     const model::LinkDesc* link = d.find_link(fr.name);
-    if (link == nullptr || link->collisions.empty() || fr.body == 0) continue;
+    if (link == nullptr || fr.body == 0) continue;
     if (static_cast<int>(m.support[static_cast<size_t>(fr.body)].size()) < min_leg_joints) continue;
+    if (link->collisions.empty()) {
+      // Without geometry: the link at the end of a leg chain, by its origin's height.
+      if (!leaf[static_cast<size_t>(fr.body)] || fr.name != m.body_name[static_cast<size_t>(fr.body)]) continue;
+      FootCandidate c;
+      c.link = fr.name;
+      c.body = fr.body;
+      c.z_lowest = data.oMf[f].p.z();
+      for (int j : m.support[static_cast<size_t>(fr.body)]) c.leg_joints.push_back(m.joint_name[static_cast<size_t>(j)]);
+      bare.push_back(c);
+      continue;
+    }
     double z = std::numeric_limits<double>::infinity();
     for (const auto& g : link->collisions) {
       for (const auto& p : contact_points(g, 32)) z = std::min(z, data.oMf[f].act(p).z());
@@ -137,20 +151,24 @@ std::array<FootCandidate, 2> find_feet(const model::Model& m, const model::Robot
     for (int j : m.support[static_cast<size_t>(fr.body)]) c.leg_joints.push_back(m.joint_name[static_cast<size_t>(j)]);
     all.push_back(c);
   }
-  std::sort(all.begin(), all.end(), [](const auto& a, const auto& b) { return a.z_lowest < b.z_lowest; });
+  const auto by_height = [](const auto& a, const auto& b) { return a.z_lowest < b.z_lowest; };
+  std::sort(all.begin(), all.end(), by_height);
+  std::sort(bare.begin(), bare.end(), by_height);
   std::array<FootCandidate, 2> feet;
   std::array<bool, 2> found{false, false};
-  for (const auto& c : all) {
-    const double y = data.oMi[static_cast<size_t>(c.body)].p.y();
-    const int side = y < 0 ? 0 : 1;  // right: −y
-    if (found[static_cast<size_t>(side)]) continue;
-    // The lowest candidate on each side of the base's x-z plane.
-    feet[static_cast<size_t>(side)] = c;
-    found[static_cast<size_t>(side)] = true;
+  // The lowest candidate on each side of the base's x-z plane; one without collision geometry only
+  // where no leg chain of that side has any.
+  for (const auto* list : {&all, &bare}) {
+    for (const auto& c : *list) {
+      const double y = data.oMi[static_cast<size_t>(c.body)].p.y();
+      const int side = y < 0 ? 0 : 1;  // right: −y
+      if (found[static_cast<size_t>(side)]) continue;
+      feet[static_cast<size_t>(side)] = c;
+      found[static_cast<size_t>(side)] = true;
+    }
   }
   if (!found[0] || !found[1]) {
-    throw model::ModelError(fmt::format("{}: no {} foot: no link with collision geometry at the end of a chain of {} "
-                                        "or more joints on that side",
+    throw model::ModelError(fmt::format("{}: no {} foot: no link at the end of a chain of {} or more joints on that side",
                                         m.source, !found[0] ? "right (-y)" : "left (+y)", min_leg_joints));
   }
   for (auto& f : feet) {
@@ -158,7 +176,22 @@ std::array<FootCandidate, 2> find_feet(const model::Model& m, const model::Robot
     const Vector3d fwd = data.oMf[static_cast<size_t>(m.frame_index(f.link))].R.transpose() * Vector3d::UnitX();
     double forward_yaw = std::atan2(fwd.y(), fwd.x());
     if (std::abs(forward_yaw) < 1e-9) forward_yaw = 0.0;
-    f.sole = sole_from_geometry(*d.find_link(f.link), 0.003, forward_yaw);
+    const model::LinkDesc& link = *d.find_link(f.link);
+    if (!link.collisions.empty()) {
+      f.sole = sole_from_geometry(link, 0.003, forward_yaw);
+      continue;
+    }
+    // No geometry to measure: a sole of human proportions to the leg's length (hip joint to foot).
+    const int hip = m.support[static_cast<size_t>(f.body)].front() + 1;
+    const double leg = (data.oMf[static_cast<size_t>(m.frame_index(f.link))].p - data.oMi[static_cast<size_t>(hip)].p).norm();
+    f.sole.length = 0.3 * leg;
+    f.sole.width = 0.4 * f.sole.length;
+    f.sole.yaw = forward_yaw;
+    f.sole.from = "no collision geometry: a guess from the leg's length";
+    f.sole.warnings.push_back(fmt::format("the foot link '{}' has no collision geometry: its sole is a guess, {:.3f} x {:.3f} m at the "
+                                          "link's origin (0.3 and 0.12 of the leg's length); measure the real sole and set "
+                                          "robot.feet.<side>.sole_xyz and sole_size (the simulator stands the foot on that rectangle)",
+                                          f.link, f.sole.length, f.sole.width));
   }
   return feet;
 }

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <unistd.h>
@@ -156,6 +157,26 @@ TEST(RobotDraft, ABipedAsPublishedWithYawedFootMeshesAndItsImuOnTheTorso) {
   EXPECT_NE(note->find("1 moving joint from the base (waist_yaw_joint)"), std::string::npos) << *note;
   const model::RobotSpec spec = write_and_load(draft, urdf, "biped.yaml");
   EXPECT_EQ(spec.model.frames[static_cast<size_t>(spec.imu_frame)].body, spec.model.frames[static_cast<size_t>(spec.model.frame_index("torso"))].body);
+  expect_standing_posture(spec, onboard::DraftOptions{}.leg_height_fraction);
+}
+
+// The same biped with inertias only (no geometry anywhere): the feet are the ends of the leg chains,
+// their soles a guess from the leg's length that init writes with a warning saying what to measure,
+// and the file loads.
+TEST(RobotDraft, ARobotWithInertiasOnlyGetsGuessedSolesAndAWarning) {
+  const std::string urdf = test::source_dir() + "/tests/unit/onboard/fixtures/inertias_only.urdf";
+  const auto draft = onboard::draft_robot(model::load_urdf(urdf));
+  const double leg = std::hypot(0.06 + 0.35 + 0.35, 0.0);  // hip yaw joint to the ankle: 0.06 + 2 x 0.35 m
+  EXPECT_EQ(draft.feet[0].link, "r_foot");
+  EXPECT_EQ(draft.feet[1].link, "l_foot");
+  for (const auto& f : draft.feet) {
+    EXPECT_NEAR(f.sole.length, 0.3 * leg, 1e-9);
+    EXPECT_NEAR(f.sole.width, 0.12 * leg, 1e-9);
+    ASSERT_EQ(f.sole.warnings.size(), 1U);
+    EXPECT_NE(f.sole.warnings[0].find("no collision geometry: its sole is a guess"), std::string::npos) << f.sole.warnings[0];
+  }
+  EXPECT_EQ(std::count_if(draft.notes.begin(), draft.notes.end(), [](const std::string& n) { return n.rfind("warning: ", 0) == 0; }), 2);
+  const model::RobotSpec spec = write_and_load(draft, urdf, "inertias_only.yaml");
   expect_standing_posture(spec, onboard::DraftOptions{}.leg_height_fraction);
 }
 
