@@ -55,12 +55,12 @@
 #include "hpr/node/lifecycle.hpp"
 #include "hpr/node/runtime.hpp"
 #include "hpr/common/auth.hpp"
+#include "supervisor_cli.hpp"
 
-namespace fs = std::filesystem;
 using namespace hpr;
 using launch::GroupState;
 using launch::ProcessState;
-using Status = humanoid::supervisor_status_t;
+using namespace hpr::supervisor_cli;
 
 namespace {
 
@@ -93,26 +93,6 @@ every process; the other hosts of a multi-host group need a copy (mode 0600).
   -f, -n N          (logs) follow; last N lines (default 100)
 )";
 
-std::atomic<bool> g_stop{false};
-void on_signal(int) { g_stop = true; }
-
-struct Options {
-  std::string command, target;  // target: group (up) or process (logs, restart)
-  std::string groups_file, host, group_filter, run_root, lcm_url;
-  std::map<std::string, std::string> vars;
-  bool host_given = false, foreground = false, json = false, follow = false;
-  double wait_s = 1.2;
-  int lines = 100;
-};
-
-std::string machine_host() {
-  char buf[256] = {};
-  ::gethostname(buf, sizeof(buf) - 1);
-  std::string h = buf;
-  if (const auto dot = h.find('.'); dot != std::string::npos) h.resize(dot);
-  return h.empty() ? "localhost" : h;
-}
-
 std::string default_groups_file() {
   if (const char* e = std::getenv("HPR_GROUPS")) return e;
   const fs::path exe = launch::executable_dir();
@@ -120,66 +100,6 @@ std::string default_groups_file() {
     if (fs::exists(c)) return fs::weakly_canonical(c).string();
   }
   return "config/groups.yaml";
-}
-
-std::string resolve_url(const Options& o, const launch::GroupsFile* f) {
-  if (!o.lcm_url.empty()) return o.lcm_url;
-  if (f != nullptr && !f->lcm_url.empty()) return f->lcm_url;
-  if (const char* e = std::getenv("LCM_DEFAULT_URL"); e != nullptr && *e != '\0') return e;
-  return "udpm://239.255.76.67:7667?ttl=0";
-}
-
-std::string now_text() {
-  const auto t = std::chrono::system_clock::now();
-  const std::time_t s = std::chrono::system_clock::to_time_t(t);
-  const auto ms = std::chrono::duration_cast<std::chrono::milliseconds>(t.time_since_epoch()).count() % 1000;
-  char buf[32];
-  std::strftime(buf, sizeof(buf), "%T", std::localtime(&s));
-  return fmt::format("{}.{:03d}", buf, static_cast<int>(ms));
-}
-
-const char* health_text(int s) {
-  switch (s) {
-    case humanoid::health_t::STATE_STARTING: return "starting";
-    case humanoid::health_t::STATE_OK: return "ok";
-    case humanoid::health_t::STATE_DEGRADED: return "degraded";
-    case humanoid::health_t::STATE_FAULT: return "FAULT";
-    case humanoid::health_t::STATE_STOPPING: return "stopping";
-    case humanoid::supervisor_status_t::HEALTH_HUNG: return "HUNG";
-    default: return "-";
-  }
-}
-
-std::string uptime_text(double s) {
-  if (s <= 0) return "-";
-  if (s < 60) return fmt::format("{:.1f}s", s);
-  if (s < 3600) return fmt::format("{}m{:02d}s", static_cast<int>(s) / 60, static_cast<int>(s) % 60);
-  return fmt::format("{}h{:02d}m", static_cast<int>(s) / 3600, (static_cast<int>(s) / 60) % 60);
-}
-
-/// The status table of one or more hosts' supervisors.
-std::string render(const std::vector<Status>& hosts) {
-  std::ostringstream out;
-  for (const auto& h : hosts) {
-    out << fmt::format("group {} on host {}: {}  (supervisor pid {}, run folder {})\n", h.group, h.host,
-                       launch::to_string(static_cast<GroupState>(h.state)), h.pid, h.run_dir);
-    if (!h.message.empty()) out << "  last event: " << h.message << "\n";
-  }
-  out << fmt::format("{:<16} {:<10} {:<9} {:>8} {:>9} {:>8} {:>9} {:>7} {:<9} {:<9} {}\n", "NAME", "HOST", "STATE", "PID", "UPTIME",
-                     "RESTARTS", "RATE[Hz]", "MISSES", "HEALTH", "LIFECYCLE", "DETAIL");
-  for (const auto& h : hosts) {
-    for (int i = 0; i < h.num_processes; ++i) {
-      const auto ps = static_cast<ProcessState>(h.process_state[i]);
-      const bool live = ps == ProcessState::kStarting || ps == ProcessState::kReady || ps == ProcessState::kStopping;
-      out << fmt::format("{:<16} {:<10} {:<9} {:>8} {:>9} {:>8} {:>9} {:>7} {:<9} {:<9} {}\n", h.name[i] + (h.critical[i] ? "*" : ""), h.host,
-                         launch::to_string(ps), live ? std::to_string(h.process_pid[i]) : "-", live ? uptime_text(h.uptime_s[i]) : "-",
-                         h.restarts[i], h.health_state[i] >= 0 ? fmt::format("{:.1f}", h.rate_hz[i]) : "-",
-                         h.health_state[i] >= 0 ? std::to_string(h.deadline_misses[i]) : "-", health_text(h.health_state[i]),
-                         live && h.lifecycle[i] >= 0 ? node::to_string(static_cast<node::Lifecycle>(h.lifecycle[i])) : "-", h.detail[i]);
-    }
-  }
-  out << "(* critical: its death, or a HEALTH silence longer than its hung_after, commands OPERATOR damp)\n";
-  return out.str();
 }
 
 Status make_status(const launch::Supervisor& sup, std::int64_t seq, const std::string& message, double now) {
@@ -210,76 +130,6 @@ Status make_status(const launch::Supervisor& sup, std::int64_t seq, const std::s
   }
   m.num_processes = static_cast<int32_t>(m.name.size());
   return m;
-}
-
-std::string tail_file(const std::string& path, int lines) {
-  std::ifstream in(path);
-  if (!in) return "";
-  std::deque<std::string> last;
-  std::string line;
-  while (std::getline(in, line)) {
-    last.push_back(line);
-    if (static_cast<int>(last.size()) > lines) last.pop_front();
-  }
-  std::string out;
-  for (const auto& l : last) out += l + "\n";
-  return out;
-}
-
-/// A typed LCM subscription calling a std::function (this LCM release has no lambda subscribe).
-/// A message that does not decode is counted (errors()) and logged, rate limited, with its
-/// channel and size, instead of LCM's own line per message. With a key, a message without its valid
-/// authentication code is refused the same way before it is decoded (unauthenticated()).
-template <class Msg>
-class Subscription {
- public:
-  Subscription(lcm::LCM& lcm, const std::string& channel, std::function<void(const Msg&)> f, const auth::Key* key = nullptr)
-      : lcm_(lcm), f_(std::move(f)), key_(key) {
-    sub_ = lcm_.subscribe(channel, &Subscription::on, this);
-  }
-  ~Subscription() { lcm_.unsubscribe(sub_); }
-  Subscription(const Subscription&) = delete;
-  Subscription& operator=(const Subscription&) = delete;
-  [[nodiscard]] std::int64_t errors() const { return errors_; }
-  [[nodiscard]] std::int64_t unauthenticated() const { return unauthenticated_; }
-
- private:
-  void on(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
-    if (key_ != nullptr && !auth::verify(static_cast<const std::uint8_t*>(rbuf->data), rbuf->data_size, *key_)) {
-      ++errors_;
-      ++unauthenticated_;
-      hpr::log::warn("{}: a message of {} bytes refused: no valid authentication code (not signed with {}; {} refused so far)",
-                     channel, rbuf->data_size, key_->path, unauthenticated_);
-      return;
-    }
-    if (msg_.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size)) < 0) {
-      ++errors_;
-      hpr::log::warn("{}: a message of {} bytes is not a valid {} ({} so far)", channel, rbuf->data_size, Msg::getTypeName(), errors_);
-      return;
-    }
-    f_(msg_);
-  }
-  lcm::LCM& lcm_;
-  std::function<void(const Msg&)> f_;
-  const auth::Key* key_ = nullptr;
-  lcm::Subscription* sub_ = nullptr;
-  Msg msg_{};
-  std::int64_t errors_ = 0, unauthenticated_ = 0;
-};
-
-/// Handles messages for `timeout_s`, and always whatever is already queued: a supervisor that was
-/// not scheduled for a while reads the HEALTH sent meanwhile before it judges any node hung.
-void handle_for(lcm::LCM& lcm, double timeout_s) {
-  const double end = monotonic_s() + timeout_s;
-  while (!g_stop) {
-    const double left = std::max(0.0, end - monotonic_s());
-    pollfd p{lcm.getFileno(), POLLIN, 0};
-    if (poll_for({&p, 1}, left) > 0 && (p.revents & POLLIN) != 0) {
-      lcm.handle();
-    } else if (left <= 0) {
-      break;
-    }
-  }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -432,31 +282,6 @@ std::string make_run_dir(const Options& o, const launch::GroupSpec& g) {
   return fs::absolute(dir).lexically_normal().string();
 }
 
-/// The latest status of each (host, group) heard within `wait_s`.
-std::vector<Status> collect_status(lcm::LCM& lcm, double wait_s, const std::string& group_filter) {
-  std::map<std::pair<std::string, std::string>, Status> latest;
-  {
-    Subscription<Status> sub(lcm, "SUPERVISOR_STATUS", [&](const Status& s) {
-      if (!group_filter.empty() && s.group != group_filter) return;
-      latest[{s.host, s.group}] = s;
-    });
-    handle_for(lcm, wait_s);
-  }
-  std::vector<Status> out;
-  for (auto& [k, v] : latest) {
-    if (v.state != Status::STATE_STOPPED) out.push_back(v);
-  }
-  return out;
-}
-
-/// The group's inputs that none of its processes writes (the stack's declared data flow), e.g. the
-/// sensors of the `control` group, which a backend group provides.
-std::vector<std::string> unmet_inputs(const launch::GroupSpec& g) {
-  std::vector<std::string> commands;
-  for (const auto& p : g.processes) commands.push_back(fs::path(p.command).filename().string());
-  return msg::unmet_inputs(commands);
-}
-
 int cmd_up(const Options& o) {
   const launch::GroupsFile file = launch::GroupsFile::load(o.groups_file, o.vars);
   const launch::GroupSpec& group = file.group(o.target);
@@ -555,211 +380,6 @@ int cmd_up(const Options& o) {
   int st = 0;
   ::waitpid(pid, &st, 0);
   return 1;
-}
-
-int cmd_status(const Options& o, const std::string& url) {
-  lcm::LCM lcm(url);
-  if (!lcm.good()) throw std::runtime_error("cannot open LCM on " + url);
-  const auto hosts = collect_status(lcm, o.wait_s, o.group_filter);
-  if (o.json) {
-    nlohmann::ordered_json j;
-    j["lcm_url"] = url;
-    j["supervisors"] = nlohmann::ordered_json::array();
-    for (const auto& h : hosts) {
-      nlohmann::ordered_json s;
-      s["host"] = h.host;
-      s["group"] = h.group;
-      s["state"] = launch::to_string(static_cast<GroupState>(h.state));
-      s["pid"] = h.pid;
-      s["run_dir"] = h.run_dir;
-      s["message"] = h.message;
-      s["processes"] = nlohmann::ordered_json::array();
-      for (int i = 0; i < h.num_processes; ++i) {
-        s["processes"].push_back({{"name", h.name[i]},
-                                  {"state", launch::to_string(static_cast<ProcessState>(h.process_state[i]))},
-                                  {"pid", h.process_pid[i]},
-                                  {"uptime_s", h.uptime_s[i]},
-                                  {"restarts", h.restarts[i]},
-                                  {"critical", h.critical[i] != 0},
-                                  {"health", health_text(h.health_state[i])},
-                                  {"lifecycle", h.lifecycle[i] >= 0 ? node::to_string(static_cast<node::Lifecycle>(h.lifecycle[i])) : "-"},
-                                  {"rate_hz", h.rate_hz[i]},
-                                  {"deadline_misses", h.deadline_misses[i]},
-                                  {"detail", h.detail[i]}});
-      }
-      j["supervisors"].push_back(s);
-    }
-    std::cout << j.dump(2) << std::endl;
-  } else if (hosts.empty()) {
-    std::cout << "no supervisor answered on " << url << "\n";
-  } else {
-    std::cout << render(hosts);
-  }
-  return hosts.empty() ? 3 : 0;
-}
-
-/// Who sends this process's SUPERVISOR_COMMANDs: a supervisor names it in the goodbye that answers a down.
-std::string command_source() { return "supervisor-cli@" + machine_host() + ":" + std::to_string(::getpid()); }
-
-void send_command(lcm::LCM& lcm, const Options& o, int8_t command, const std::string& process) {
-  static std::int64_t seq = 0;
-  humanoid::supervisor_command_t c{};
-  c.tick = ++seq;
-  c.utime = wall_us();
-  c.source = command_source();
-  c.host = o.host_given ? o.host : "";
-  c.group = o.group_filter;
-  c.command = command;
-  c.process = process;
-  static const auth::Key key = auth::load_key(auth::key_path());
-  node::publish_signed(lcm, "SUPERVISOR_COMMAND", c, key);
-}
-
-int cmd_down(const Options& o, const std::string& url) {
-  lcm::LCM lcm(url);
-  if (!lcm.good()) throw std::runtime_error("cannot open LCM on " + url);
-  struct Seen {
-    Status last;
-    double heard = 0;
-    bool stopped = false;
-  };
-  std::map<std::pair<std::string, std::string>, Seen> seen;
-  const std::string me = command_source();
-  Subscription<Status> sub(lcm, "SUPERVISOR_STATUS", [&](const Status& s) {
-    if (!o.group_filter.empty() && s.group != o.group_filter) return;
-    if (o.host_given && s.host != o.host) return;
-    // A goodbye from a supervisor not heard before is an old one (another down's), unless it
-    // names this down: a supervisor that stopped before any of its statuses reached us.
-    const bool goodbye = s.state == Status::STATE_STOPPED;
-    if (goodbye && !seen.contains({s.host, s.group}) && s.message.find(me) == std::string::npos) return;
-    auto& e = seen[{s.host, s.group}];
-    e.last = s;
-    e.heard = monotonic_s();
-    e.stopped = e.stopped || s.state == Status::STATE_STOPPED;
-  });
-  // A supervisor is done when it said goodbye and its pid is gone (or 10 s passed: the pid may be
-  // another machine's, and a process of this one may have the same number), or when it has been
-  // silent for 2 s.
-  const auto finished = [](const Seen& e) {
-    const double silent = monotonic_s() - e.heard;
-    return e.stopped ? ::kill(e.last.pid, 0) != 0 || silent > 10.0 : silent > 2.0;
-  };
-  const double start = monotonic_s();
-  double last_send = -10;
-  while (!g_stop) {
-    const double now = monotonic_s();
-    if (now - last_send >= 1.0) {
-      send_command(lcm, o, humanoid::supervisor_command_t::COMMAND_DOWN, "");
-      last_send = now;
-    }
-    handle_for(lcm, 0.05);
-    const bool all_heard = now - start > 1.5;  // the time for every supervisor to answer
-    if (all_heard && std::all_of(seen.begin(), seen.end(), [&](const auto& kv) { return finished(kv.second); })) break;
-    if (now - start > 120) {
-      std::cerr << "supervisor: down timed out after 120 s\n";
-      return 1;
-    }
-  }
-  if (seen.empty()) {
-    std::cout << "no supervisor answered on " << url << ": nothing to stop\n";
-    return 0;
-  }
-  for (const auto& [k, e] : seen) {
-    std::cout << fmt::format("group '{}' on host '{}': {} ({} processes; logs in {})\n", k.second, k.first,
-                             e.stopped ? "stopped" : "no longer answering", e.last.num_processes, e.last.run_dir);
-  }
-  return 0;
-}
-
-int cmd_restart(const Options& o, const std::string& url) {
-  lcm::LCM lcm(url);
-  if (!lcm.good()) throw std::runtime_error("cannot open LCM on " + url);
-  const auto before = collect_status(lcm, 1.0, o.group_filter);
-  int restarts = -1;
-  std::string host;
-  for (const auto& h : before) {
-    for (int i = 0; i < h.num_processes; ++i) {
-      if (h.name[i] == o.target) {
-        restarts = h.restarts[i];
-        host = h.host;
-      }
-    }
-  }
-  if (restarts < 0) {
-    std::cerr << "supervisor: no supervisor runs a process named '" << o.target << "' on " << url << "\n";
-    return 3;
-  }
-  Options oo = o;
-  oo.host = host;
-  oo.host_given = true;
-  send_command(lcm, oo, humanoid::supervisor_command_t::COMMAND_RESTART, o.target);
-  const double end = monotonic_s() + 60;
-  while (!g_stop && monotonic_s() < end) {
-    for (const auto& h : collect_status(lcm, 0.6, o.group_filter)) {
-      for (int i = 0; i < h.num_processes; ++i) {
-        if (h.host == host && h.name[i] == o.target && h.restarts[i] > restarts &&
-            h.process_state[i] == Status::PROCESS_READY) {
-          std::cout << fmt::format("{} on host {} restarted: pid {}, ready\n", o.target, host, h.process_pid[i]);
-          return 0;
-        }
-      }
-    }
-  }
-  std::cerr << "supervisor: " << o.target << " did not come back ready within 60 s (supervisor logs " << o.target << ")\n";
-  return 1;
-}
-
-int cmd_logs(const Options& o, const std::string& url) {
-  std::string path;
-  {
-    lcm::LCM lcm(url);
-    if (lcm.good()) {
-      for (const auto& h : collect_status(lcm, 1.0, o.group_filter)) {
-        for (int i = 0; i < h.num_processes; ++i) {
-          if (h.name[i] == o.target) path = h.run_dir + "/" + o.target + ".log";
-        }
-      }
-    }
-  }
-  if (path.empty() || !fs::exists(path)) {
-    // Not running (or on another machine): the latest run folder here.
-    for (const auto& entry : {fs::path(o.run_root) / "latest", fs::path(o.run_root) / ("latest-" + o.host)}) {
-      if (fs::exists(entry / (o.target + ".log"))) path = (entry / (o.target + ".log")).string();
-    }
-  }
-  if (path.empty() || !fs::exists(path)) {
-    std::cerr << "supervisor: no log for '" << o.target << "' (not running here, and not in " << o.run_root << "/latest)\n";
-    return 3;
-  }
-  std::cout << tail_file(path, o.lines) << std::flush;
-  if (!o.follow) return 0;
-  std::ifstream in(path);
-  in.seekg(0, std::ios::end);
-  std::string line;
-  while (!g_stop) {
-    if (std::getline(in, line)) {
-      std::cout << line << std::endl;
-    } else {
-      in.clear();
-      std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    }
-  }
-  return 0;
-}
-
-int cmd_groups(const Options& o) {
-  const launch::GroupsFile file = launch::GroupsFile::load(o.groups_file, o.vars);
-  std::cout << "groups in " << file.path << ":\n";
-  for (const auto& n : file.names) {
-    const auto& g = file.groups.at(n);
-    std::cout << fmt::format("  {:<12} {}\n", n, g.description);
-    for (const auto& p : g.processes) {
-      std::cout << fmt::format("      {:<16} {}{}{}{}\n", p.name, p.command, g.host_of(p).empty() ? "" : "  @" + g.host_of(p),
-                               p.critical ? "  critical" : "", p.depends_on.empty() ? "" : "  after " + fmt::format("{}", fmt::join(p.depends_on, ",")));
-    }
-    for (const auto& u : unmet_inputs(g)) std::cout << fmt::format("      (needs from outside: {})\n", u);
-  }
-  return 0;
 }
 
 }  // namespace

@@ -26,7 +26,7 @@
 
 namespace hpr::wbc {
 
-using Vector6d = model::Vector6d;
+using model::Vector6d;
 
 struct WbcConfig {
   Eigen::Vector3d K_com{1500, 1500, 3000}, D_com{400, 400, 600};  ///< [N/m], [N s/m]

@@ -1,7 +1,7 @@
 #pragma once
 /// \file
-/// The data that flows between the balance components, one struct per channel of DESIGN.md
-/// section 2 that the controllers exchange among themselves (the robot boundary's SensorSample,
+/// The data that flows between the balance components, one struct per channel (README.md,
+/// "The processes") that the controllers exchange among themselves (the robot boundary's SensorSample,
 /// EstimatedState and JointCommand are in hpr/common/robot_io.hpp, the task reference in
 /// task_reference.hpp). Plain data without LCM: hpr::msg converts each to and from its message,
 /// once; the components (wbc, reference_gen, motion_opt) read and write these.
@@ -16,10 +16,11 @@
 #include <vector>
 
 #include "hpr/balance/task_reference.hpp"
+#include "hpr/model/spatial.hpp"
 
 namespace hpr::balance {
 
-using Vector6d = Eigen::Matrix<double, 6, 1>;
+using model::Vector6d;
 
 /// BALANCE_STATUS: the wbc's balance state of one tick (frame V).
 struct BalanceStatus {

@@ -1,6 +1,6 @@
 #pragma once
 /// \file
-/// The stack's data flow, declared once (DESIGN.md sections 2 and 3): every process, the channels it
+/// The stack's data flow, declared once (README.md, "The processes"): every process, the channels it
 /// reads (which tick, relative to the tick it steps on, whether it steps on it, whether it can go
 /// on without it) and the channels it writes. The nodes take their tick synchronisation from it,
 /// replay_check the outputs it compares, and the supervisor checks a group against it (a process

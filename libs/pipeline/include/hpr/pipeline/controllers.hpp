@@ -1,7 +1,7 @@
 #pragma once
 /// \file
 /// The stack's controllers as one: estimator → reference_gen → motion_opt → wbc, stepping tick by
-/// tick with the data flow of the processes (DESIGN.md section 3), for the in-process loop and the
+/// tick with the data flow of the processes (README.md, "The processes"), for the in-process loop and the
 /// composed process. Every channel between the components passes through its hpr::msg conversion,
 /// as the processes exchange them, and the messages of the last tick are kept for a composed
 /// process to publish: the same traffic as the processes, bit for bit.
