@@ -87,41 +87,36 @@ int main(int argc, char** argv) {
   std::string log_path, csv_path, robot = "toro";
   int axis = 1;
   std::vector<double> alphas = {0.7, 0.8, 0.9}, betas = {0.3, 0.4, 0.5};
-  try {
-    hpr::ArgReader args(argc, argv);
-    while (args.next()) {
-      if (args.is("-h", "--help")) {
-        usage(stdout);
-        return 0;
-      } else if (args.is("--robot")) {
-        robot = args.value();
-      } else if (args.is("--axis")) {
-        const std::string a = args.value();
-        if (a != "x" && a != "y" && a != "z") throw hpr::UsageError("--axis: '" + a + "' is not x, y or z");
-        axis = a[0] - 'x';
-      } else if (args.is("--alphas") || args.is("--betas")) {
-        const bool is_alpha = args.is("--alphas");
-        std::vector<double>& v = is_alpha ? alphas : betas;
-        v.clear();
-        for (const auto& s : args.list()) {
-          const double x = hpr::parse_number(s, is_alpha ? "--alphas" : "--betas");
-          if (!(x > 0 && x <= 1)) throw hpr::UsageError(std::string(is_alpha ? "--alphas" : "--betas") + ": " + s + " is not in (0, 1]");
-          v.push_back(x);
+  const auto usage_error = hpr::read_command_line(
+      argc, argv, "fig3_reference", usage,
+      [&](hpr::ArgReader& args) {
+        if (args.is("--robot")) {
+          robot = args.value();
+        } else if (args.is("--axis")) {
+          const std::string a = args.value();
+          if (a != "x" && a != "y" && a != "z") throw hpr::UsageError("--axis: '" + a + "' is not x, y or z");
+          axis = a[0] - 'x';
+        } else if (args.is("--alphas") || args.is("--betas")) {
+          const bool is_alpha = args.is("--alphas");
+          std::vector<double>& v = is_alpha ? alphas : betas;
+          v.clear();
+          for (const auto& s : args.list()) {
+            const double x = hpr::parse_number(s, is_alpha ? "--alphas" : "--betas");
+            if (!(x > 0 && x <= 1)) throw hpr::UsageError(std::string(is_alpha ? "--alphas" : "--betas") + ": " + s + " is not in (0, 1]");
+            v.push_back(x);
+          }
+        } else if (args.positional() && log_path.empty()) {
+          log_path = args.current();
+        } else if (args.positional() && csv_path.empty()) {
+          csv_path = args.current();
+        } else {
+          args.unknown();
         }
-      } else if (args.positional() && log_path.empty()) {
-        log_path = args.current();
-      } else if (args.positional() && csv_path.empty()) {
-        csv_path = args.current();
-      } else {
-        args.unknown();
-      }
-    }
-    if (csv_path.empty()) throw hpr::UsageError("need LOG and OUT.csv");
-  } catch (const hpr::UsageError& e) {
-    std::fprintf(stderr, "fig3_reference: %s\n", e.what());
-    usage(stderr);
-    return 2;
-  }
+      },
+      [&] {
+        if (csv_path.empty()) throw hpr::UsageError("need LOG and OUT.csv");
+      });
+  if (usage_error) return *usage_error;
   try {
     const hpr::Config cfg = hpr::Config::load(hpr::experiments::find_config(robot));
     const GeneratorConfig gen = GeneratorConfig::load(cfg.section("reference_gen"));

@@ -42,26 +42,21 @@ void usage(std::FILE* out) {
 
 int main(int argc, char** argv) {
   std::string log_path, json_path;
-  try {
-    hpr::ArgReader args(argc, argv);
-    while (args.next()) {
-      if (args.is("-h", "--help")) {
-        usage(stdout);
-        return 0;
-      } else if (args.is("--json")) {
-        json_path = args.value();
-      } else if (args.positional() && log_path.empty()) {
-        log_path = args.current();
-      } else {
-        args.unknown();
-      }
-    }
-    if (log_path.empty()) throw hpr::UsageError("need LOG");
-  } catch (const hpr::UsageError& e) {
-    std::fprintf(stderr, "lcm_latency: %s\n", e.what());
-    usage(stderr);
-    return 2;
-  }
+  const auto usage_error = hpr::read_command_line(
+      argc, argv, "lcm_latency", usage,
+      [&](hpr::ArgReader& args) {
+        if (args.is("--json")) {
+          json_path = args.value();
+        } else if (args.positional() && log_path.empty()) {
+          log_path = args.current();
+        } else {
+          args.unknown();
+        }
+      },
+      [&] {
+        if (log_path.empty()) throw hpr::UsageError("need LOG");
+      });
+  if (usage_error) return *usage_error;
   lcm::LogFile log(log_path, "r");
   if (!log.good()) {
     std::fprintf(stderr, "lcm_latency: cannot open %s\n", log_path.c_str());

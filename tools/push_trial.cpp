@@ -88,68 +88,63 @@ int main(int argc, char** argv) {
   spec.config = "toro";
   std::string json_file, video_file, video_label;
   bool quiet = false;
-  try {
-    hpr::ArgReader args(argc, argv);
-    while (args.next()) {
-      if (args.is("-h", "--help")) {
-        usage(stdout);
-        return 0;
-      } else if (args.is("--support")) {
-        spec.support = args.value();
-      } else if (args.is("--strategy")) {
-        spec.strategy = strategy_from_string(args.value());
-      } else if (args.is("--direction")) {
-        spec.direction_deg = args.number();
-      } else if (args.is("--impulse")) {
-        spec.impulse = args.number();
-      } else if (args.is("--stand")) {
-        spec.impulse = 0.0;
-        spec.duration = 0.0;
-        spec.after = args.number();
-        if (!(spec.after >= hpr::experiments::TrialEvaluator::kSettleTime)) {
-          throw std::invalid_argument(fmt::format("--stand {}: a standing trial's verdict needs at least {:.0f} s", spec.after,
-                                                  hpr::experiments::TrialEvaluator::kSettleTime));
+  const auto usage_error = hpr::read_command_line(
+      argc, argv, "push_trial", usage,
+      [&](hpr::ArgReader& args) {
+        if (args.is("--support")) {
+          spec.support = args.value();
+        } else if (args.is("--strategy")) {
+          spec.strategy = strategy_from_string(args.value());
+        } else if (args.is("--direction")) {
+          spec.direction_deg = args.number();
+        } else if (args.is("--impulse")) {
+          spec.impulse = args.number();
+        } else if (args.is("--stand")) {
+          spec.impulse = 0.0;
+          spec.duration = 0.0;
+          spec.after = args.number();
+          if (!(spec.after >= hpr::experiments::TrialEvaluator::kSettleTime)) {
+            throw std::invalid_argument(fmt::format("--stand {}: a standing trial's verdict needs at least {:.0f} s", spec.after,
+                                                    hpr::experiments::TrialEvaluator::kSettleTime));
+          }
+        } else if (args.is("--duration")) {
+          spec.duration = args.number();
+        } else if (args.is("--log")) {
+          spec.log_file = args.value();
+        } else if (args.is("--lcm-url")) {
+          spec.lcm_url = args.value();
+        } else if (args.is("--work-dir")) {
+          spec.work_dir = args.value();
+        } else if (args.is("--json")) {
+          json_file = args.value();
+        } else if (args.is("--video")) {
+          video_file = args.value();
+        } else if (args.is("--video-label")) {
+          video_label = args.value();
+        } else if (args.is("--quiet")) {
+          quiet = true;
+        } else if (!read_push_option(args, spec)) {
+          args.unknown();
         }
-      } else if (args.is("--duration")) {
-        spec.duration = args.number();
-      } else if (args.is("--log")) {
-        spec.log_file = args.value();
-      } else if (args.is("--lcm-url")) {
-        spec.lcm_url = args.value();
-      } else if (args.is("--work-dir")) {
-        spec.work_dir = args.value();
-      } else if (args.is("--json")) {
-        json_file = args.value();
-      } else if (args.is("--video")) {
-        video_file = args.value();
-      } else if (args.is("--video-label")) {
-        video_label = args.value();
-      } else if (args.is("--quiet")) {
-        quiet = true;
-      } else if (!read_push_option(args, spec)) {
-        args.unknown();
-      }
-    }
-    if (spec.support != "double" && spec.support != "left" && spec.support != "right") {
-      throw std::invalid_argument("--support '" + spec.support + "': expected double, left or right");
-    }
-    if (!(spec.peak > 0) || spec.impulse < 0 || spec.duration < 0) {
-      throw std::invalid_argument("the push needs --peak > 0 and a positive --impulse or --duration (--impulse 0: no push)");
-    }
-    spec.config = find_config(spec.config);
-    if (spec.truth_state && !spec.in_process) throw std::invalid_argument("--truth-state needs --in-process");
-    if (!spec.lcm_url.empty() && spec.in_process) throw std::invalid_argument("--lcm-url: an --in-process trial has no LCM");
-    if (spec.in_process && (!spec.log_file.empty() || !video_file.empty())) {
-      throw std::invalid_argument("--in-process writes no log: --log and --video need the processes");
-    }
-    if (!video_file.empty() && spec.log_file.empty()) {
-      spec.log_file = (std::filesystem::path(video_file).replace_extension(".lcm")).string();
-    }
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "push_trial: %s\n", e.what());
-    usage(stderr);
-    return 2;
-  }
+      },
+      [&] {
+        if (spec.support != "double" && spec.support != "left" && spec.support != "right") {
+          throw std::invalid_argument("--support '" + spec.support + "': expected double, left or right");
+        }
+        if (!(spec.peak > 0) || spec.impulse < 0 || spec.duration < 0) {
+          throw std::invalid_argument("the push needs --peak > 0 and a positive --impulse or --duration (--impulse 0: no push)");
+        }
+        spec.config = find_config(spec.config);
+        if (spec.truth_state && !spec.in_process) throw std::invalid_argument("--truth-state needs --in-process");
+        if (!spec.lcm_url.empty() && spec.in_process) throw std::invalid_argument("--lcm-url: an --in-process trial has no LCM");
+        if (spec.in_process && (!spec.log_file.empty() || !video_file.empty())) {
+          throw std::invalid_argument("--in-process writes no log: --log and --video need the processes");
+        }
+        if (!video_file.empty() && spec.log_file.empty()) {
+          spec.log_file = (std::filesystem::path(video_file).replace_extension(".lcm")).string();
+        }
+      });
+  if (usage_error) return *usage_error;
   try {
     if (!quiet && spec.standing()) {
       std::fprintf(stderr, "push_trial: %s, %s support, %s strategy, standing %.3g s without a push\n", spec.config.c_str(),
