@@ -44,6 +44,65 @@ void apply_model_error(model::Model& m, const std::vector<SimConfig::BodyError>&
   }
 }
 
+/// The Bullet shape of a collision geometry of `link`; `X_BG` (the geometry in its body's frame) is
+/// moved to the shape's centre where the shape needs it (a mesh's bounding box).
+std::unique_ptr<btCollisionShape> collision_shape(const model::Geometry& g, const model::RobotSpec& robot, const model::Model& m,
+                                                  const model::LinkDesc* link, SE3& X_BG) {
+  std::unique_ptr<btCollisionShape> shape;
+  switch (g.type) {
+    case model::Geometry::Type::kBox:
+      shape = std::make_unique<btBoxShape>(to_bt(Vector3d(0.5 * g.size)));
+      break;
+    case model::Geometry::Type::kCylinder:
+      shape = std::make_unique<btCylinderShapeZ>(btVector3(g.size.x(), g.size.x(), 0.5 * g.size.y()));
+      break;
+    case model::Geometry::Type::kSphere:
+      shape = std::make_unique<btSphereShape>(g.size.x());
+      break;
+    case model::Geometry::Type::kMesh: {
+      std::vector<Vector3d> points;
+      try {
+        points = mesh::load(g.mesh, g.mesh_scale).vertices;
+      } catch (const mesh::MeshError& e) {
+        throw model::ModelError(fmt::format("{}: link '{}': {}", m.source, link->name, e.what()));
+      }
+      if (robot.mesh_collision == model::MeshCollision::kBox) {
+        Vector3d lo = points.front(), hi = points.front();
+        for (const auto& p : points) {
+          lo = lo.cwiseMin(p);
+          hi = hi.cwiseMax(p);
+        }
+        shape = std::make_unique<btBoxShape>(to_bt(Vector3d(0.5 * (hi - lo))));
+        SE3 X_GC;
+        X_GC.p = 0.5 * (hi + lo);
+        X_BG = X_BG * X_GC;
+      } else {
+        auto hull = std::make_unique<btConvexHullShape>();
+        for (const auto& p : mesh::hull_points(points, robot.mesh_hull_points)) hull->addPoint(sim::to_bt(p), false);
+        hull->recalcLocalAabb();
+        hull->setMargin(0.001);
+        shape = std::move(hull);
+      }
+      break;
+    }
+  }
+  return shape;
+}
+
+/// A foot's configured sole as its collision shape: a box of the sole's rectangle, 2 cm thick, its
+/// bottom face on the sole (`X_LS`: the sole frame in the Bullet link frame).
+void add_sole_box(const model::FootSpec& foot, const char* side, const SE3& X_LS, btCompoundShape& compound,
+                  std::vector<std::unique_ptr<btCollisionShape>>& shapes) {
+  constexpr double kThickness = 0.02;
+  SE3 X_SC;
+  X_SC.p = Vector3d(0.0, 0.0, 0.5 * kThickness);
+  auto box = std::make_unique<btBoxShape>(to_bt(Vector3d(0.5 * foot.length, 0.5 * foot.width, 0.5 * kThickness)));
+  compound.addChildShape(to_bt(X_LS * X_SC), box.get());
+  shapes.push_back(std::move(box));
+  log::info("the {} foot link '{}' has no collision geometry: it collides with its configured sole, a box of {:.3f} x {:.3f} x {:.3f} m",
+            side, foot.link, foot.length, foot.width, kThickness);
+}
+
 }  // namespace
 
 Simulator::Simulator(const model::RobotSpec& robot, SimConfig config)
@@ -92,63 +151,17 @@ Simulator::Simulator(const model::RobotSpec& robot, SimConfig config)
       if (link == nullptr) continue;
       for (const auto& g : link->collisions) {
         SE3 X_BG = frame.X_BF * g.X_LG;
-        std::unique_ptr<btCollisionShape> shape;
-        switch (g.type) {
-          case model::Geometry::Type::kBox:
-            shape = std::make_unique<btBoxShape>(to_bt(Vector3d(0.5 * g.size)));
-            break;
-          case model::Geometry::Type::kCylinder:
-            shape = std::make_unique<btCylinderShapeZ>(btVector3(g.size.x(), g.size.x(), 0.5 * g.size.y()));
-            break;
-          case model::Geometry::Type::kSphere:
-            shape = std::make_unique<btSphereShape>(g.size.x());
-            break;
-          case model::Geometry::Type::kMesh: {
-            std::vector<Vector3d> points;
-            try {
-              points = mesh::load(g.mesh, g.mesh_scale).vertices;
-            } catch (const mesh::MeshError& e) {
-              throw model::ModelError(fmt::format("{}: link '{}': {}", m.source, link->name, e.what()));
-            }
-            if (robot.mesh_collision == model::MeshCollision::kBox) {
-              Vector3d lo = points.front(), hi = points.front();
-              for (const auto& p : points) {
-                lo = lo.cwiseMin(p);
-                hi = hi.cwiseMax(p);
-              }
-              shape = std::make_unique<btBoxShape>(to_bt(Vector3d(0.5 * (hi - lo))));
-              SE3 X_GC;
-              X_GC.p = 0.5 * (hi + lo);
-              X_BG = X_BG * X_GC;
-            } else {
-              auto hull = std::make_unique<btConvexHullShape>();
-              for (const auto& p : mesh::hull_points(points, robot.mesh_hull_points)) hull->addPoint(sim::to_bt(p), false);
-              hull->recalcLocalAabb();
-              hull->setMargin(0.001);
-              shape = std::move(hull);
-            }
-            break;
-          }
-        }
+        std::unique_ptr<btCollisionShape> shape = collision_shape(g, robot, m, link, X_BG);
         compound->addChildShape(to_bt(X_LB * X_BG), shape.get());
         I.shapes.push_back(std::move(shape));
       }
     }
     for (int k = 0; k < 2; ++k) {
-      // A foot without collision geometry (a description with inertias only) stands on the sole the
-      // configuration declares: a box of its rectangle, 2 cm thick, its bottom face on the sole.
+      // A foot without collision geometry (a description with inertias only) stands on its sole.
       const auto ku = static_cast<size_t>(k);
-      if (b != foot_bodies[ku] || compound->getNumChildShapes() != 0) continue;
-      const model::FootSpec& foot = robot.feet[ku];
-      constexpr double kThickness = 0.02;
-      SE3 X_SC;
-      X_SC.p = Vector3d(0.0, 0.0, 0.5 * kThickness);
-      const SE3 X_BS = m.frames[static_cast<size_t>(sole_frame_[ku])].X_BF;
-      auto box = std::make_unique<btBoxShape>(to_bt(Vector3d(0.5 * foot.length, 0.5 * foot.width, 0.5 * kThickness)));
-      compound->addChildShape(to_bt(X_LB * X_BS * X_SC), box.get());
-      I.shapes.push_back(std::move(box));
-      log::info("the {} foot link '{}' has no collision geometry: it collides with its configured sole, a box of {:.3f} x {:.3f} x "
-                "{:.3f} m", model::kFootNames[ku], foot.link, foot.length, foot.width, kThickness);
+      if (b == foot_bodies[ku] && compound->getNumChildShapes() == 0) {
+        add_sole_box(robot.feet[ku], model::kFootNames[ku], X_LB * m.frames[static_cast<size_t>(sole_frame_[ku])].X_BF, *compound, I.shapes);
+      }
     }
     if (compound->getNumChildShapes() == 0) continue;
     auto collider = std::make_unique<btMultiBodyLinkCollider>(mb, b - 1);
@@ -172,25 +185,8 @@ Simulator::Simulator(const model::RobotSpec& robot, SimConfig config)
     I.colliders.push_back(std::move(collider));
   }
   for (int k = 0; k < 2; ++k) I.foot_body[static_cast<size_t>(k)] = foot_bodies[static_cast<size_t>(k)];
-  if (config_.joint_limits) {
-    for (int j = 0; j < m.nj; ++j) {
-      const double lo = m.q_lower[static_cast<size_t>(j)], hi = m.q_upper[static_cast<size_t>(j)];
-      if (!std::isfinite(lo) || !std::isfinite(hi)) continue;
-      auto c = std::make_unique<JointLimit>(mb, j, lo, hi);
-      I.world->addMultiBodyConstraint(c.get());
-      I.limits.push_back(std::move(c));
-    }
-  }
-  // Ground: the plane z = 0.
-  I.ground_shape = std::make_unique<btStaticPlaneShape>(btVector3(0, 0, 1), 0.0);
-  I.ground = std::make_unique<btCollisionObject>();
-  I.ground->setCollisionShape(I.ground_shape.get());
-  btTransform gt;
-  gt.setIdentity();
-  I.ground->setWorldTransform(gt);
-  I.ground->setFriction(config_.ground_friction);
-  I.ground->setRestitution(config_.ground_restitution);
-  I.world->addCollisionObject(I.ground.get(), kGroundGroup, kRobotGroup);
+  if (config_.joint_limits) I.add_joint_limits(m);
+  I.add_ground(config_.ground_friction, config_.ground_restitution);
 
   I.omega.resize(static_cast<size_t>(m.nb));
   I.vel.resize(static_cast<size_t>(m.nb));

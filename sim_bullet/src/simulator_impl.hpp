@@ -102,6 +102,28 @@ struct Simulator::Impl {
     if (bullet) world->removeMultiBody(bullet->multibody());
     world.reset();
   }
+  /// Every finite position limit of `m` as a constraint (after the colliders are attached).
+  void add_joint_limits(const model::Model& m) {
+    for (int j = 0; j < m.nj; ++j) {
+      const double lo = m.q_lower[static_cast<size_t>(j)], hi = m.q_upper[static_cast<size_t>(j)];
+      if (!std::isfinite(lo) || !std::isfinite(hi)) continue;
+      auto c = std::make_unique<JointLimit>(bullet->multibody(), j, lo, hi);
+      world->addMultiBodyConstraint(c.get());
+      limits.push_back(std::move(c));
+    }
+  }
+  /// The ground: the plane z = 0.
+  void add_ground(double friction, double restitution) {
+    ground_shape = std::make_unique<btStaticPlaneShape>(btVector3(0, 0, 1), 0.0);
+    ground = std::make_unique<btCollisionObject>();
+    ground->setCollisionShape(ground_shape.get());
+    btTransform gt;
+    gt.setIdentity();
+    ground->setWorldTransform(gt);
+    ground->setFriction(friction);
+    ground->setRestitution(restitution);
+    world->addCollisionObject(ground.get(), kGroundGroup, kRobotGroup);
+  }
   void refresh_kinematics() {
     btMultiBody* mb = bullet->multibody();
     mb->forwardKinematics(world_to_local, local_origin);

@@ -47,6 +47,173 @@ double rest_position(const model::JointDesc& j) {
 
 std::string round4(double v) { return fmt::format("{:.4f}", std::abs(v) < 5e-5 ? 0.0 : v); }
 
+/// Arms relaxed in `q`: shoulder roll joints 0.15 rad away from the body, elbows bent 0.4 rad
+/// towards their larger range (joints of the legs left alone).
+void relax_arms(const Model& m, const std::set<std::string>& leg, model::Data& data, VectorXd& q) {
+  for (int j = 0; j < m.nj; ++j) {
+    const std::string name = lower(m.joint_name[static_cast<size_t>(j)]);
+    if (leg.count(m.joint_name[static_cast<size_t>(j)]) != 0) continue;
+    const double lo = m.q_lower[static_cast<size_t>(j)], hi = m.q_upper[static_cast<size_t>(j)];
+    if (name.find("elbow") != std::string::npos) {
+      q(7 + j) = clamp_to_limits(m, j, hi > -lo ? 0.4 : -0.4);
+    } else if (name.find("shoulder_roll") != std::string::npos || name.find("shoulder_r") != std::string::npos) {
+      // The sign that moves the arm's end away from the body (its |y| up).
+      int end = j + 1;
+      for (int b = j + 2; b < m.nb; ++b) {
+        const auto& sup = m.support[static_cast<size_t>(b)];
+        if (std::find(sup.begin(), sup.end(), j) != sup.end()) end = b;
+      }
+      double best = 0.0, best_y = -1.0;
+      for (double s : {0.15, -0.15}) {
+        VectorXd qt = q;
+        qt(7 + j) = clamp_to_limits(m, j, s);
+        model::forward_kinematics(m, data, qt);
+        const double y = std::abs(data.oMi[static_cast<size_t>(end)].p.y());
+        if (y > best_y) {
+          best_y = y;
+          best = qt(7 + j);
+        }
+      }
+      q(7 + j) = best;
+    }
+  }
+}
+
+/// The standing posture: from `q` (knees seeded), the legs' joints by damped least squares until
+/// each sole frame reaches its target flat and level, the targets moved until the CoM is over the
+/// middle of the soles. Throws ModelError naming `source` when it does not converge.
+void stand(const Model& m, const std::array<int, 2>& sole, const std::array<std::vector<int>, 2>& legs,
+           std::array<Vector3d, 2>& target, const std::string& source, model::Data& data, VectorXd& q) {
+  Eigen::Matrix<double, 6, Eigen::Dynamic> J(6, m.nv);
+  double residual = 0.0;
+  for (int outer = 0; outer < 20; ++outer) {
+    for (int it = 0; it < 200; ++it) {
+      model::forward_kinematics(m, data, q);
+      model::update_frame_placements(m, data);
+      residual = 0.0;
+      for (int k = 0; k < 2; ++k) {
+        const auto ku = static_cast<size_t>(k);
+        const SE3& X = data.oMf[static_cast<size_t>(sole[ku])];
+        model::Vector6d e;
+        e.head<3>() = target[ku] - X.p;
+        e.tail<3>() = -model::log3(X.R);  // log3(R* R^T) with R* = I, world axes
+        residual = std::max(residual, e.norm());
+        J.setZero();
+        model::frame_jacobian(m, data, sole[ku], model::ReferenceFrame::kLocalWorldAligned, J);
+        Eigen::MatrixXd Jl(6, static_cast<Eigen::Index>(legs[ku].size()));
+        for (size_t c = 0; c < legs[ku].size(); ++c) Jl.col(static_cast<Eigen::Index>(c)) = J.col(6 + legs[ku][c]);
+        const Eigen::MatrixXd A = Jl * Jl.transpose() + 1e-6 * Eigen::MatrixXd::Identity(6, 6);
+        const VectorXd dq = Jl.transpose() * A.ldlt().solve(e);
+        for (size_t c = 0; c < legs[ku].size(); ++c) {
+          const int j = legs[ku][c];
+          q(7 + j) = clamp_to_limits(m, j, q(7 + j) + dq(static_cast<Eigen::Index>(c)));
+        }
+      }
+      if (residual < 1e-10) break;
+    }
+    // Move both soles so that the middle of the support is under the CoM.
+    const Vector3d c = model::center_of_mass(m, data, q);
+    model::update_frame_placements(m, data);
+    const Vector3d mid = 0.5 * (data.oMf[static_cast<size_t>(sole[0])].p + data.oMf[static_cast<size_t>(sole[1])].p);
+    const double dx = c.x() - mid.x();
+    for (auto& t : target) t.x() += dx;
+    if (std::abs(dx) < 1e-6 && residual < 1e-9) break;
+  }
+  if (residual > 1e-6) {
+    throw model::ModelError(fmt::format("{}: the standing posture's inverse kinematics did not converge (sole error "
+                                        "{:.3g}); try another --leg-height",
+                                        source, residual));
+  }
+}
+
+/// The segments (the legs; the joints shared by the chains to two or more leaves of the rest, the
+/// torso; each remaining chain named by where its end is) and the motion optimiser's adjusted
+/// coordinates (base rotation, the torso, the first four joints of each arm), into `r`.
+void segments_and_adjusted(const Model& m, const model::Data& data, const std::set<std::string>& leg, RobotDraft& r) {
+  std::vector<std::vector<int>> chains;
+  std::vector<int> ends;
+  for (int b = 1; b < m.nb; ++b) {
+    bool leaf = true;
+    for (int c2 = 1; c2 < m.nb; ++c2) leaf = leaf && m.parent[static_cast<size_t>(c2)] != b;
+    if (!leaf) continue;
+    std::vector<int> chain;
+    for (int j : m.support[static_cast<size_t>(b)]) {
+      if (leg.count(m.joint_name[static_cast<size_t>(j)]) == 0) chain.push_back(j);
+    }
+    if (!chain.empty()) {
+      chains.push_back(chain);
+      ends.push_back(b);
+    }
+  }
+  std::map<int, int> uses;
+  for (const auto& ch : chains) {
+    for (int j : ch) ++uses[j];
+  }
+  std::vector<std::string> torso;
+  for (const auto& [j, n] : uses) {
+    if (n >= 2) torso.push_back(m.joint_name[static_cast<size_t>(j)]);
+  }
+  if (!torso.empty()) r.segments.emplace_back("torso", torso);
+  std::map<std::string, int> seen;
+  std::vector<std::string> right_arm, left_arm;
+  for (size_t i = 0; i < chains.size(); ++i) {
+    std::vector<std::string> names;
+    for (int j : chains[i]) {
+      if (uses[j] < 2) names.push_back(m.joint_name[static_cast<size_t>(j)]);
+    }
+    if (names.empty()) continue;
+    const double y = data.oMi[static_cast<size_t>(ends[i])].p.y();
+    std::string seg = y < -0.05 ? "right_arm" : y > 0.05 ? "left_arm" : "head";
+    if (seen[seg]++ > 0) seg += fmt::format("_{}", seen[seg]);
+    if (seg == "right_arm") right_arm = names;
+    if (seg == "left_arm") left_arm = names;
+    r.segments.emplace_back(seg, names);
+  }
+  r.segments.emplace_back("right_leg", r.feet[0].leg_joints);
+  r.segments.emplace_back("left_leg", r.feet[1].leg_joints);
+
+  // The motion optimiser's adjusted coordinates, as in the paper: base rotation, the torso and the
+  // first four joints of each arm.
+  r.adjusted_double = {"base_rotation"};
+  r.adjusted_double.insert(r.adjusted_double.end(), torso.begin(), torso.end());
+  for (const auto* arm : {&right_arm, &left_arm}) {
+    for (size_t k = 0; k < arm->size() && k < 4; ++k) r.adjusted_double.push_back((*arm)[k]);
+  }
+  r.adjusted_single = r.adjusted_double;
+  r.adjusted_single.push_back("swing_foot");
+
+}
+
+/// Gains from the mass and the composite inertia at the standing posture `q`, and the physics
+/// sub-steps the lightest body needs, into `r`.
+void gains(const Model& m, model::Data& data, const VectorXd& q, RobotDraft& r) {
+  r.mass = m.mass;
+  const VectorXd v = VectorXd::Zero(m.nv);
+  model::ccrba(m, data, q, v);
+  r.I_com = data.Ic;
+  const double w2 = kComOmega * kComOmega;
+  r.com_stiffness = Vector3d(r.mass * w2, r.mass * w2, 2.0 * r.mass * w2);
+  r.com_damping = Vector3d(2 * kComZeta * r.mass * kComOmega, 2 * kComZeta * r.mass * kComOmega,
+                           2 * kComZetaZ * std::sqrt(r.com_stiffness.z() * r.mass));
+  for (int a = 0; a < 3; ++a) {
+    // About z half as stiff (the configured robots: 300 against 600 N m/rad).
+    const double I = r.I_com(a, a);
+    const double K = I * kBaseOmega * kBaseOmega * (a == 2 ? 0.5 : 1.0);
+    r.base_stiffness(a) = K;
+    r.base_damping(a) = 2 * kBaseZeta * std::sqrt(K * I);
+  }
+  r.free_stiffness = kFreeStiffnessPerKg * r.mass;
+  r.free_damping = kFreeDampingPerKg * r.mass;
+  r.lightest_body = std::numeric_limits<double>::infinity();
+  for (int b = 1; b < m.nb; ++b) r.lightest_body = std::min(r.lightest_body, m.inertia[static_cast<size_t>(b)].m);
+  // One 1 ms step is not enough even for a robot without light links: the TORO-like robot's sagittal
+  // limits moved by up to 10 N s from 1 to 2 sub-steps, and by 1.4 N s more up to 8 (docs/RESULTS.md).
+  r.substeps = r.lightest_body >= 0.3 ? 2 : 4;
+  r.notes.push_back(fmt::format("mass {:.2f} kg, composite inertia about the CoM diag({:.3f}, {:.3f}, {:.3f}) kg m^2; "
+                                "lightest moving body {:.3f} kg: {} physics steps per ms",
+                                r.mass, r.I_com(0, 0), r.I_com(1, 1), r.I_com(2, 2), r.lightest_body, r.substeps));
+}
+
 }  // namespace
 
 RobotDraft draft_robot(const model::RobotDescription& d, const DraftOptions& o) {
@@ -113,75 +280,8 @@ RobotDraft draft_robot(const model::RobotDescription& d, const DraftOptions& o) 
       }
     }
   }
-  // Arms relaxed: shoulder roll joints 0.15 rad away from the body, elbows bent 0.4 rad towards
-  // their larger range.
-  for (int j = 0; j < m.nj; ++j) {
-    const std::string name = lower(m.joint_name[static_cast<size_t>(j)]);
-    if (leg.count(m.joint_name[static_cast<size_t>(j)]) != 0) continue;
-    const double lo = m.q_lower[static_cast<size_t>(j)], hi = m.q_upper[static_cast<size_t>(j)];
-    if (name.find("elbow") != std::string::npos) {
-      q(7 + j) = clamp_to_limits(m, j, hi > -lo ? 0.4 : -0.4);
-    } else if (name.find("shoulder_roll") != std::string::npos || name.find("shoulder_r") != std::string::npos) {
-      // The sign that moves the arm's end away from the body (its |y| up).
-      int end = j + 1;
-      for (int b = j + 2; b < m.nb; ++b) {
-        const auto& sup = m.support[static_cast<size_t>(b)];
-        if (std::find(sup.begin(), sup.end(), j) != sup.end()) end = b;
-      }
-      double best = 0.0, best_y = -1.0;
-      for (double s : {0.15, -0.15}) {
-        VectorXd qt = q;
-        qt(7 + j) = clamp_to_limits(m, j, s);
-        model::forward_kinematics(m, data, qt);
-        const double y = std::abs(data.oMi[static_cast<size_t>(end)].p.y());
-        if (y > best_y) {
-          best_y = y;
-          best = qt(7 + j);
-        }
-      }
-      q(7 + j) = best;
-    }
-  }
-  Eigen::Matrix<double, 6, Eigen::Dynamic> J(6, m.nv);
-  double residual = 0.0;
-  for (int outer = 0; outer < 20; ++outer) {
-    for (int it = 0; it < 200; ++it) {
-      model::forward_kinematics(m, data, q);
-      model::update_frame_placements(m, data);
-      residual = 0.0;
-      for (int k = 0; k < 2; ++k) {
-        const auto ku = static_cast<size_t>(k);
-        const SE3& X = data.oMf[static_cast<size_t>(sole[ku])];
-        model::Vector6d e;
-        e.head<3>() = target[ku] - X.p;
-        e.tail<3>() = -model::log3(X.R);  // log3(R* R^T) with R* = I, world axes
-        residual = std::max(residual, e.norm());
-        J.setZero();
-        model::frame_jacobian(m, data, sole[ku], model::ReferenceFrame::kLocalWorldAligned, J);
-        Eigen::MatrixXd Jl(6, static_cast<Eigen::Index>(legs[ku].size()));
-        for (size_t c = 0; c < legs[ku].size(); ++c) Jl.col(static_cast<Eigen::Index>(c)) = J.col(6 + legs[ku][c]);
-        const Eigen::MatrixXd A = Jl * Jl.transpose() + 1e-6 * Eigen::MatrixXd::Identity(6, 6);
-        const VectorXd dq = Jl.transpose() * A.ldlt().solve(e);
-        for (size_t c = 0; c < legs[ku].size(); ++c) {
-          const int j = legs[ku][c];
-          q(7 + j) = clamp_to_limits(m, j, q(7 + j) + dq(static_cast<Eigen::Index>(c)));
-        }
-      }
-      if (residual < 1e-10) break;
-    }
-    // Move both soles so that the middle of the support is under the CoM.
-    const Vector3d c = model::center_of_mass(m, data, q);
-    model::update_frame_placements(m, data);
-    const Vector3d mid = 0.5 * (data.oMf[static_cast<size_t>(sole[0])].p + data.oMf[static_cast<size_t>(sole[1])].p);
-    const double dx = c.x() - mid.x();
-    for (auto& t : target) t.x() += dx;
-    if (std::abs(dx) < 1e-6 && residual < 1e-9) break;
-  }
-  if (residual > 1e-6) {
-    throw model::ModelError(fmt::format("{}: the standing posture's inverse kinematics did not converge (sole error "
-                                        "{:.3g}); try another --leg-height",
-                                        d.source, residual));
-  }
+  relax_arms(m, leg, data, q);
+  stand(m, sole, legs, target, d.source, data, q);
   model::forward_kinematics(m, data, q);
   model::update_frame_placements(m, data);
   const Vector3d c = model::center_of_mass(m, data, q);
@@ -195,86 +295,8 @@ RobotDraft draft_robot(const model::RobotDescription& d, const DraftOptions& o) 
                                 "{:.3f} m above the ground, CoM over the middle of the soles",
                                 100 * o.leg_height_fraction, r.base_height, r.com_height));
 
-  // Segments: the legs; the joints shared by the chains to two or more leaves of the rest (torso);
-  // each remaining chain named by where its end is (right, left, centre).
-  std::vector<std::vector<int>> chains;
-  std::vector<int> ends;
-  for (int b = 1; b < m.nb; ++b) {
-    bool leaf = true;
-    for (int c2 = 1; c2 < m.nb; ++c2) leaf = leaf && m.parent[static_cast<size_t>(c2)] != b;
-    if (!leaf) continue;
-    std::vector<int> chain;
-    for (int j : m.support[static_cast<size_t>(b)]) {
-      if (leg.count(m.joint_name[static_cast<size_t>(j)]) == 0) chain.push_back(j);
-    }
-    if (!chain.empty()) {
-      chains.push_back(chain);
-      ends.push_back(b);
-    }
-  }
-  std::map<int, int> uses;
-  for (const auto& ch : chains) {
-    for (int j : ch) ++uses[j];
-  }
-  std::vector<std::string> torso;
-  for (const auto& [j, n] : uses) {
-    if (n >= 2) torso.push_back(m.joint_name[static_cast<size_t>(j)]);
-  }
-  if (!torso.empty()) r.segments.emplace_back("torso", torso);
-  std::map<std::string, int> seen;
-  std::vector<std::string> right_arm, left_arm;
-  for (size_t i = 0; i < chains.size(); ++i) {
-    std::vector<std::string> names;
-    for (int j : chains[i]) {
-      if (uses[j] < 2) names.push_back(m.joint_name[static_cast<size_t>(j)]);
-    }
-    if (names.empty()) continue;
-    const double y = data.oMi[static_cast<size_t>(ends[i])].p.y();
-    std::string seg = y < -0.05 ? "right_arm" : y > 0.05 ? "left_arm" : "head";
-    if (seen[seg]++ > 0) seg += fmt::format("_{}", seen[seg]);
-    if (seg == "right_arm") right_arm = names;
-    if (seg == "left_arm") left_arm = names;
-    r.segments.emplace_back(seg, names);
-  }
-  r.segments.emplace_back("right_leg", r.feet[0].leg_joints);
-  r.segments.emplace_back("left_leg", r.feet[1].leg_joints);
-
-  // The motion optimiser's adjusted coordinates, as in the paper: base rotation, the torso and the
-  // first four joints of each arm.
-  r.adjusted_double = {"base_rotation"};
-  r.adjusted_double.insert(r.adjusted_double.end(), torso.begin(), torso.end());
-  for (const auto* arm : {&right_arm, &left_arm}) {
-    for (size_t k = 0; k < arm->size() && k < 4; ++k) r.adjusted_double.push_back((*arm)[k]);
-  }
-  r.adjusted_single = r.adjusted_double;
-  r.adjusted_single.push_back("swing_foot");
-
-  // Gains from the mass and the composite inertia at the standing posture.
-  r.mass = m.mass;
-  const VectorXd v = VectorXd::Zero(m.nv);
-  model::ccrba(m, data, q, v);
-  r.I_com = data.Ic;
-  const double w2 = kComOmega * kComOmega;
-  r.com_stiffness = Vector3d(r.mass * w2, r.mass * w2, 2.0 * r.mass * w2);
-  r.com_damping = Vector3d(2 * kComZeta * r.mass * kComOmega, 2 * kComZeta * r.mass * kComOmega,
-                           2 * kComZetaZ * std::sqrt(r.com_stiffness.z() * r.mass));
-  for (int a = 0; a < 3; ++a) {
-    // About z half as stiff (the configured robots: 300 against 600 N m/rad).
-    const double I = r.I_com(a, a);
-    const double K = I * kBaseOmega * kBaseOmega * (a == 2 ? 0.5 : 1.0);
-    r.base_stiffness(a) = K;
-    r.base_damping(a) = 2 * kBaseZeta * std::sqrt(K * I);
-  }
-  r.free_stiffness = kFreeStiffnessPerKg * r.mass;
-  r.free_damping = kFreeDampingPerKg * r.mass;
-  r.lightest_body = std::numeric_limits<double>::infinity();
-  for (int b = 1; b < m.nb; ++b) r.lightest_body = std::min(r.lightest_body, m.inertia[static_cast<size_t>(b)].m);
-  // One 1 ms step is not enough even for a robot without light links: the TORO-like robot's sagittal
-  // limits moved by up to 10 N s from 1 to 2 sub-steps, and by 1.4 N s more up to 8 (docs/RESULTS.md).
-  r.substeps = r.lightest_body >= 0.3 ? 2 : 4;
-  r.notes.push_back(fmt::format("mass {:.2f} kg, composite inertia about the CoM diag({:.3f}, {:.3f}, {:.3f}) kg m^2; "
-                                "lightest moving body {:.3f} kg: {} physics steps per ms",
-                                r.mass, r.I_com(0, 0), r.I_com(1, 1), r.I_com(2, 2), r.lightest_body, r.substeps));
+  segments_and_adjusted(m, data, leg, r);
+  gains(m, data, q, r);
   r.notes.push_back(fmt::format("{} joints held, {} controlled", r.held.size(), m.nj));
   return r;
 }
