@@ -1,12 +1,15 @@
 #include "hpr/model/algorithms.hpp"
 
+#include "index.hpp"
+
 #include <Eigen/Cholesky>
 #include <cmath>
 
 namespace hpr::model {
-namespace {
 
-inline size_t u(int i) { return static_cast<size_t>(i); }
+using detail::u;
+
+namespace {
 
 // Rotation of a revolute joint about its unit axis, with exact fast paths for coordinate axes.
 inline Matrix3d joint_rotation(const Vector3d& a, double angle) {

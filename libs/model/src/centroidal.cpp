@@ -1,9 +1,9 @@
 #include "hpr/model/centroidal.hpp"
 
+#include "index.hpp"
+
 namespace hpr::model {
-namespace {
-inline size_t u(int i) { return static_cast<size_t>(i); }
-}  // namespace
+using detail::u;
 
 void centroidal_to_model_velocity(const Model& model, const Data& data, const ConstVector& nu,
                                   Eigen::Ref<Eigen::VectorXd> v) {

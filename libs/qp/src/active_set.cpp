@@ -5,15 +5,12 @@
 #include <cmath>
 #include <limits>
 
-#include "active_marks.hpp"
+#include "internal.hpp"
 #include "hpr/qp/qp_solver.hpp"
 
 namespace hpr::qp {
 
-namespace {
-constexpr double kInf = std::numeric_limits<double>::infinity();
-
-}  // namespace
+using detail::kInf;
 
 Status Solver::run_dual() {
   int refinements = 0;

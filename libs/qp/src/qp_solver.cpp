@@ -1,6 +1,6 @@
 #include "hpr/qp/qp_solver.hpp"
 
-#include "active_marks.hpp"
+#include "internal.hpp"
 
 #include <Eigen/Cholesky>
 #include <algorithm>
@@ -9,9 +9,7 @@
 
 namespace hpr::qp {
 
-namespace {
-constexpr double kInf = std::numeric_limits<double>::infinity();
-}  // namespace
+using detail::kInf;
 
 std::string_view to_string(Status s) {
   switch (s) {

@@ -1,12 +1,15 @@
 #pragma once
-// Private to the QP library: the per-bound and per-row activity a working set gives (what the
-// solver reports after a solve), shared by the active-set iterations and the solver's finish.
+// Private to the QP library, shared by its source files: infinity for the absent bounds, and the
+// per-bound and per-row activity a working set gives (what the solver reports after a solve).
 #include <algorithm>
+#include <limits>
 #include <vector>
 
 #include "hpr/qp/qp_solver.hpp"
 
 namespace hpr::qp::detail {
+
+inline constexpr double kInf = std::numeric_limits<double>::infinity();
 
 /// Marks `bounds` and `rows` with how each entry of the working set `active` holds it (n variables).
 template <class Entries>
