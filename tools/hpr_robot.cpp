@@ -7,9 +7,6 @@
 // prints its tree, joint counts, mass, centre of mass, meshes and candidate feet with their soles.
 // init writes a complete configuration (config/templates/robot.yaml filled in) and, with --verify,
 // stands the robot in the simulator and pushes it from behind and from the front.
-#include <spawn.h>
-#include <sys/wait.h>
-
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -25,12 +22,11 @@
 #include "hpr/common/args.hpp"
 #include "hpr/experiments/executor.hpp"
 #include "hpr/experiments/trial.hpp"
+#include "hpr/launch/process_group.hpp"
 #include "hpr/model/model.hpp"
 #include "hpr/model/robot.hpp"
 #include "hpr/onboard/robot_check.hpp"
 #include "hpr/onboard/robot_draft.hpp"
-
-extern "C" char** environ;
 
 namespace {
 
@@ -92,6 +88,27 @@ std::string read_file(const std::string& path) {
   return ss.str();
 }
 
+/// The pushes --verify and --tune try on a new robot, scaled to its ankle strategy's bound m ω d
+/// (d the sole's half length): a start of half the bound, up to 4 times it, to 2 % of it, with a peak
+/// force of max(20 N, 2 m).
+struct PushScale {
+  double omega = 0.0, d = 0.0, bound = 0.0;  ///< [1/s], [m], [N s]
+  double peak = 0.0;                         ///< [N]
+  double start = 0.0, max_impulse = 0.0, resolution = 0.0;  ///< [N s]
+};
+
+PushScale push_scale(const hpr::onboard::RobotDraft& draft) {
+  PushScale p;
+  p.omega = std::sqrt(9.81 / draft.com_height);
+  p.d = 0.5 * draft.feet[0].sole.length;
+  p.bound = draft.mass * p.omega * p.d;
+  p.peak = std::max(20.0, 2.0 * draft.mass);
+  p.start = std::round(5.0 * p.bound) / 10.0;
+  p.max_impulse = std::round(40.0 * p.bound) / 10.0;
+  p.resolution = std::max(0.25, std::round(20.0 * p.bound) / 1000.0);
+  return p;
+}
+
 // A standing trial of 10 s through the processes (each loads the file), then the largest push each
 // of the default controller and the ankle strategy alone recovers from behind and from the front
 // (in process, a bisection per case, `jobs` at a time).
@@ -113,12 +130,9 @@ int verify(const std::string& config, const hpr::onboard::RobotDraft& draft, int
   }
   std::printf("verify: stood 10 s (CoM within %.1f mm, soles within %.2f deg and %.1f mm)\n", 1e3 * st.max_com_deviation,
               st.max_tilt_deg, 1e3 * st.max_slip);
-  const double omega = std::sqrt(9.81 / draft.com_height);
-  const double d = 0.5 * draft.feet[0].sole.length;
-  const double bound = draft.mass * omega * d;
-  const double peak = std::max(20.0, 2.0 * draft.mass);
+  const PushScale scale = push_scale(draft);
   std::printf("\n  ankle strategy's bound m w d = %.1f kg x %.2f 1/s x %.3f m = %.1f N s; pushes of %.0f N peak\n", draft.mass,
-              omega, d, bound, peak);
+              scale.omega, scale.d, scale.bound, scale.peak);
   std::vector<SearchSpec> searches;
   for (const double dir : {0.0, 180.0}) {
     for (const Strategy s : {Strategy::kCam, Strategy::kAnkle}) {
@@ -126,12 +140,12 @@ int verify(const std::string& config, const hpr::onboard::RobotDraft& draft, int
       sp.base.config = config;
       sp.base.strategy = s;
       sp.base.direction_deg = dir;
-      sp.base.peak = peak;
+      sp.base.peak = scale.peak;
       sp.base.in_process = true;
       sp.base.stop_when_decided = true;
-      sp.start = std::round(5.0 * bound) / 10.0;
-      sp.max_impulse = std::round(40.0 * bound) / 10.0;
-      sp.resolution = std::max(0.25, std::round(20.0 * bound) / 1000.0);
+      sp.start = scale.start;
+      sp.max_impulse = scale.max_impulse;
+      sp.resolution = scale.resolution;
       searches.push_back(sp);
     }
   }
@@ -166,43 +180,25 @@ int verify(const std::string& config, const hpr::onboard::RobotDraft& draft, int
   return 0;
 }
 
-/// A program installed beside this one (build/bin/push_tune next to build/bin/hpr_robot).
-std::string sibling(const std::string& name) {
-  namespace fs = std::filesystem;
-  std::error_code ec;
-  const fs::path p = fs::read_symlink("/proc/self/exe", ec).parent_path() / name;
-  if (!fs::exists(p, ec)) throw std::runtime_error(name + " not found next to hpr_robot (" + p.string() + ")");
-  return p.string();
-}
-
 // push_tune for the new robot (its pushes scaled as --verify's), and its result as an overlay
 // beside the configuration: FILE.yaml -> FILE.tuned.yaml.
 int tune(const std::string& config, const hpr::onboard::RobotDraft& draft, int jobs, int evaluations) {
   namespace fs = std::filesystem;
-  const double bound = draft.mass * std::sqrt(9.81 / draft.com_height) * 0.5 * draft.feet[0].sole.length;
   const fs::path cfg(config);
   const fs::path out = cfg.parent_path() / (cfg.stem().string() + "-tune");
   const fs::path overlay = cfg.parent_path() / (cfg.stem().string() + ".tuned.yaml");
-  std::vector<std::string> a{sibling("push_tune"), "--robot", config, "--peak", fmt::format("{:.0f}", std::max(20.0, 2.0 * draft.mass)),
-                             "--start", fmt::format("{:.1f}", 0.5 * bound), "--max-impulse", fmt::format("{:.1f}", 4.0 * bound),
-                             "--resolution", fmt::format("{:.2f}", std::max(0.25, 0.02 * bound)), "--jobs", std::to_string(jobs),
-                             "--out", out.string()};
+  const PushScale scale = push_scale(draft);
+  std::vector<std::string> a{(fs::path(hpr::launch::executable_dir()) / "push_tune").string(), "--robot", config, "--peak",
+                             fmt::format("{:.0f}", scale.peak), "--start", fmt::format("{:.1f}", scale.start), "--max-impulse",
+                             fmt::format("{:.1f}", scale.max_impulse), "--resolution", fmt::format("{:.2f}", scale.resolution),
+                             "--jobs", std::to_string(jobs), "--out", out.string()};
   if (evaluations > 0) a.insert(a.end(), {"--evaluations", std::to_string(evaluations)});
   std::string line;
   for (const auto& x : a) line += (line.empty() ? "" : " ") + x;
   std::printf("tune: %s\n", line.c_str());
   std::fflush(stdout);
-  std::vector<char*> argv;
-  for (auto& x : a) argv.push_back(x.data());
-  argv.push_back(nullptr);
-  pid_t pid = 0;
-  if (posix_spawn(&pid, argv[0], nullptr, nullptr, argv.data(), environ) != 0) throw std::runtime_error("cannot start " + a[0]);
-  int status = 0;
-  while (waitpid(pid, &status, 0) < 0) {
-  }
-  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
-    std::printf("tune: push_tune failed (exit %d); its results so far are in %s (push_tune --resume)\n",
-                WIFEXITED(status) ? WEXITSTATUS(status) : 128, out.string().c_str());
+  if (const int rc = hpr::launch::run_to_completion(a); rc != 0) {
+    std::printf("tune: push_tune failed (exit %d); its results so far are in %s (push_tune --resume)\n", rc, out.string().c_str());
     return 1;
   }
   fs::copy_file(out / "tuned.yaml", overlay, fs::copy_options::overwrite_existing);

@@ -4,9 +4,6 @@
 // Exit status: 0 recovered, 1 not recovered, 2 bad arguments or configuration, 3 inconclusive (the run
 // ended before 5 s after the push with nothing decided: --after below 5, or the stack stopped), 4 the
 // run failed.
-#include <spawn.h>
-#include <sys/wait.h>
-
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -17,10 +14,9 @@
 #include "hpr/common/args.hpp"
 #include "hpr/common/config.hpp"
 #include "hpr/experiments/trial.hpp"
+#include "hpr/launch/process_group.hpp"
 
 #include <fmt/format.h>
-
-extern "C" char** environ;
 
 namespace {
 
@@ -59,25 +55,11 @@ tilt, maximum sole slip, peak CAM per axis, minimum CoP margin, time to return t
 std::string find_render_video() {
   namespace fs = std::filesystem;
   std::error_code ec;
-  const fs::path exe = fs::read_symlink("/proc/self/exe", ec).parent_path();
+  const fs::path exe = hpr::launch::executable_dir();
   for (const fs::path& p : {exe / ".." / ".." / "tools" / "render-video", exe / "hpr-render-video"}) {
     if (fs::exists(p, ec)) return fs::weakly_canonical(p, ec).string();
   }
   throw std::runtime_error("--video: tools/render-video not found next to " + exe.string());
-}
-
-/// Renders `log` to `video`; returns the script's exit status.
-int render_video(const std::string& log, const std::string& video, const std::string& robot, const std::string& label) {
-  std::vector<std::string> a{find_render_video(), log, video, "--robot", robot, "--label", label};
-  std::vector<char*> argv;
-  for (auto& s : a) argv.push_back(s.data());
-  argv.push_back(nullptr);
-  pid_t pid = 0;
-  if (posix_spawn(&pid, argv[0], nullptr, nullptr, argv.data(), environ) != 0) return 127;
-  int status = 0;
-  while (waitpid(pid, &status, 0) < 0) {
-  }
-  return WIFEXITED(status) ? WEXITSTATUS(status) : 128;
 }
 
 }  // namespace
@@ -178,7 +160,8 @@ int main(int argc, char** argv) {
         video_label = fmt::format("{}, {:.3g} N s at {:.0f} deg", spec.strategy == Strategy::kCam ? "CAM strategy" : "ankle strategy alone",
                                   spec.impulse, spec.direction_deg);
       }
-      const int rc = render_video(spec.log_file, video_file, spec.config, video_label);
+      const int rc = hpr::launch::run_to_completion(
+          {find_render_video(), spec.log_file, video_file, "--robot", spec.config, "--label", video_label});
       if (rc != 0) {
         std::fprintf(stderr, "push_trial: rendering %s failed (tools/render-video exited with %d)\n", video_file.c_str(), rc);
         return 4;

@@ -5,7 +5,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cctype>
 #include <functional>
 #include <limits>
 #include <map>
@@ -15,6 +14,7 @@
 #include "hpr/mesh/mesh.hpp"
 #include "hpr/model/algorithms.hpp"
 #include "hpr/onboard/sole_outline.hpp"
+#include "text.hpp"
 
 namespace hpr::onboard {
 
@@ -173,7 +173,8 @@ std::array<FootCandidate, 2> find_feet(const model::Model& m, const model::Robot
   }
   for (auto& f : feet) {
     // The base's x at q = 0, seen in the foot link's x-y plane: the robot's forward direction.
-    const Vector3d fwd = data.oMf[static_cast<size_t>(m.frame_index(f.link))].R.transpose() * Vector3d::UnitX();
+    const SE3& X_WF = data.oMf[static_cast<size_t>(m.frame_index(f.link))];
+    const Vector3d fwd = X_WF.R.transpose() * Vector3d::UnitX();
     double forward_yaw = std::atan2(fwd.y(), fwd.x());
     if (std::abs(forward_yaw) < 1e-9) forward_yaw = 0.0;
     const model::LinkDesc& link = *d.find_link(f.link);
@@ -183,7 +184,7 @@ std::array<FootCandidate, 2> find_feet(const model::Model& m, const model::Robot
     }
     // No geometry to measure: a sole of human proportions to the leg's length (hip joint to foot).
     const int hip = m.support[static_cast<size_t>(f.body)].front() + 1;
-    const double leg = (data.oMf[static_cast<size_t>(m.frame_index(f.link))].p - data.oMi[static_cast<size_t>(hip)].p).norm();
+    const double leg = (X_WF.p - data.oMi[static_cast<size_t>(hip)].p).norm();
     f.sole.length = 0.3 * leg;
     f.sole.width = 0.4 * f.sole.length;
     f.sole.yaw = forward_yaw;
@@ -197,8 +198,8 @@ std::array<FootCandidate, 2> find_feet(const model::Model& m, const model::Robot
 }
 
 ImuChoice find_imu(const model::Model& m) {
-  auto rank = [](std::string n) {
-    for (auto& c : n) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  auto rank = [](const std::string& name) {
+    const std::string n = detail::lower(name);
     if (n == "imu" || n == "imu_link") return 0;
     if (n.rfind("imu_", 0) == 0 || n.find("_imu") != std::string::npos) return 1;
     return n.find("imu") != std::string::npos ? 2 : 3;

@@ -12,8 +12,11 @@
 
 #include "hpr/model/algorithms.hpp"
 #include "hpr/model/robot.hpp"
+#include "text.hpp"
 
 namespace hpr::onboard {
+
+using detail::lower;
 
 using Eigen::Vector3d;
 using Eigen::VectorXd;
@@ -28,11 +31,6 @@ namespace {
 constexpr double kComOmega = 4.5, kComZeta = 0.6, kComZetaZ = 0.55, kBaseOmega = 7.5, kBaseZeta = 0.6;
 // Free-joint impedance of the configured robots (72 kg): 300 N m/rad, 30 N m s/rad, scaled by mass.
 constexpr double kFreeStiffnessPerKg = 300.0 / 72.0, kFreeDampingPerKg = 30.0 / 72.0;
-
-std::string lower(std::string s) {
-  for (auto& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return s;
-}
 
 double clamp_to_limits(const Model& m, int j, double q) {
   const auto ju = static_cast<size_t>(j);

@@ -84,19 +84,6 @@ double TrialSpec::push_duration() const {
   return impulse * M_PI / (2.0 * peak);
 }
 
-std::string TrialSpec::describe() const {
-  std::string s = fmt::format("--robot {} --support {} --strategy {} --direction {:g} --peak {:g} --duration {:.4f}", config,
-                              support, to_string(strategy), direction_deg, peak, push_duration());
-  if (!link.empty()) s += " --link " + link;
-  if (height) s += fmt::format(" --height {:g}", *height);
-  if (alpha) s += fmt::format(" --alpha {:g}", *alpha);
-  if (beta) s += fmt::format(" --beta {:g}", *beta);
-  for (const auto& o : overrides) s += " --set " + o;
-  if (in_process) s += " --in-process";
-  if (truth_state) s += " --truth-state";
-  return s;
-}
-
 namespace {
 
 /// Collects the run's messages into the evaluator and watches HEALTH for readiness.

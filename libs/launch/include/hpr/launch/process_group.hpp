@@ -20,6 +20,11 @@ std::string unique_lcm_url();
 /// The directory of the running executable (where the stack's other executables are installed).
 std::string executable_dir();
 
+/// Runs a program in the foreground (this process's stdin, stdout and stderr) and waits for it:
+/// `argv[0]` a path, or a name looked up on PATH. Returns its exit status, 128 + the signal that
+/// ended it, or 127 when it could not be started.
+int run_to_completion(const std::vector<std::string>& argv);
+
 struct ProcessResult {
   bool exited = false;  ///< false: still running or killed by a signal
   int exit_code = -1;

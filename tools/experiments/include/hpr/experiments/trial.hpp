@@ -77,8 +77,6 @@ struct TrialSpec {
   /// No push (impulse and duration 0): the robot stands `after` seconds from the time the push
   /// would have come, judged as after a push.
   [[nodiscard]] bool standing() const { return impulse == 0.0 && duration == 0.0; }
-  /// The command-line flags that reproduce this spec with push_trial.
-  [[nodiscard]] std::string describe() const;
 };
 
 struct TrialResult {
