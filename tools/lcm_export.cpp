@@ -14,6 +14,8 @@
 #include <humanoid/wholebody_command_t.hpp>
 
 #include <algorithm>
+#include <charconv>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -203,31 +205,35 @@ class Sink {
     if (m.decode(ev.data, 0, static_cast<int>(ev.datalen)) < 0) return false;
     Row r;
     fill(r, m);
+    if (r.names_ == last_names_) return true;  // the layout of the previous message: nothing new
     for (const auto& n : r.names_) {
       if (index_.emplace(n, header_.size()).second) header_.push_back(n);
     }
+    last_names_ = std::move(r.names_);
     return true;
   }
   template <class Msg>
-  void write(const lcm::LogEvent& ev, double t0) {
+  void write(const lcm::LogEvent& ev, int64_t t0_us) {
     Msg m;
     if (m.decode(ev.data, 0, static_cast<int>(ev.datalen)) < 0) return;
     Row r;
     fill(r, m);
     if (!out_.is_open()) return;
-    std::vector<const double*> cells(header_.size(), nullptr);
-    for (size_t i = 0; i < r.names_.size(); ++i) cells[index_.at(r.names_[i])] = &r.values_[i];
-    out_ << static_cast<double>(ev.timestamp) * 1e-6 - t0;
-    char buf[32];
-    for (const double* v : cells) {
-      if (v == nullptr) {
-        out_ << ",";
-      } else {
-        std::snprintf(buf, sizeof(buf), ",%.9g", *v);
-        out_ << buf;
-      }
+    // The column of each of the row's values; looked up again only when the layout changes.
+    if (r.names_ != last_names_) {
+      column_.resize(r.names_.size());
+      for (size_t i = 0; i < r.names_.size(); ++i) column_[i] = index_.at(r.names_[i]);
+      last_names_ = std::move(r.names_);
     }
-    out_ << "\n";
+    cells_.assign(header_.size(), nullptr);
+    for (size_t i = 0; i < column_.size(); ++i) cells_[column_[i]] = &r.values_[i];
+    append_seconds(ev.timestamp - t0_us);
+    for (const double* v : cells_) {
+      line_ += ',';
+      if (v != nullptr) append(*v, 9);  // as "%.9g"
+    }
+    line_ += '\n';
+    if (line_.size() > (1U << 16)) flush();
     ++rows_;
   }
   void open(const fs::path& path) {
@@ -235,13 +241,55 @@ class Sink {
     out_ << "log_time";
     for (const auto& n : header_) out_ << "," << n;
     out_ << "\n";
+    last_names_.clear();
   }
+  void flush() {
+    out_.write(line_.data(), static_cast<std::streamsize>(line_.size()));
+    line_.clear();
+  }
+  ~Sink() {
+    if (out_.is_open()) flush();
+  }
+  Sink() = default;
+  Sink(const Sink&) = delete;
+  Sink& operator=(const Sink&) = delete;
   long rows_ = 0;
 
  private:
   std::ofstream out_;
   std::vector<std::string> header_;
   std::map<std::string, size_t> index_;
+  std::vector<std::string> last_names_;  // the layout of the last message scanned or written
+  std::vector<size_t> column_;           // its values' columns
+  std::vector<const double*> cells_;
+  std::string line_;  // rows not yet written
+
+  /// `v` as printf's "%.{digits}g" would write it.
+  void append(double v, int digits) {
+    char buf[32];
+    const auto r = std::to_chars(buf, buf + sizeof(buf), v, std::chars_format::general, digits);
+    line_.append(buf, r.ptr);
+  }
+  /// A time of `us` microseconds in seconds, exactly (no trailing zeros).
+  void append_seconds(int64_t us) {
+    if (us < 0) {
+      line_ += '-';
+      us = -us;
+    }
+    char buf[32];
+    line_.append(buf, std::to_chars(buf, buf + sizeof(buf), us / 1000000).ptr);
+    int64_t frac = us % 1000000;
+    if (frac == 0) return;
+    int digits = 6;
+    while (frac % 10 == 0) {
+      frac /= 10;
+      --digits;
+    }
+    const auto end = std::to_chars(buf, buf + sizeof(buf), frac).ptr;
+    line_ += '.';
+    line_.append(static_cast<size_t>(digits - (end - buf)), '0');
+    line_.append(buf, end);
+  }
 };
 
 bool ends_with(const std::string& s, const std::string& suffix) {
@@ -278,14 +326,14 @@ int main(int argc, char** argv) {
   std::map<std::string, Sink> sinks;
   std::map<std::string, long> unknown;
   long events = 0, bad = 0;
-  double t0 = -1.0;
+  int64_t t0_us = -1;  // the first event's time [µs]
   // Dispatch on the channel's type (channel names may carry a prefix).
   auto visit = [&](const lcm::LogEvent& ev, bool writing) {
     const std::string& ch = ev.channel;
     auto go = [&]<class Msg>() {
       Sink& sink = sinks[ch];
       if (writing) {
-        sink.write<Msg>(ev, t0);
+        sink.write<Msg>(ev, t0_us);
       } else {
         (void)sink.scan<Msg>(ev);  // an undecodable event is counted below, for every channel
       }
@@ -330,12 +378,13 @@ int main(int argc, char** argv) {
         }
       }
       offset = std::ftell(log.getFilePtr());
-      if (t0 < 0) t0 = static_cast<double>(ev->timestamp) * 1e-6;
+      if (t0_us < 0) t0_us = ev->timestamp;
       if (!only.empty() && only.count(ev->channel) == 0) continue;
       if ((seen[ev->channel]++ % every) != 0) continue;
       visit(*ev, pass == 1);
     }
   }
+  for (auto& [ch, sink] : sinks) sink.flush();
   for (const auto& [ch, s] : sinks) std::printf("%-20s %8ld rows\n", ch.c_str(), s.rows_);
   for (const auto& [ch, n] : unknown) std::printf("%-20s %8ld events not exported\n", ch.c_str(), n);
   std::printf("%ld events read, %ld undecodable; CSV files in %s\n", events, bad, out_dir.c_str());

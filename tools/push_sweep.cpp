@@ -13,6 +13,7 @@
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <optional>
 
 #include "hpr/common/args.hpp"
 #include "hpr/experiments/executor.hpp"
@@ -66,61 +67,65 @@ struct Case {
   std::vector<Trial> trials;
 };
 
-}  // namespace
-
-int main(int argc, char** argv) {
+/// What the command line asks for.
+struct SweepOptions {
   TrialSpec base;
-  base.config = "toro";
-  base.stop_when_decided = true;
   std::vector<std::string> supports = {"double"}, strategies = {"cam", "ankle"};
   std::vector<double> angles;
   int directions = 8;
   ExecutorOptions executor;
   double start = 15.0, max_impulse = 80.0, resolution = 0.5;
   std::string out_dir;
+};
+
+/// The options, or the exit status when the command line is refused or asked for help.
+std::optional<int> read_options(int argc, char** argv, SweepOptions& o) {
+  o.base.config = "toro";
+  o.base.stop_when_decided = true;
   const auto option = [&](hpr::ArgReader& args) {
     if (args.is("--supports")) {
-      supports = args.list();
+      o.supports = args.list();
     } else if (args.is("--strategies")) {
-      strategies = args.list();
+      o.strategies = args.list();
     } else if (args.is("--directions")) {
-      directions = args.integer();
-      if (directions < 1) throw hpr::UsageError("--directions: at least 1");
+      o.directions = args.integer();
+      if (o.directions < 1) throw hpr::UsageError("--directions: at least 1");
     } else if (args.is("--angles")) {
-      for (const auto& s : args.list()) angles.push_back(hpr::parse_number(s, "--angles"));
+      for (const auto& a : args.list()) o.angles.push_back(hpr::parse_number(a, "--angles"));
     } else if (args.is("--start")) {
-      start = args.number();
+      o.start = args.number();
     } else if (args.is("--max-impulse")) {
-      max_impulse = args.number();
+      o.max_impulse = args.number();
     } else if (args.is("--resolution")) {
-      resolution = args.number();
+      o.resolution = args.number();
     } else if (args.is("--out")) {
-      out_dir = args.value();
-    } else if (!executor.read(args) && !read_push_option(args, base)) {
+      o.out_dir = args.value();
+    } else if (!o.executor.read(args) && !read_push_option(args, o.base)) {
       args.unknown();
     }
   };
   const auto check = [&] {
-    executor.validate();
-    if (executor.resume && out_dir.empty()) throw hpr::UsageError("--resume needs --out DIR");
-    if (base.truth_state && !base.in_process) throw std::invalid_argument("--truth-state needs --in-process");
-    base.config = find_config(base.config);
-    for (const auto& s : strategies) (void)strategy_from_string(s);
-    if (angles.empty()) {
-      for (int d = 0; d < directions; ++d) angles.push_back(360.0 * d / directions);
+    o.executor.validate();
+    if (o.executor.resume && o.out_dir.empty()) throw hpr::UsageError("--resume needs --out DIR");
+    if (o.base.truth_state && !o.base.in_process) throw std::invalid_argument("--truth-state needs --in-process");
+    o.base.config = find_config(o.base.config);
+    for (const auto& st : o.strategies) (void)strategy_from_string(st);
+    if (o.angles.empty()) {
+      for (int d = 0; d < o.directions; ++d) o.angles.push_back(360.0 * d / o.directions);
     }
-    if (!(resolution > 0) || !(start > 0) || !(max_impulse > start) || !(base.peak > 0)) {
+    if (!(o.resolution > 0) || !(o.start > 0) || !(o.max_impulse > o.start) || !(o.base.peak > 0)) {
       throw std::invalid_argument("need 0 < --start < --max-impulse, --resolution > 0 and --peak > 0");
     }
   };
-  if (const auto status = hpr::read_command_line(argc, argv, "push_sweep", usage, option, check)) return *status;
-  if (out_dir.empty()) out_dir = dated_name("sweep");
-  fs::create_directories(out_dir);
+  return hpr::read_command_line(argc, argv, "push_sweep", usage, option, check);
+}
 
+/// Every (support, strategy, direction), in the table's order.
+std::vector<Case> cases_of(const SweepOptions& o) {
   std::vector<Case> cases;
-  for (const auto& s : supports) {
-    for (const auto& st : strategies) {
-      for (double d : angles) {
+  for (const auto& s : o.supports) {
+    for (const auto& st : o.strategies) {
+      for (double d : o.angles) {
         Case c;
         c.support = s;
         c.strategy = strategy_from_string(st);
@@ -129,34 +134,19 @@ int main(int argc, char** argv) {
       }
     }
   }
-  // The cases direction by direction (the strategies of one direction side by side: the costly
-  // directions are spread over the run, not left to its end).
-  std::vector<size_t> order(cases.size());
-  for (size_t i = 0; i < order.size(); ++i) order[i] = i;
-  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return cases[a].direction < cases[b].direction; });
-  std::vector<SearchSpec> searches;
-  for (const size_t i : order) {
-    SearchSpec search;
-    search.base = base;
-    search.base.support = cases[i].support;
-    search.base.strategy = cases[i].strategy;
-    search.base.direction_deg = cases[i].direction;
-    search.start = start;
-    search.max_impulse = max_impulse;
-    search.resolution = resolution;
-    searches.push_back(search);
-  }
+  return cases;
+}
 
-  int trials_done = 0;
-  const auto t0 = std::chrono::steady_clock::now();
+/// The progress lines: one per trial, one per finished search.
+ExecutorEvents progress_lines(int& trials_done, std::chrono::steady_clock::time_point t0) {
   ExecutorEvents events;
-  events.trial = [&](const SearchSpec& s, const TrialOutcome& t, bool stored) {
+  events.trial = [&trials_done, t0](const SearchSpec& s, const TrialOutcome& t, bool stored) {
     const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     std::fprintf(stderr, "[%4d, %6.0f s] %-6s %-5s %5.1f deg %6.2f N s: %s%s\n", ++trials_done, elapsed, s.base.support.c_str(),
                  to_string(s.base.strategy), s.base.direction_deg, t.impulse,
                  t.result.recovered ? "recovered" : ("not recovered (" + t.result.failure + ")").c_str(), stored ? " [stored]" : "");
   };
-  events.search = [&](const SearchSpec& s, const SearchResult& r) {
+  events.search = [](const SearchSpec& s, const SearchResult& r) {
     if (r.failed) {
       std::fprintf(stderr, "  => %s: FAILED, %s\n", s.label().c_str(), r.failure.c_str());
       return;
@@ -166,13 +156,110 @@ int main(int argc, char** argv) {
                  r.bracket.reached_max ? " (the maximum tried)" : "");
   };
   events.note = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
+  return events;
+}
+
+/// sweep.json: the push, the robot, and every case with its trials.
+nlohmann::ordered_json sweep_json(const SweepOptions& o, const std::vector<Case>& cases, const std::string& executor_text) {
+  using ojson = nlohmann::ordered_json;
+  ojson j;
+  j["robot"] = o.base.config;
+  j["peak_force_N"] = o.base.peak;
+  j["resolution_Ns"] = o.resolution;
+  j["max_impulse_Ns"] = o.max_impulse;
+  if (o.base.alpha) j["alpha"] = *o.base.alpha;
+  if (o.base.beta) j["beta"] = *o.base.beta;
+  j["overrides"] = o.base.overrides;
+  j["commit"] = source_commit();
+  j["executor"] = executor_text;
+  j["results"] = ojson::array();
+  for (const auto& c : cases) {
+    ojson r;
+    r["support"] = c.support;
+    r["strategy"] = to_string(c.strategy);
+    r["direction_deg"] = c.direction;
+    r["max_recovered_Ns"] = c.failed ? ojson(nullptr) : ojson(c.max_recovered);
+    if (c.reached_max || c.failed) {
+      r["min_lost_Ns"] = nullptr;
+    } else {
+      r["min_lost_Ns"] = c.min_lost;
+    }
+    r["reached_max"] = c.reached_max;
+    r["inconclusive"] = c.inconclusive;
+    if (c.failed) {
+      r["failed"] = true;
+      r["failure"] = c.failure;
+    }
+    r["trials"] = ojson::array();
+    for (const auto& t : c.trials) {
+      r["trials"].push_back({{"impulse_Ns", t.impulse}, {"recovered", t.recovered}, {"inconclusive", t.inconclusive}});
+    }
+    j["results"].push_back(r);
+  }
+  return j;
+}
+
+/// The table on stdout.
+void print_table(const std::vector<Case>& cases) {
+  std::printf("%-7s %-6s %9s %14s\n", "support", "strat.", "direction", "max impulse");
+  for (const auto& c : cases) {
+    if (c.failed) {
+      std::printf("%-7s %-6s %7.0f deg %14s  (%s)\n", c.support.c_str(), to_string(c.strategy), c.direction, "failed", c.failure.c_str());
+      continue;
+    }
+    std::printf("%-7s %-6s %7.0f deg %10.2f N s%s%s\n", c.support.c_str(), to_string(c.strategy), c.direction, c.max_recovered,
+                c.reached_max ? "+" : "", c.inconclusive ? "  (a trial stayed inconclusive: may be low)" : "");
+  }
+}
+
+/// The polar plot (matplotlib), from the build tree's or the installed script.
+void plot(const std::string& json_path, const std::string& out_dir) {
+  const fs::path exe = hpr::launch::executable_dir();
+  for (const fs::path& script : {exe / ".." / ".." / "tools" / "plots" / "plot_sweep.py", exe / ".." / "share" / "hpr" / "plots" / "plot_sweep.py"}) {
+    if (!fs::exists(script)) continue;
+    const std::string cmd = fmt::format("/usr/bin/python3 '{}' '{}' '{}/sweep.png'", script.string(), json_path, out_dir);
+    if (std::system(cmd.c_str()) == 0) std::printf("plot: %s/sweep.png\n", out_dir.c_str());
+    break;
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  SweepOptions o;
+  if (const auto status = read_options(argc, argv, o)) return *status;
+  if (o.out_dir.empty()) o.out_dir = dated_name("sweep");
+  fs::create_directories(o.out_dir);
+
+  std::vector<Case> cases = cases_of(o);
+  // The cases direction by direction (the strategies of one direction side by side: the costly
+  // directions are spread over the run, not left to its end).
+  std::vector<size_t> order(cases.size());
+  for (size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return cases[a].direction < cases[b].direction; });
+  std::vector<SearchSpec> searches;
+  for (const size_t i : order) {
+    SearchSpec search;
+    search.base = o.base;
+    search.base.support = cases[i].support;
+    search.base.strategy = cases[i].strategy;
+    search.base.direction_deg = cases[i].direction;
+    search.start = o.start;
+    search.max_impulse = o.max_impulse;
+    search.resolution = o.resolution;
+    searches.push_back(search);
+  }
+
+  int trials_done = 0;
+  const ExecutorEvents events = progress_lines(trials_done, std::chrono::steady_clock::now());
   std::vector<SearchResult> results;
   std::string executor_text;
   try {
-    const auto run = make_executor(executor, out_dir, events);
+    const auto run = make_executor(o.executor, o.out_dir, events);
     executor_text = run->describe();
-    std::fprintf(stderr, "push_sweep: %zu cases, %s; trials in %s\n", cases.size(), executor_text.c_str(),
-                 executor.kind == "slurm" ? (executor.shared_dir ? *executor.shared_dir : out_dir + "/slurm").c_str() : (out_dir + "/trials").c_str());
+    const std::string trials_dir =
+        o.executor.kind == "slurm" ? (o.executor.shared_dir ? *o.executor.shared_dir : o.out_dir + "/slurm") : o.out_dir + "/trials";
+    std::fprintf(stderr, "push_sweep: %zu cases, %s; trials in %s\n", cases.size(), executor_text.c_str(), trials_dir.c_str());
     results = run->run(searches);
   } catch (const Interrupted& e) {
     std::fprintf(stderr, "push_sweep: %s\n", e.what());
@@ -193,67 +280,16 @@ int main(int argc, char** argv) {
     for (const auto& t : r.trials) c.trials.push_back({t.impulse, t.result.recovered, t.result.inconclusive});
   }
 
-  nlohmann::ordered_json j;
-  j["robot"] = base.config;
-  j["peak_force_N"] = base.peak;
-  j["resolution_Ns"] = resolution;
-  j["max_impulse_Ns"] = max_impulse;
-  if (base.alpha) j["alpha"] = *base.alpha;
-  if (base.beta) j["beta"] = *base.beta;
-  j["overrides"] = base.overrides;
-  j["commit"] = source_commit();
-  j["executor"] = executor_text;
-  j["results"] = nlohmann::ordered_json::array();
-  for (const auto& c : cases) {
-    nlohmann::ordered_json r;
-    r["support"] = c.support;
-    r["strategy"] = to_string(c.strategy);
-    r["direction_deg"] = c.direction;
-    r["max_recovered_Ns"] = c.failed ? nlohmann::ordered_json(nullptr) : nlohmann::ordered_json(c.max_recovered);
-    if (c.reached_max || c.failed) {
-      r["min_lost_Ns"] = nullptr;
-    } else {
-      r["min_lost_Ns"] = c.min_lost;
-    }
-    r["reached_max"] = c.reached_max;
-    r["inconclusive"] = c.inconclusive;
-    if (c.failed) {
-      r["failed"] = true;
-      r["failure"] = c.failure;
-    }
-    r["trials"] = nlohmann::ordered_json::array();
-    for (const auto& t : c.trials) {
-      r["trials"].push_back({{"impulse_Ns", t.impulse}, {"recovered", t.recovered}, {"inconclusive", t.inconclusive}});
-    }
-    j["results"].push_back(r);
-  }
-  const std::string json_path = out_dir + "/sweep.json";
-  std::ofstream(json_path) << j.dump(2) << "\n";
-  std::printf("%-7s %-6s %9s %14s\n", "support", "strat.", "direction", "max impulse");
-  for (const auto& c : cases) {
-    if (c.failed) {
-      std::printf("%-7s %-6s %7.0f deg %14s  (%s)\n", c.support.c_str(), to_string(c.strategy), c.direction, "failed", c.failure.c_str());
-      continue;
-    }
-    std::printf("%-7s %-6s %7.0f deg %10.2f N s%s%s\n", c.support.c_str(), to_string(c.strategy), c.direction, c.max_recovered,
-                c.reached_max ? "+" : "", c.inconclusive ? "  (a trial stayed inconclusive: may be low)" : "");
-  }
-  const bool any_failed = std::any_of(cases.begin(), cases.end(), [](const Case& c) { return c.failed; });
-  const bool any_inconclusive = std::any_of(cases.begin(), cases.end(), [](const Case& c) { return c.inconclusive; });
+  const std::string json_path = o.out_dir + "/sweep.json";
+  std::ofstream(json_path) << sweep_json(o, cases, executor_text).dump(2) << "\n";
+  print_table(cases);
   std::printf("table: %s\n", json_path.c_str());
-  // The polar plot (matplotlib).
-  const fs::path exe = hpr::launch::executable_dir();
-  for (const fs::path& script : {exe / ".." / ".." / "tools" / "plots" / "plot_sweep.py", exe / ".." / "share" / "hpr" / "plots" / "plot_sweep.py"}) {
-    if (!fs::exists(script)) continue;
-    const std::string cmd = fmt::format("/usr/bin/python3 '{}' '{}' '{}/sweep.png'", script.string(), json_path, out_dir);
-    if (std::system(cmd.c_str()) == 0) std::printf("plot: %s/sweep.png\n", out_dir.c_str());
-    break;
-  }
-  if (any_failed) {
+  plot(json_path, o.out_dir);
+  if (std::any_of(cases.begin(), cases.end(), [](const Case& c) { return c.failed; })) {
     std::fprintf(stderr, "push_sweep: some cases did not finish (marked failed in the table and the JSON)\n");
     return 4;
   }
-  if (any_inconclusive) {
+  if (std::any_of(cases.begin(), cases.end(), [](const Case& c) { return c.inconclusive; })) {
     std::fprintf(stderr, "push_sweep: some trials stayed inconclusive after %d attempts (marked in the table and the JSON)\n",
                  kTrialAttempts);
     return 3;

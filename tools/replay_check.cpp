@@ -34,6 +34,7 @@
 #include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <set>
 #include <string>
 #include <vector>
@@ -171,12 +172,18 @@ class Outputs {
   }
 };
 
+/// The nodes heard from on HEALTH while it lives.
 class HealthSeen {
  public:
-  explicit HealthSeen(lcm::LCM& lcm) { lcm.subscribe("HEALTH", &HealthSeen::on, this); }
+  explicit HealthSeen(lcm::LCM& lcm) : lcm_(lcm), subscription_(lcm.subscribe("HEALTH", &HealthSeen::on, this)) {}
+  ~HealthSeen() { lcm_.unsubscribe(subscription_); }
+  HealthSeen(const HealthSeen&) = delete;
+  HealthSeen& operator=(const HealthSeen&) = delete;
   std::set<std::string> nodes;
 
  private:
+  lcm::LCM& lcm_;
+  lcm::Subscription* subscription_;
   void on(const lcm::ReceiveBuffer*, const std::string&, const humanoid::health_t* h) { nodes.insert(h->node); }
 };
 
@@ -187,12 +194,15 @@ struct ChannelReport {
   std::size_t first_difference_byte = 0;
 };
 
-}  // namespace
-
-int main(int argc, char** argv) {
+/// What the command line asks for.
+struct ReplayOptions {
   std::string log_path, config, json_path, work;
   std::vector<std::string> nodes, sets;
   double timeout = 5.0;
+};
+
+/// The options, or the exit status when the command line is refused or asked for help.
+std::optional<int> read_options(int argc, char** argv, ReplayOptions& o) {
   try {
     hpr::ArgReader args(argc, argv);
     while (args.next()) {
@@ -200,97 +210,72 @@ int main(int argc, char** argv) {
         std::cout << kUsage;
         return 0;
       } else if (args.is("--nodes")) {
-        nodes = args.list();
+        o.nodes = args.list();
       } else if (args.is("--config")) {
-        config = args.value();
+        o.config = args.value();
       } else if (args.is("--set")) {
-        sets.push_back(args.value());
+        o.sets.push_back(args.value());
       } else if (args.is("--timeout")) {
-        timeout = args.number();
+        o.timeout = args.number();
       } else if (args.is("--json")) {
-        json_path = args.value();
+        o.json_path = args.value();
       } else if (args.is("--work-dir")) {
-        work = args.value();
-      } else if (args.positional() && log_path.empty()) {
-        log_path = args.current();
+        o.work = args.value();
+      } else if (args.positional() && o.log_path.empty()) {
+        o.log_path = args.current();
       } else {
         args.unknown();
       }
     }
-    if (log_path.empty()) throw std::invalid_argument("no LOG given");
-    if (nodes.empty()) throw std::invalid_argument("--nodes is required");
-    for (const auto& n : nodes) (void)outputs_of(n);
+    if (o.log_path.empty()) throw std::invalid_argument("no LOG given");
+    if (o.nodes.empty()) throw std::invalid_argument("--nodes is required");
+    for (const auto& n : o.nodes) (void)outputs_of(n);
   } catch (const std::exception& e) {
     std::cerr << "replay_check: " << e.what() << "\n\n" << kUsage;
     return 2;
   }
-  if (config.empty()) {
+  if (o.config.empty()) {
     const fs::path exe = hpr::launch::executable_dir();
     for (const fs::path& c : {exe / "../../config/toro.yaml", exe / "../share/hpr/config/toro.yaml"}) {
-      if (fs::exists(c)) config = fs::weakly_canonical(c).string();
+      if (fs::exists(c)) o.config = fs::weakly_canonical(c).string();
     }
   }
-  if (!fs::exists(log_path)) {
-    std::cerr << "replay_check: no log file " << log_path << "\n";
+  if (!fs::exists(o.log_path)) {
+    std::cerr << "replay_check: no log file " << o.log_path << "\n";
     return 2;
   }
-  std::vector<std::string> outputs;
-  for (const auto& n : nodes) {
-    for (const auto& c : outputs_of(n)) outputs.push_back(c);
-  }
-  const std::set<std::string> output_set(outputs.begin(), outputs.end());
-  if (work.empty()) work = (fs::temp_directory_path() / fmt::format("hpr-replay-{}", ::getpid())).string();
-  fs::create_directories(work);
+  if (o.work.empty()) o.work = (fs::temp_directory_path() / fmt::format("hpr-replay-{}", ::getpid())).string();
+  fs::create_directories(o.work);
+  return std::nullopt;
+}
 
-  hpr::launch::ProcessGroup group;
-  std::unique_ptr<lcm::LCM> lcm_handle;
-  try {
-    lcm_handle = hpr::node::open_lcm(group.lcm_url());
-  } catch (const hpr::node::LcmError& e) {
-    std::cerr << "replay_check: " << e.what() << "\n";
-    return 1;
-  }
-  lcm::LCM& lcm = *lcm_handle;
-  Outputs out(lcm, outputs);
+/// Starts the re-run nodes on the group's private LCM and waits for each one's HEALTH; false
+/// (having said which and where its log is) when one does not come up within 20 s.
+bool start_nodes(hpr::launch::ProcessGroup& group, lcm::LCM& lcm, const ReplayOptions& o) {
   HealthSeen health(lcm);
-  std::vector<std::string> node_args = {"--config", config};
-  for (const auto& s : sets) node_args.insert(node_args.end(), {"--set", s});
-  for (const auto& n : nodes) group.start(n, node_args, {}, work + "/" + n + ".log");
+  std::vector<std::string> node_args = {"--config", o.config};
+  for (const auto& s : o.sets) node_args.insert(node_args.end(), {"--set", s});
+  for (const auto& n : o.nodes) group.start(n, node_args, {}, o.work + "/" + n + ".log");
   const double ready_by = hpr::monotonic_s() + 20.0;
-  while (hpr::monotonic_s() < ready_by && health.nodes.size() < nodes.size()) lcm.handleTimeout(50);
-  for (const auto& n : nodes) {
+  while (hpr::monotonic_s() < ready_by && health.nodes.size() < o.nodes.size()) lcm.handleTimeout(50);
+  for (const auto& n : o.nodes) {
     if (health.nodes.count(n) == 0) {
-      std::cerr << "replay_check: " << n << " did not start (no HEALTH within 20 s); see " << work << "/" << n << ".log\n";
-      return 1;
+      std::cerr << "replay_check: " << n << " did not start (no HEALTH within 20 s); see " << o.work << "/" << n << ".log\n";
+      return false;
     }
   }
-  for (auto& [c, q] : out.queues) q.clear();  // nothing before the first input counts
+  return true;
+}
 
-  lcm::LogFile log(log_path, "r");
-  if (!log.good()) {
-    std::cerr << "replay_check: cannot read " << log_path << "\n";
-    return 2;
-  }
-  std::map<std::string, ChannelReport> report;
-  std::int64_t played = 0, events = 0;
-  double next_progress = hpr::monotonic_s() + 2.0;
-  std::cerr << fmt::format("replay_check: re-running {} on {} (outputs compared: {})\n", fmt::join(nodes, ", "), log_path, fmt::join(outputs, ", "));
-  std::vector<Event> flow = read_in_flow_order(log);
-  // The played inputs' codes were made with the key of the deployment that recorded the log: they
-  // are signed again with this one's, which the re-run nodes check (a log from another machine
-  // re-runs too). Nothing else in the played bytes changes.
-  const hpr::auth::Key key = hpr::auth::load_or_create_key(group.key_path());
-  for (Event& ev : flow) {
-    if (output_set.count(ev.channel) == 0 && hpr::msg::carries_code(ev.channel) && ev.data.size() >= hpr::auth::kTagBytes) {
-      hpr::auth::sign(ev.data.data(), ev.data.size(), key);
-    }
-  }
-  // Played inputs the log lacks for a tick: nothing from that tick on can reproduce.
+/// The first tick from which a played input is missing from the log (none: the largest tick),
+/// saying which ticks each channel lacks.
+std::int64_t first_gap_of(const std::vector<Event>& flow, const std::set<std::string>& outputs,
+                          std::map<std::string, std::vector<std::int64_t>>& lacking) {
   hpr::msg::TickCoverage coverage;
   for (const Event& ev : flow) {
-    if (output_set.count(ev.channel) == 0) coverage.add(ev.channel, ev.tick);
+    if (outputs.count(ev.channel) == 0) coverage.add(ev.channel, ev.tick);
   }
-  const auto lacking = coverage.lacking();
+  lacking = coverage.lacking();
   std::int64_t first_gap = std::numeric_limits<std::int64_t>::max();
   for (const auto& [channel, ticks] : lacking) {
     std::cout << fmt::format("the log lacks {} of {} tick{} ({}): the recorder lost them\n", channel, ticks.size(),
@@ -298,71 +283,61 @@ int main(int argc, char** argv) {
     first_gap = std::min(first_gap, ticks.front());
   }
   if (!lacking.empty()) std::cout << fmt::format("comparing the outputs before tick {} only\n", first_gap);
-  for (const Event& ev : flow) {
-    if (ev.tick >= first_gap) break;
-    ++events;
-    if (output_set.count(ev.channel) == 0) {
-      lcm.publish(ev.channel, ev.data.data(), static_cast<unsigned>(ev.data.size()));
-      ++played;
-      while (lcm.handleTimeout(0) > 0) {
-      }
-      continue;
-    }
-    // A recorded output: wait for the re-run's of the same tick.
-    ChannelReport& r = report[ev.channel];
-    const std::int64_t tick = ev.tick;
-    if (tick == r.last_tick) {
-      // A second message for a tick: published on a wall-clock event of the recorded run (the
-      // estimator's report of stale sensors while it waited), which no replay can reproduce.
-      ++r.repeats;
-      continue;
-    }
-    r.last_tick = tick;
-    auto& q = out.queues[ev.channel];
-    const double give_up = hpr::monotonic_s() + timeout;
-    bool found = false;
-    while (true) {
-      while (!q.empty() && q.front().tick < tick) q.pop_front();  // outputs the log lacks
-      if (!q.empty()) {
-        found = q.front().tick == tick;
-        break;
-      }
-      if (hpr::monotonic_s() > give_up) break;
-      lcm.handleTimeout(10);
-    }
-    if (!found) {
-      ++r.missing;
-      if (r.first_missing_tick < 0) r.first_missing_tick = tick;
-      continue;
-    }
-    const Raw got = std::move(q.front());
-    q.pop_front();
-    const auto& canon = canonicals().at(ev.channel);
-    const auto a = canon(ev.data.data(), static_cast<int>(ev.data.size()));
-    const auto b = canon(got.data.data(), static_cast<int>(got.data.size()));
-    ++r.compared;
-    if (!a.empty() && a == b) {
-      ++r.equal;
-    } else {
-      ++r.different;
-      if (r.first_difference_tick < 0) {
-        r.first_difference_tick = tick;
-        std::size_t k = 0;
-        while (k < a.size() && k < b.size() && a[k] == b[k]) ++k;
-        r.first_difference_byte = k;
-      }
-    }
-    if (hpr::monotonic_s() >= next_progress) {
-      std::cerr << fmt::format("  tick {}: {} events, {} played\n", tick, events, played);
-      next_progress = hpr::monotonic_s() + 2.0;
-    }
-  }
-  group.stop_all();
+  return first_gap;
+}
 
+/// A recorded output against the re-run's of the same tick (waited for up to `timeout` s).
+void compare(const Event& recorded, std::deque<Raw>& rerun, lcm::LCM& lcm, double timeout, ChannelReport& r) {
+  const std::int64_t tick = recorded.tick;
+  if (tick == r.last_tick) {
+    // A second message for a tick: published on a wall-clock event of the recorded run (the
+    // estimator's report of stale sensors while it waited), which no replay can reproduce.
+    ++r.repeats;
+    return;
+  }
+  r.last_tick = tick;
+  const double give_up = hpr::monotonic_s() + timeout;
+  bool found = false;
+  while (true) {
+    while (!rerun.empty() && rerun.front().tick < tick) rerun.pop_front();  // outputs the log lacks
+    if (!rerun.empty()) {
+      found = rerun.front().tick == tick;
+      break;
+    }
+    if (hpr::monotonic_s() > give_up) break;
+    lcm.handleTimeout(10);
+  }
+  if (!found) {
+    ++r.missing;
+    if (r.first_missing_tick < 0) r.first_missing_tick = tick;
+    return;
+  }
+  const Raw got = std::move(rerun.front());
+  rerun.pop_front();
+  const auto& canon = canonicals().at(recorded.channel);
+  const auto a = canon(recorded.data.data(), static_cast<int>(recorded.data.size()));
+  const auto b = canon(got.data.data(), static_cast<int>(got.data.size()));
+  ++r.compared;
+  if (!a.empty() && a == b) {
+    ++r.equal;
+    return;
+  }
+  ++r.different;
+  if (r.first_difference_tick < 0) {
+    r.first_difference_tick = tick;
+    std::size_t k = 0;
+    while (k < a.size() && k < b.size() && a[k] == b[k]) ++k;
+    r.first_difference_byte = k;
+  }
+}
+
+/// The table on stdout, the JSON report; whether every output matched.
+bool report_on(const ReplayOptions& o, const std::vector<std::string>& outputs, std::map<std::string, ChannelReport>& report,
+               std::int64_t played, const std::map<std::string, std::vector<std::int64_t>>& lacking, std::int64_t first_gap) {
   bool ok = true;
   nlohmann::ordered_json j;
-  j["log"] = log_path;
-  j["nodes"] = nodes;
+  j["log"] = o.log_path;
+  j["nodes"] = o.nodes;
   j["played"] = played;
   std::cout << fmt::format("{:<20} {:>9} {:>9} {:>9} {:>8} {:>8}  {}\n", "CHANNEL", "COMPARED", "EQUAL", "DIFFERENT", "MISSING", "REPEATS",
                            "FIRST DIFFERENCE");
@@ -384,7 +359,75 @@ int main(int argc, char** argv) {
   if (!lacking.empty()) j["compared_before_tick"] = first_gap;
   std::cout << (ok ? "replay matches the recording" : "replay DIFFERS from the recording")
             << (lacking.empty() ? "\n" : fmt::format(" before tick {}; the log lacks inputs from there on\n", first_gap));
-  if (!json_path.empty()) std::ofstream(json_path) << j.dump(2) << "\n";
-  if (!ok) return 1;
+  if (!o.json_path.empty()) std::ofstream(o.json_path) << j.dump(2) << "\n";
+  return ok;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  ReplayOptions o;
+  if (const auto status = read_options(argc, argv, o)) return *status;
+  std::vector<std::string> outputs;
+  for (const auto& n : o.nodes) {
+    for (const auto& c : outputs_of(n)) outputs.push_back(c);
+  }
+  const std::set<std::string> output_set(outputs.begin(), outputs.end());
+
+  hpr::launch::ProcessGroup group;
+  std::unique_ptr<lcm::LCM> lcm_handle;
+  try {
+    lcm_handle = hpr::node::open_lcm(group.lcm_url());
+  } catch (const hpr::node::LcmError& e) {
+    std::cerr << "replay_check: " << e.what() << "\n";
+    return 1;
+  }
+  lcm::LCM& lcm = *lcm_handle;
+  Outputs out(lcm, outputs);
+  if (!start_nodes(group, lcm, o)) return 1;
+  for (auto& [c, q] : out.queues) q.clear();  // nothing before the first input counts
+
+  lcm::LogFile log(o.log_path, "r");
+  if (!log.good()) {
+    std::cerr << "replay_check: cannot read " << o.log_path << "\n";
+    return 2;
+  }
+  std::cerr << fmt::format("replay_check: re-running {} on {} (outputs compared: {})\n", fmt::join(o.nodes, ", "), o.log_path,
+                           fmt::join(outputs, ", "));
+  std::vector<Event> flow = read_in_flow_order(log);
+  // The played inputs' codes were made with the key of the deployment that recorded the log: they
+  // are signed again with this one's, which the re-run nodes check (a log from another machine
+  // re-runs too). Nothing else in the played bytes changes.
+  const hpr::auth::Key key = hpr::auth::load_or_create_key(group.key_path());
+  for (Event& ev : flow) {
+    if (output_set.count(ev.channel) == 0 && hpr::msg::carries_code(ev.channel) && ev.data.size() >= hpr::auth::kTagBytes) {
+      hpr::auth::sign(ev.data.data(), ev.data.size(), key);
+    }
+  }
+  // Played inputs the log lacks for a tick: nothing from that tick on can reproduce.
+  std::map<std::string, std::vector<std::int64_t>> lacking;
+  const std::int64_t first_gap = first_gap_of(flow, output_set, lacking);
+  std::map<std::string, ChannelReport> report;
+  std::int64_t played = 0, events = 0;
+  double next_progress = hpr::monotonic_s() + 2.0;
+  for (const Event& ev : flow) {
+    if (ev.tick >= first_gap) break;
+    ++events;
+    if (output_set.count(ev.channel) == 0) {
+      lcm.publish(ev.channel, ev.data.data(), static_cast<unsigned>(ev.data.size()));
+      ++played;
+      while (lcm.handleTimeout(0) > 0) {
+      }
+      continue;
+    }
+    // A recorded output: wait for the re-run's of the same tick.
+    compare(ev, out.queues[ev.channel], lcm, o.timeout, report[ev.channel]);
+    if (hpr::monotonic_s() >= next_progress) {
+      std::cerr << fmt::format("  tick {}: {} events, {} played\n", ev.tick, events, played);
+      next_progress = hpr::monotonic_s() + 2.0;
+    }
+  }
+  group.stop_all();
+  if (!report_on(o, outputs, report, played, lacking, first_gap)) return 1;
   return lacking.empty() ? 0 : 3;
 }

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <array>
 #include <csignal>
+#include <cstdio>
 #include <map>
 #include <set>
 #include <fstream>
@@ -356,6 +357,79 @@ TEST(LogTools, ExportAndCheckAgreeOnTheBadMessagesOfALogAndNameTheirOffsets) {
   EXPECT_NE(a[1].find("event 2 at byte "), std::string::npos) << a[1];
   EXPECT_NE(check.out.find("does not decode as humanoid.health_t"), std::string::npos) << check.out;
   EXPECT_NE(exp.out.find("5 events read, 2 undecodable"), std::string::npos) << exp.out;
+}
+
+// lcm_export's CSV: the union of the layouts as columns, a cell left empty where a message lacks the
+// column, the log time exact to the microsecond, values as "%.9g" (printf's own text, compared here).
+TEST(LogTools, ExportWritesEveryLayoutTheExactLogTimeAndValuesAsPrintfWould) {
+  const std::string dir = hpr::test::temp_dir("log-export");
+  const std::string file = dir + "/two-layouts.lcm";
+  const double v1 = 1.0 / 3.0, v2 = -2.5e-7, v3 = 123456789.123;
+  {
+    lcm::LogFile log(file, "w");
+    ASSERT_TRUE(log.good());
+    auto put = [&](int64_t timestamp, const humanoid::robot_state_t& m) {
+      std::vector<std::uint8_t> b(static_cast<std::size_t>(m.getEncodedSize()));
+      m.encode(b.data(), 0, static_cast<int>(b.size()));
+      lcm::LogEvent ev{};
+      ev.timestamp = timestamp;
+      ev.channel = "ROBOT_STATE";
+      ev.datalen = static_cast<int32_t>(b.size());
+      ev.data = b.data();
+      ASSERT_EQ(log.writeEvent(&ev), 0);
+    };
+    humanoid::robot_state_t a{};
+    a.num_joints = 1;
+    a.joint_name = {"knee"};
+    a.q = {v1};
+    a.qd = {0.0};
+    a.tau = {0.0};
+    humanoid::robot_state_t b = a;
+    b.num_joints = 2;
+    b.joint_name = {"hip", "knee"};
+    b.q = {v2, v3};
+    b.qd = {0.0, 0.0};
+    b.tau = {0.0, 0.0};
+    const int64_t t0 = 1'000'000'123;
+    put(t0, a);
+    put(t0 + 1'234'567'890, b);  // 1234.56789 s later, another layout
+    put(t0 + 1'234'567'891, a);  // the first layout again
+  }
+  const auto exp = hpr::test::run_command({hpr::test::bin_dir() + "/lcm_export", file, dir + "/csv"}, "2>&1");
+  ASSERT_EQ(exp.exit_code, 0) << exp.out;
+  std::vector<std::vector<std::string>> rows;
+  {
+    std::istringstream in(hpr::test::read_file(dir + "/csv/ROBOT_STATE.csv"));
+    for (std::string line; std::getline(in, line);) {
+      rows.emplace_back();
+      std::istringstream cells(line);
+      for (std::string c; std::getline(cells, c, ',');) rows.back().push_back(c);
+      if (!line.empty() && line.back() == ',') rows.back().emplace_back();
+    }
+  }
+  ASSERT_EQ(rows.size(), 4U);
+  const auto column = [&](const std::string& name) {
+    const auto at = std::find(rows[0].begin(), rows[0].end(), name);
+    EXPECT_NE(at, rows[0].end()) << name;
+    return static_cast<std::size_t>(at - rows[0].begin());
+  };
+  const auto printf9 = [](double v) {
+    char buf[40];
+    std::snprintf(buf, sizeof(buf), "%.9g", v);
+    return std::string(buf);
+  };
+  const std::size_t knee = column("q_knee"), hip = column("q_hip");
+  EXPECT_EQ(rows[0][0], "log_time");
+  for (std::size_t r = 1; r < rows.size(); ++r) ASSERT_EQ(rows[r].size(), rows[0].size()) << "row " << r;
+  EXPECT_EQ(rows[1][0], "0");
+  EXPECT_EQ(rows[2][0], "1234.56789");
+  EXPECT_EQ(rows[3][0], "1234.567891");
+  EXPECT_EQ(rows[1][knee], printf9(v1));
+  EXPECT_EQ(rows[1][hip], "") << "the first layout has no hip";
+  EXPECT_EQ(rows[2][hip], printf9(v2));
+  EXPECT_EQ(rows[2][knee], printf9(v3));
+  EXPECT_EQ(rows[3][knee], printf9(v1));
+  EXPECT_EQ(rows[3][hip], "");
 }
 
 }  // namespace

@@ -23,11 +23,21 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 
 def load(csv_dir, channel):
+    """One channel's CSV as a structured array (columns by name); None if absent or empty."""
     path = os.path.join(csv_dir, channel + ".csv")
     if not os.path.exists(path):
         return None
-    data = np.genfromtxt(path, delimiter=",", names=True, dtype=float, missing_values="", filling_values=np.nan,
-                         deletechars="", invalid_raise=False)
+    with open(path) as f:
+        names = f.readline().rstrip("\n").split(",")
+    try:
+        # The fast parser; it refuses the empty cells of a message that lacks a column.
+        values = np.loadtxt(path, delimiter=",", skiprows=1, dtype=float, ndmin=2)
+        if values.shape[0] == 0:
+            return None
+        data = np.rec.fromarrays(values.T, names=names)
+    except ValueError:
+        data = np.genfromtxt(path, delimiter=",", names=True, dtype=float, missing_values="", filling_values=np.nan,
+                             deletechars="", invalid_raise=False)
     if data.size == 0:
         return None
     return np.atleast_1d(data)

@@ -153,22 +153,47 @@ WholeBodyController::WholeBodyController(const model::RobotSpec& robot, WbcConfi
 
 const JointCommand& WholeBodyController::step(const RobotState& state, const balance::TaskReference& cmd) {
   const model::Model& m = robot_->model;
-  const int n = m.nj;
-  const auto& free = robot_->free_joints;
-  const int nf = static_cast<int>(free.size());
-  const Eigen::VectorXd& q = state.q;
-  const Eigen::VectorXd& v = state.v;
-
   status_.tick = state.tick;
   status_.time = state.time;
-  model::compute_all_terms(m, data_, q, v);
+  model::compute_all_terms(m, data_, state.q, state.v);
   status_.singular = !task_.update(m, data_);
-  const Vector3d c = data_.com, cd = data_.vcom;
-  const Matrix3d R_b = data_.oMi[0].R;
-  const Vector3d w_b = R_b * v.segment<3>(3);
-  const double mass = m.mass;
+  command_velocities(cmd);
 
+  // Feedforward (20): M̄ ν̇^cmd + C̄ ν^cmd, on the kinematics compute_all_terms made (once per tick).
+  y_ = model::centroidal_inverse_dynamics_from_kinematics(m, data_, state.v, nu_cmd_, nudot_cmd_);
+  const Vector6d w_ff = y_.head<6>();
+  impedances(state, cmd);
+
+  // Desired CoM wrench (8): Adᵀ w_grf = w_ff − w_g − w_imp − Ad_swᵀ w_sw.
+  Vector6d w_rest = Vector6d::Zero();
+  w_rest.head<3>() = -m.mass * m.gravity;  // −w_g
+  w_rest -= w_imp_;
+  for (int k = 0; k < 2; ++k) {
+    if (cmd.feet[static_cast<size_t>(k)].contact) continue;
+    w_rest -= task_.Ad().block<6, 6>(6 * k, 0).transpose() * w_swing_[static_cast<size_t>(k)];
+  }
+  const Vector6d w_des = w_ff + w_rest;
+  distribute(cmd, w_des);
+
+  // Joint torques (9): τ = τ^ff − J'ᵀ w_feet − S_fᵀ τ_f^imp (the joint rows of Jᵀ (w_imp, w_feet, τ_f^imp)).
+  const int n = m.nj, nf = static_cast<int>(robot_->free_joints.size());
+  w_task_.head<6>() = w_imp_;
+  w_task_.segment<6>(6) = w_feet_[0];
+  w_task_.segment<6>(12) = w_feet_[1];
+  w_task_.tail(nf) = tau_f_imp_;
+  task_.apply_transpose(w_task_, jt_);
+  tau_total_ = y_.tail(n) - jt_.tail(n);
+  joint_command(state, cmd);
+
+  status_.w_des = w_des;
+  status_.support = cmd.support;
+  virtual_stance_foot(cmd, w_ff, w_rest);
+  return command_;
+}
+
+void WholeBodyController::command_velocities(const balance::TaskReference& cmd) {
   // Commanded task velocities and accelerations, ordered as ẋ = (ν_c, ν_r, ν_l, q̇_f).
+  const int nf = static_cast<int>(robot_->free_joints.size());
   xdot_cmd_.segment<3>(0) = cmd.v_com;
   xdot_cmd_.segment<3>(3) = cmd.omega_base;
   xddot_cmd_.segment<3>(0) = cmd.a_com;
@@ -181,11 +206,17 @@ const JointCommand& WholeBodyController::step(const RobotState& state, const bal
   xddot_cmd_.tail(nf) = cmd.qdd_free;
   task_.solve(xdot_cmd_, nu_cmd_);
   task_.solve(xddot_cmd_, nudot_cmd_);
+}
 
-  // Feedforward (20): M̄ ν̇^cmd + C̄ ν^cmd, on the kinematics compute_all_terms made (once per tick).
-  y_ = model::centroidal_inverse_dynamics_from_kinematics(m, data_, v, nu_cmd_, nudot_cmd_);
-  const Vector6d w_ff = y_.head<6>();
-
+void WholeBodyController::impedances(const RobotState& state, const balance::TaskReference& cmd) {
+  const model::Model& m = robot_->model;
+  const auto& free = robot_->free_joints;
+  const int nf = static_cast<int>(free.size());
+  const Eigen::VectorXd& q = state.q;
+  const Eigen::VectorXd& v = state.v;
+  const Vector3d c = data_.com, cd = data_.vcom;
+  const Matrix3d R_b = data_.oMi[0].R;
+  const Vector3d w_b = R_b * v.segment<3>(3);
   // Impedances (6): CoM spring-damper; rotational spring on SO(3) from the quaternion of R_cmdᵀ R_b.
   w_imp_.head<3>() = config_.K_com.cwiseProduct(c - cmd.p_com) + config_.D_com.cwiseProduct(cd - cmd.v_com);
   Eigen::Quaterniond qe(cmd.R_base.transpose() * R_b);
@@ -198,29 +229,20 @@ const JointCommand& WholeBodyController::step(const RobotState& state, const bal
     tau_f_imp_(i) = config_.K_free(i) * (q(7 + j) - cmd.q_free(i)) + config_.D_free(i) * (v(6 + j) - cmd.qd_free(i));
   }
   // Swing feet: Cartesian impedance wrench at the sole (world axes).
-  std::array<Vector6d, 2> w_swing{};
   for (int k = 0; k < 2; ++k) {
     const auto ku = static_cast<size_t>(k);
-    w_swing[ku].setZero();
+    w_swing_[ku].setZero();
     if (cmd.feet[ku].contact) continue;
     const model::SE3& X = task_.sole(k);
     const Vector6d twist = model::frame_velocity(m, data_, robot_->feet[ku].sole_frame, model::ReferenceFrame::kLocalWorldAligned);
     Vector6d e;
     e.head<3>() = X.p - cmd.feet[ku].X_WS.p;
     e.tail<3>() = cmd.feet[ku].X_WS.R * model::log3(cmd.feet[ku].X_WS.R.transpose() * X.R);
-    w_swing[ku] = config_.K_swing.cwiseProduct(e) + config_.D_swing.cwiseProduct(twist - cmd.feet[ku].twist);
+    w_swing_[ku] = config_.K_swing.cwiseProduct(e) + config_.D_swing.cwiseProduct(twist - cmd.feet[ku].twist);
   }
+}
 
-  // Desired CoM wrench (8): Adᵀ w_grf = w_ff − w_g − w_imp − Ad_swᵀ w_sw.
-  Vector6d w_rest = Vector6d::Zero();
-  w_rest.head<3>() = -mass * m.gravity;  // −w_g
-  w_rest -= w_imp_;
-  for (int k = 0; k < 2; ++k) {
-    if (cmd.feet[static_cast<size_t>(k)].contact) continue;
-    w_rest -= task_.Ad().block<6, 6>(6 * k, 0).transpose() * w_swing[static_cast<size_t>(k)];
-  }
-  const Vector6d w_des = w_ff + w_rest;
-
+void WholeBodyController::distribute(const balance::TaskReference& cmd, const Vector6d& w_des) {
   // Contact wrench distribution.
   std::array<Contact, 2> contacts;
   for (int k = 0; k < 2; ++k) {
@@ -231,7 +253,7 @@ const JointCommand& WholeBodyController::step(const RobotState& state, const bal
     contacts[ku].width = robot_->feet[ku].width;
     contacts[ku].load_limit = cmd.feet[ku].load_limit;
   }
-  const qp::Status qs = qp_.solve(contacts, c, w_des);
+  const qp::Status qs = qp_.solve(contacts, data_.com, w_des);
   status_.qp_status = static_cast<int>(qs);
   status_.qp_iterations = qp_.iterations();
   status_.qp_solve_time_us = qp_.solve_time_us();
@@ -246,18 +268,20 @@ const JointCommand& WholeBodyController::step(const RobotState& state, const bal
   for (int k = 0; k < 2; ++k) {
     const auto ku = static_cast<size_t>(k);
     if (!contacts[ku].active) w_grf[ku].setZero();
-    w_feet_[ku] = contacts[ku].active ? w_grf[ku] : w_swing[ku];
+    w_feet_[ku] = contacts[ku].active ? w_grf[ku] : w_swing_[ku];
+    status_.contact_wrench_W[ku] = w_grf[ku];
+    status_.contact_active[ku] = contacts[ku].active;
   }
+  status_.w_achieved = qp_ok ? qp_.achieved() : status_.w_achieved;
+}
 
-  // Joint torques (9): τ = τ^ff − J'ᵀ w_feet − S_fᵀ τ_f^imp (the joint rows of Jᵀ (w_imp, w_feet, τ_f^imp)).
-  w_task_.head<6>() = w_imp_;
-  w_task_.segment<6>(6) = w_feet_[0];
-  w_task_.segment<6>(12) = w_feet_[1];
-  w_task_.tail(nf) = tau_f_imp_;
-  task_.apply_transpose(w_task_, jt_);
-  tau_total_ = y_.tail(n) - jt_.tail(n);
-
-  // Joint command: the free joints' impedance may be left to the drives.
+void WholeBodyController::joint_command(const RobotState& state, const balance::TaskReference& cmd) {
+  const model::Model& m = robot_->model;
+  const int n = m.nj;
+  const auto& free = robot_->free_joints;
+  const int nf = static_cast<int>(free.size());
+  const Eigen::VectorXd& q = state.q;
+  // The free joints' impedance may be left to the drives.
   command_.tick = state.tick;
   command_.mode = JointCommand::Mode::kRun;
   command_.tau_ff = tau_total_;
@@ -299,16 +323,6 @@ const JointCommand& WholeBodyController::step(const RobotState& state, const bal
     command_.q_des = q.tail(n).allFinite() ? Eigen::VectorXd(q.tail(n)) : Eigen::VectorXd::Zero(n);
     command_.qd_des.setZero();
   }
-
-  status_.w_des = w_des;
-  status_.w_achieved = qp_ok ? qp_.achieved() : status_.w_achieved;
-  for (int k = 0; k < 2; ++k) {
-    status_.contact_wrench_W[static_cast<size_t>(k)] = w_grf[static_cast<size_t>(k)];
-    status_.contact_active[static_cast<size_t>(k)] = contacts[static_cast<size_t>(k)].active;
-  }
-  status_.support = cmd.support;
-  virtual_stance_foot(cmd, w_ff, w_rest);
-  return command_;
 }
 
 void WholeBodyController::virtual_stance_foot(const balance::TaskReference& cmd, const Vector6d& w_ff,

@@ -98,6 +98,15 @@ class WholeBodyController {
   [[nodiscard]] const Eigen::VectorXd& tau_total() const { return tau_total_; }
 
  private:
+  // The stages of step, in order.
+  /// ν^cmd and ν̇^cmd from the task velocities and accelerations.
+  void command_velocities(const balance::TaskReference& cmd);
+  /// w_imp (6), τ_f^imp (7) and the swing feet's Cartesian impedance wrenches.
+  void impedances(const RobotState& state, const balance::TaskReference& cmd);
+  /// The contact wrenches for w_des (the last valid ones while the QP has none); w_feet.
+  void distribute(const balance::TaskReference& cmd, const Vector6d& w_des);
+  /// The joint command from τ (9), within the joints' limits, never a non-finite number.
+  void joint_command(const RobotState& state, const balance::TaskReference& cmd);
   void virtual_stance_foot(const balance::TaskReference& cmd, const Vector6d& w_ff, const Vector6d& w_rest);
 
   const model::RobotSpec* robot_;
@@ -109,7 +118,7 @@ class WholeBodyController {
   BalanceStatus status_;
   Eigen::VectorXd xdot_cmd_, xddot_cmd_, nu_cmd_, nudot_cmd_, y_, tau_f_imp_, tau_total_, w_task_, jt_;
   Vector6d w_imp_ = Vector6d::Zero();
-  std::array<Vector6d, 2> w_feet_{}, last_valid_grf_{};
+  std::array<Vector6d, 2> w_feet_{}, last_valid_grf_{}, w_swing_{};
   bool have_valid_grf_ = false;
 };
 
