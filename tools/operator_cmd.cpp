@@ -15,6 +15,7 @@
 #include <cstdio>
 #include <lcm/lcm-cpp.hpp>
 #include <map>
+#include <optional>
 #include <set>
 #include <string>
 #include <thread>
@@ -66,92 +67,141 @@ std::string table(const humanoid::params_t& p) {
   return s;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  if (argc < 2) return usage("");
+/// What the command line asks for: the message, where, and (set, params) the nodes addressed.
+struct Request {
   humanoid::operator_t m{};
-  m.utime = hpr::wall_us();
-  m.source = "operator";
-  m.num_params = 0;
-  std::string url;
+  std::string verb, url;
   double wait_s = 1.0;
-  const std::string verb = argv[1];
+  std::set<std::string> nodes;
+};
+
+/// set's NODE.KEY=VALUE pairs or params' node names from argv[i] on, up to the first option.
+std::optional<int> read_parameters(int argc, char** argv, int& i, Request& r) {
+  const bool set = r.verb == "set";
+  r.m.command = set ? humanoid::operator_t::COMMAND_SET_PARAMS : humanoid::operator_t::COMMAND_GET_PARAMS;
+  for (; i < argc && std::string(argv[i]).rfind("--", 0) != 0; ++i) {
+    const std::string arg = argv[i];
+    if (!set) {
+      r.m.param_name.push_back(arg);
+      r.m.param_value.push_back(0.0);
+      r.nodes.insert(arg);
+      continue;
+    }
+    const auto eq = arg.find('=');
+    const auto dot = arg.find('.');
+    if (eq == std::string::npos || dot == std::string::npos || dot == 0 || dot + 1 >= eq) {
+      return usage("'" + arg + "' is not NODE.KEY=NUMBER");
+    }
+    r.m.param_name.push_back(arg.substr(0, eq));
+    r.m.param_value.push_back(hpr::parse_number(arg.substr(eq + 1), arg.substr(0, eq)));
+    r.nodes.insert(arg.substr(0, dot));
+  }
+  r.m.num_params = static_cast<std::int32_t>(r.m.param_name.size());
+  if (set && r.m.num_params == 0) return usage("set needs NODE.KEY=VALUE");
+  return std::nullopt;
+}
+
+/// The options after the command's own arguments.
+std::optional<int> read_options(int argc, char** argv, int i, Request& r) {
+  for (; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--reason" && i + 1 < argc) {
+      r.m.reason = argv[++i];
+    } else if (a == "--lcm-url" && i + 1 < argc) {
+      r.url = argv[++i];
+    } else if (a == "--source" && i + 1 < argc) {
+      r.m.source = argv[++i];
+    } else if (a == "--wait" && i + 1 < argc) {
+      r.wait_s = hpr::parse_number(argv[++i], "--wait");
+      if (r.wait_s <= 0) return usage("--wait must be positive");
+    } else if (!a.empty() && a[0] == '-') {
+      const std::string name = a.substr(0, a.find('='));
+      return usage("unknown option " + a + hpr::did_you_mean(name, {"--reason", "--lcm-url", "--source", "--wait"}));
+    } else {
+      return usage("unexpected argument '" + a + "'");
+    }
+  }
+  return std::nullopt;
+}
+
+/// The request, or the exit status when the command line is refused or asked for help.
+std::optional<int> read_request(int argc, char** argv, Request& r) {
+  if (argc < 2) return usage("");
+  r.m.utime = hpr::wall_us();
+  r.m.source = "operator";
+  r.m.num_params = 0;
+  r.verb = argv[1];
   int i = 2;
-  std::set<std::string> nodes;  // addressed by set or params
+  static const std::map<std::string, std::int8_t> kCommands = {{"enable", std::int8_t{humanoid::operator_t::COMMAND_ENABLE}},
+                                                               {"damp", std::int8_t{humanoid::operator_t::COMMAND_DAMP}},
+                                                               {"stop", std::int8_t{humanoid::operator_t::COMMAND_STOP}}};
+  static const std::map<std::string, std::int8_t> kSupports = {{"double", std::int8_t{humanoid::balance_status_t::SUPPORT_DOUBLE}},
+                                                               {"left", std::int8_t{humanoid::balance_status_t::SUPPORT_LEFT}},
+                                                               {"right", std::int8_t{humanoid::balance_status_t::SUPPORT_RIGHT}}};
   try {
-    static const std::map<std::string, std::int8_t> kCommands = {{"enable", std::int8_t{humanoid::operator_t::COMMAND_ENABLE}},
-                                                                 {"damp", std::int8_t{humanoid::operator_t::COMMAND_DAMP}},
-                                                                 {"stop", std::int8_t{humanoid::operator_t::COMMAND_STOP}}};
-    static const std::map<std::string, std::int8_t> kSupports = {{"double", std::int8_t{humanoid::balance_status_t::SUPPORT_DOUBLE}},
-                                                                 {"left", std::int8_t{humanoid::balance_status_t::SUPPORT_LEFT}},
-                                                                 {"right", std::int8_t{humanoid::balance_status_t::SUPPORT_RIGHT}}};
-    if (const auto c = kCommands.find(verb); c != kCommands.end()) {
-      m.command = c->second;
-    } else if (verb == "support") {
+    if (const auto c = kCommands.find(r.verb); c != kCommands.end()) {
+      r.m.command = c->second;
+    } else if (r.verb == "support") {
       if (argc < 3) return usage("support needs double, left or right");
       const auto s = kSupports.find(argv[2]);
       if (s == kSupports.end()) return usage("unknown support '" + std::string(argv[2]) + "'");
-      m.command = humanoid::operator_t::COMMAND_SET_SUPPORT;
-      m.support = s->second;
+      r.m.command = humanoid::operator_t::COMMAND_SET_SUPPORT;
+      r.m.support = s->second;
       i = 3;
-    } else if (verb == "set" || verb == "params") {
-      const bool set = verb == "set";
-      m.command = set ? humanoid::operator_t::COMMAND_SET_PARAMS : humanoid::operator_t::COMMAND_GET_PARAMS;
-      for (; i < argc && std::string(argv[i]).rfind("--", 0) != 0; ++i) {
-        const std::string arg = argv[i];
-        if (!set) {
-          m.param_name.push_back(arg);
-          m.param_value.push_back(0.0);
-          nodes.insert(arg);
-          continue;
-        }
-        const auto eq = arg.find('=');
-        const auto dot = arg.find('.');
-        if (eq == std::string::npos || dot == std::string::npos || dot == 0 || dot + 1 >= eq) {
-          return usage("'" + arg + "' is not NODE.KEY=NUMBER");
-        }
-        m.param_name.push_back(arg.substr(0, eq));
-        m.param_value.push_back(hpr::parse_number(arg.substr(eq + 1), arg.substr(0, eq)));
-        nodes.insert(arg.substr(0, dot));
-      }
-      m.num_params = static_cast<std::int32_t>(m.param_name.size());
-      if (set && m.num_params == 0) return usage("set needs NODE.KEY=VALUE");
-    } else if (verb == "-h" || verb == "--help") {
+    } else if (r.verb == "set" || r.verb == "params") {
+      if (const auto refused = read_parameters(argc, argv, i, r)) return refused;
+    } else if (r.verb == "-h" || r.verb == "--help") {
       std::printf("%s", kUsage);
       return 0;
     } else {
-      return usage("unknown command '" + verb + "'" +
-                   hpr::did_you_mean(verb, {"enable", "damp", "stop", "support", "set", "params", "--help"}));
+      return usage("unknown command '" + r.verb + "'" +
+                   hpr::did_you_mean(r.verb, {"enable", "damp", "stop", "support", "set", "params", "--help"}));
     }
-    for (; i < argc; ++i) {
-      const std::string a = argv[i];
-      if (a == "--reason" && i + 1 < argc) {
-        m.reason = argv[++i];
-      } else if (a == "--lcm-url" && i + 1 < argc) {
-        url = argv[++i];
-      } else if (a == "--source" && i + 1 < argc) {
-        m.source = argv[++i];
-      } else if (a == "--wait" && i + 1 < argc) {
-        wait_s = hpr::parse_number(argv[++i], "--wait");
-        if (wait_s <= 0) return usage("--wait must be positive");
-      } else if (!a.empty() && a[0] == '-') {
-        const std::string name = a.substr(0, a.find('='));
-        return usage("unknown option " + a + hpr::did_you_mean(name, {"--reason", "--lcm-url", "--source", "--wait"}));
-      } else {
-        return usage("unexpected argument '" + a + "'");
-      }
-    }
+    return read_options(argc, argv, i, r);
   } catch (const hpr::UsageError& e) {
     return usage(e.what());
   }
+}
 
+/// The nodes' answers on stdout (refusals on stderr), and the exit status: 1 when one refused, 4
+/// when one addressed did not answer (or, params with no node named, none did).
+int report(const Request& r, const Answers& answers) {
+  int status = 0;
+  for (const auto& [name, p] : answers.by_node) {
+    if (r.m.command == humanoid::operator_t::COMMAND_GET_PARAMS) {
+      std::printf("%s", table(p).c_str());
+    } else if (p.accepted) {
+      std::printf("%s: %s\n", name.c_str(), p.result.c_str());
+    } else {
+      std::fprintf(stderr, "%s: %s\n", name.c_str(), p.result.c_str());
+      status = std::max(status, 1);
+    }
+  }
+  for (const auto& n : r.nodes) {
+    if (answers.by_node.count(n) == 0) {
+      std::fprintf(stderr, "%s: no answer within %g s (is it running on this LCM URL? `hpr_operator params` lists the nodes that answer)\n",
+                   n.c_str(), r.wait_s);
+      status = 4;
+    }
+  }
+  if (r.nodes.empty() && answers.by_node.empty()) {
+    std::fprintf(stderr, "no node answered within %g s\n", r.wait_s);
+    status = 4;
+  }
+  return status;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Request r;
+  if (const auto status = read_request(argc, argv, r)) return *status;
   std::unique_ptr<lcm::LCM> lcm;
   hpr::auth::Key key;
   try {
     // Signed with the deployment's key: the stack refuses an OPERATOR without its code.
     key = hpr::auth::load_key(hpr::auth::key_path());
-    lcm = hpr::node::open_lcm(hpr::node::resolve_lcm_url(url, ""));
+    lcm = hpr::node::open_lcm(hpr::node::resolve_lcm_url(r.url, ""));
   } catch (const hpr::auth::AuthError& e) {
     std::fprintf(stderr, "hpr_operator: %s\n", e.what());
     return 2;
@@ -159,6 +209,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "hpr_operator: %s\n", e.what());
     return 3;
   }
+  humanoid::operator_t& m = r.m;
   const bool asks = m.command == humanoid::operator_t::COMMAND_SET_PARAMS || m.command == humanoid::operator_t::COMMAND_GET_PARAMS;
   Answers answers;
   answers.request_utime = m.utime;
@@ -171,42 +222,20 @@ int main(int argc, char** argv) {
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
   if (!asks) {
-    std::printf("OPERATOR %s sent\n", verb.c_str());
+    std::printf("OPERATOR %s sent\n", r.verb.c_str());
     return 0;
   }
 
   // Wait for the answers: every addressed node, or (params with no node named) whoever answers.
-  const double end = hpr::monotonic_s() + wait_s;
+  const double end = hpr::monotonic_s() + r.wait_s;
   auto all_in = [&] {
-    return !nodes.empty() && std::all_of(nodes.begin(), nodes.end(), [&](const std::string& n) { return answers.by_node.count(n) != 0; });
+    return !r.nodes.empty() &&
+           std::all_of(r.nodes.begin(), r.nodes.end(), [&](const std::string& n) { return answers.by_node.count(n) != 0; });
   };
   while (!all_in()) {
     const double left = end - hpr::monotonic_s();
     if (left <= 0) break;
     lcm->handleTimeout(std::max(1, static_cast<int>(left * 1e3)));
   }
-
-  int status = 0;
-  for (const auto& [name, p] : answers.by_node) {
-    if (m.command == humanoid::operator_t::COMMAND_GET_PARAMS) {
-      std::printf("%s", table(p).c_str());
-    } else if (p.accepted) {
-      std::printf("%s: %s\n", name.c_str(), p.result.c_str());
-    } else {
-      std::fprintf(stderr, "%s: %s\n", name.c_str(), p.result.c_str());
-      status = std::max(status, 1);
-    }
-  }
-  for (const auto& n : nodes) {
-    if (answers.by_node.count(n) == 0) {
-      std::fprintf(stderr, "%s: no answer within %g s (is it running on this LCM URL? `hpr_operator params` lists the nodes that answer)\n",
-                   n.c_str(), wait_s);
-      status = 4;
-    }
-  }
-  if (nodes.empty() && answers.by_node.empty()) {
-    std::fprintf(stderr, "no node answered within %g s\n", wait_s);
-    status = 4;
-  }
-  return status;
+  return report(r, answers);
 }

@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -62,15 +63,19 @@ std::string find_render_video() {
   throw std::runtime_error("--video: tools/render-video not found next to " + exe.string());
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  using namespace hpr::experiments;
-  TrialSpec spec;
-  spec.config = "toro";
+/// What the command line asks for.
+struct TrialOptions {
+  hpr::experiments::TrialSpec spec;
   std::string json_file, video_file, video_label;
   bool quiet = false;
-  const auto usage_error = hpr::read_command_line(
+};
+
+/// The options, or the exit status when the command line is refused or asked for help.
+std::optional<int> read_options(int argc, char** argv, TrialOptions& o) {
+  using namespace hpr::experiments;
+  TrialSpec& spec = o.spec;
+  spec.config = "toro";
+  return hpr::read_command_line(
       argc, argv, "push_trial", usage,
       [&](hpr::ArgReader& args) {
         if (args.is("--support")) {
@@ -85,9 +90,9 @@ int main(int argc, char** argv) {
           spec.impulse = 0.0;
           spec.duration = 0.0;
           spec.after = args.number();
-          if (!(spec.after >= hpr::experiments::TrialEvaluator::kSettleTime)) {
-            throw std::invalid_argument(fmt::format("--stand {}: a standing trial's verdict needs at least {:.0f} s", spec.after,
-                                                    hpr::experiments::TrialEvaluator::kSettleTime));
+          if (!(spec.after >= TrialEvaluator::kSettleTime)) {
+            throw std::invalid_argument(
+                fmt::format("--stand {}: a standing trial's verdict needs at least {:.0f} s", spec.after, TrialEvaluator::kSettleTime));
           }
         } else if (args.is("--duration")) {
           spec.duration = args.number();
@@ -98,13 +103,13 @@ int main(int argc, char** argv) {
         } else if (args.is("--work-dir")) {
           spec.work_dir = args.value();
         } else if (args.is("--json")) {
-          json_file = args.value();
+          o.json_file = args.value();
         } else if (args.is("--video")) {
-          video_file = args.value();
+          o.video_file = args.value();
         } else if (args.is("--video-label")) {
-          video_label = args.value();
+          o.video_label = args.value();
         } else if (args.is("--quiet")) {
-          quiet = true;
+          o.quiet = true;
         } else if (!read_push_option(args, spec)) {
           args.unknown();
         }
@@ -119,51 +124,66 @@ int main(int argc, char** argv) {
         spec.config = find_config(spec.config);
         if (spec.truth_state && !spec.in_process) throw std::invalid_argument("--truth-state needs --in-process");
         if (!spec.lcm_url.empty() && spec.in_process) throw std::invalid_argument("--lcm-url: an --in-process trial has no LCM");
-        if (spec.in_process && (!spec.log_file.empty() || !video_file.empty())) {
+        if (spec.in_process && (!spec.log_file.empty() || !o.video_file.empty())) {
           throw std::invalid_argument("--in-process writes no log: --log and --video need the processes");
         }
-        if (!video_file.empty() && spec.log_file.empty()) {
-          spec.log_file = (std::filesystem::path(video_file).replace_extension(".lcm")).string();
+        if (!o.video_file.empty() && spec.log_file.empty()) {
+          spec.log_file = (std::filesystem::path(o.video_file).replace_extension(".lcm")).string();
         }
       });
-  if (usage_error) return *usage_error;
+}
+
+/// The trial's video (tools/render-video on its log); 0, else render-video's exit status.
+int render_video(const TrialOptions& o) {
+  using hpr::experiments::Strategy;
+  const hpr::experiments::TrialSpec& spec = o.spec;
+  std::string label = o.video_label;
+  const char* strategy = spec.strategy == Strategy::kCam ? "CAM strategy" : "ankle strategy alone";
+  if (label.empty() && spec.standing()) {
+    label = fmt::format("{}, standing", strategy);
+  } else if (label.empty()) {
+    label = fmt::format("{}, {:.3g} N s at {:.0f} deg", strategy, spec.impulse, spec.direction_deg);
+  }
+  return hpr::launch::run_to_completion(
+      {find_render_video(), spec.log_file, o.video_file, "--robot", spec.config, "--label", label});
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace hpr::experiments;
+  TrialOptions o;
+  if (const auto status = read_options(argc, argv, o)) return *status;
+  const TrialSpec& spec = o.spec;
   try {
-    if (!quiet && spec.standing()) {
+    if (!o.quiet && spec.standing()) {
       std::fprintf(stderr, "push_trial: %s, %s support, %s strategy, standing %.3g s without a push\n", spec.config.c_str(),
                    spec.support.c_str(), to_string(spec.strategy), spec.after);
-    } else if (!quiet) {
+    } else if (!o.quiet) {
       std::fprintf(stderr, "push_trial: %s, %s support, %s strategy, %.4g N s at %.0f deg (%.0f N peak, %.3f s)\n",
                    spec.config.c_str(), spec.support.c_str(), to_string(spec.strategy), spec.impulse, spec.direction_deg,
                    spec.peak, spec.push_duration());
     }
-    const TrialResult r = run_trial(spec, quiet ? std::function<void(const std::string&)>() : [](const std::string& line) {
+    const TrialResult r = run_trial(spec, o.quiet ? std::function<void(const std::string&)>() : [](const std::string& line) {
       std::fprintf(stderr, "%s\n", line.c_str());
     });
     const std::string json = r.to_json(spec);
     std::printf("%s\n", json.c_str());
-    if (!json_file.empty()) {
-      std::FILE* f = std::fopen(json_file.c_str(), "w");
+    if (!o.json_file.empty()) {
+      std::FILE* f = std::fopen(o.json_file.c_str(), "w");
       if (f != nullptr) {
         std::fprintf(f, "%s\n", json.c_str());
         std::fclose(f);
       }
     }
-    if (!quiet) {
+    if (!o.quiet) {
       std::fprintf(stderr, "push_trial: %s%s%s (minimum CoP margin %.1f mm; %.1f s simulated in %.1f s)\n\n%s", r.outcome.c_str(),
                    r.failure.empty() ? "" : ": ", r.failure.c_str(), 1e3 * r.min_cop_margin, r.sim_time, r.wall_time,
                    kOutcomeLegend);
     }
-    if (!video_file.empty()) {
-      if (video_label.empty() && spec.standing()) {
-        video_label = fmt::format("{}, standing", spec.strategy == Strategy::kCam ? "CAM strategy" : "ankle strategy alone");
-      } else if (video_label.empty()) {
-        video_label = fmt::format("{}, {:.3g} N s at {:.0f} deg", spec.strategy == Strategy::kCam ? "CAM strategy" : "ankle strategy alone",
-                                  spec.impulse, spec.direction_deg);
-      }
-      const int rc = hpr::launch::run_to_completion(
-          {find_render_video(), spec.log_file, video_file, "--robot", spec.config, "--label", video_label});
-      if (rc != 0) {
-        std::fprintf(stderr, "push_trial: rendering %s failed (tools/render-video exited with %d)\n", video_file.c_str(), rc);
+    if (!o.video_file.empty()) {
+      if (const int rc = render_video(o); rc != 0) {
+        std::fprintf(stderr, "push_trial: rendering %s failed (tools/render-video exited with %d)\n", o.video_file.c_str(), rc);
         return 4;
       }
     }

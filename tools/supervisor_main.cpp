@@ -135,6 +135,83 @@ Status make_status(const launch::Supervisor& sup, std::int64_t seq, const std::s
 // ---------------------------------------------------------------------------------------------
 // The running supervisor.
 
+/// SUPERVISOR_COMMAND for this host and group (signed with the deployment's key): a down (and who
+/// asked) and restarts; refusals counted, and said once a second at most.
+class CommandIntake {
+ public:
+  CommandIntake(lcm::LCM& lcm, const auth::Key& key, const std::string& me, const std::string& group, launch::Supervisor& sup)
+      : me_(me), group_(group), sup_(sup),
+        sub_(lcm, "SUPERVISOR_COMMAND", [this](const humanoid::supervisor_command_t& c) { on(c); }, &key) {}
+  bool down_requested = false;
+  std::string down_source;  ///< who asked for the down: the goodbye names it
+
+ private:
+  void on(const humanoid::supervisor_command_t& c) {
+    if (!c.host.empty() && c.host != me_) return;
+    if (!c.group.empty() && c.group != group_) return;
+    if (const std::string why = msg::check_supervisor_command(c); !why.empty()) {
+      ++refused_;
+      if (monotonic_s() - last_refusal_log_ >= 1.0) {
+        last_refusal_log_ = monotonic_s();
+        std::cout << fmt::format("[{}] SUPERVISOR_COMMAND from '{}' refused: {} ({} refused so far)", now_text(), c.source, why, refused_)
+                  << std::endl;
+      }
+      return;
+    }
+    if (c.command == humanoid::supervisor_command_t::COMMAND_DOWN) {
+      if (!down_requested) {
+        std::cout << fmt::format("[{}] down requested by {}", now_text(), c.source) << std::endl;
+        down_source = c.source;
+      }
+      down_requested = true;
+    } else if (c.command == humanoid::supervisor_command_t::COMMAND_RESTART) {
+      if (sup_.restart(c.process, monotonic_s())) {
+        std::cout << fmt::format("[{}] {}: restart requested by {}", now_text(), c.process, c.source) << std::endl;
+      }
+    }
+  }
+
+  const std::string me_, group_;
+  launch::Supervisor& sup_;
+  double last_refusal_log_ = -1e9;
+  std::int64_t refused_ = 0;
+  Subscription<humanoid::supervisor_command_t> sub_;
+};
+
+/// OPERATOR damp, signed, to every drive of the deployment (a critical process died or hung, or the
+/// group goes down while one runs).
+class Damper {
+ public:
+  Damper(lcm::LCM& lcm, const auth::Key& key, const std::string& me) : lcm_(lcm), key_(key), me_(me) {}
+  void send(const std::string& reason) {
+    humanoid::operator_t op{};
+    op.tick = ++seq_;
+    op.utime = wall_us();
+    op.source = "supervisor@" + me_;
+    op.command = humanoid::operator_t::COMMAND_DAMP;
+    op.support = 0;
+    op.reason = reason;
+    op.num_params = 0;
+    node::publish_signed(lcm_, "OPERATOR", op, key_);
+    std::cout << fmt::format("[{}] OPERATOR damp sent: {}", now_text(), reason) << std::endl;
+  }
+
+ private:
+  lcm::LCM& lcm_;
+  const auth::Key& key_;
+  const std::string me_;
+  std::int64_t seq_ = 0;
+};
+
+/// The text `supervisor up` prints when the group failed: the status and the failed processes' last lines.
+std::string failure_text(const launch::Supervisor& sup, const std::string& why, const Status& status) {
+  std::string text = "failed: " + why + "\n" + render({status});
+  for (const auto& p : sup.processes()) {
+    if (p.state == ProcessState::kFailed) text += "\n--- last lines of " + sup.log_file(p.name) + "\n" + tail_file(sup.log_file(p.name), 15);
+  }
+  return text;
+}
+
 int run_supervisor(const launch::GroupSpec& group, const Options& o, const std::string& url, const std::string& run_dir, int notify_fd) {
   const auto notify = [&](const std::string& text) {
     if (notify_fd < 0) return;
@@ -159,7 +236,6 @@ int run_supervisor(const launch::GroupSpec& group, const Options& o, const std::
   Subscription<humanoid::health_t> health_sub(lcm, "HEALTH", [&](const humanoid::health_t& h) {
     sup.on_health(h.node, h.state, h.lifecycle, h.rate_hz, h.deadline_misses, h.faults, monotonic_s());
   });
-
   const std::string& me = o.host;
   Subscription<Status> status_sub(lcm, "SUPERVISOR_STATUS", [&](const Status& s) {
     if (s.host == me || s.group != group.name) return;
@@ -167,64 +243,24 @@ int run_supervisor(const launch::GroupSpec& group, const Options& o, const std::
       sup.on_remote_ready(s.name[i], s.process_state[i] == Status::PROCESS_READY);
     }
   });
-  bool down_requested = false;
-  std::string down_source;  // who asked for the down: the goodbye names it
-  double last_refusal_log = -1e9;
-  std::int64_t refused_commands = 0;
-  Subscription<humanoid::supervisor_command_t> command_sub(lcm, "SUPERVISOR_COMMAND", [&](const humanoid::supervisor_command_t& c) {
-    if (!c.host.empty() && c.host != me) return;
-    if (!c.group.empty() && c.group != group.name) return;
-    if (const std::string why = msg::check_supervisor_command(c); !why.empty()) {
-      ++refused_commands;
-      if (monotonic_s() - last_refusal_log >= 1.0) {  // one line a second at most
-        last_refusal_log = monotonic_s();
-        std::cout << fmt::format("[{}] SUPERVISOR_COMMAND from '{}' refused: {} ({} refused so far)", now_text(), c.source, why,
-                                 refused_commands)
-                  << std::endl;
-      }
-      return;
-    }
-    if (c.command == humanoid::supervisor_command_t::COMMAND_DOWN) {
-      if (!down_requested) {
-        std::cout << fmt::format("[{}] down requested by {}", now_text(), c.source) << std::endl;
-        down_source = c.source;
-      }
-      down_requested = true;
-    } else if (c.command == humanoid::supervisor_command_t::COMMAND_RESTART) {
-      if (sup.restart(c.process, monotonic_s())) {
-        std::cout << fmt::format("[{}] {}: restart requested by {}", now_text(), c.process, c.source) << std::endl;
-      }
-    }
-  }, &key);
-
-  std::int64_t seq = 0, damp_seq = 0;
-  const auto publish_damp = [&](const std::string& reason) {
-    humanoid::operator_t op{};
-    op.tick = ++damp_seq;
-    op.utime = wall_us();
-    op.source = "supervisor@" + me;
-    op.command = humanoid::operator_t::COMMAND_DAMP;
-    op.support = 0;
-    op.reason = reason;
-    op.num_params = 0;
-    node::publish_signed(lcm, "OPERATOR", op, key);
-    std::cout << fmt::format("[{}] OPERATOR damp sent: {}", now_text(), reason) << std::endl;
-  };
+  CommandIntake commands(lcm, key, me, group.name, sup);
+  Damper damper(lcm, key, me);
 
   std::cout << fmt::format("[{}] supervisor for group '{}' on host '{}', LCM {}, run folder {}", now_text(), group.name, me, url, run_dir) << std::endl;
   sup.up(monotonic_s());
+  std::int64_t seq = 0;
   double last_status = -1;
   bool failed = false, down_started = false;
   while (true) {
     handle_for(lcm, 0.01);
     hpr::log::flush_repeats();
     const double now = monotonic_s();
-    if ((g_stop || down_requested) && !down_started) {
+    if ((g_stop || commands.down_requested) && !down_started) {
       down_started = true;
       const bool critical_running = std::any_of(sup.processes().begin(), sup.processes().end(), [](const launch::ProcessStatus& p) {
         return p.critical && (p.state == ProcessState::kReady || p.state == ProcessState::kStarting);
       });
-      if (critical_running) publish_damp("group '" + group.name + "' going down on " + me);
+      if (critical_running) damper.send("group '" + group.name + "' going down on " + me);
       sup.down(now);
     }
     sup.step(now);
@@ -234,16 +270,12 @@ int run_supervisor(const launch::GroupSpec& group, const Options& o, const std::
       last_event = line;
       changed = true;
       using K = launch::SupervisorEvent::Kind;
-      if ((e.kind == K::kCriticalDied || e.kind == K::kCriticalHung) && !down_started) publish_damp(e.text);
+      if ((e.kind == K::kCriticalDied || e.kind == K::kCriticalHung) && !down_started) damper.send(e.text);
       if (e.kind == K::kGroupUp) notify("up\n" + render({make_status(sup, seq, last_event, now)}));
       if (e.kind == K::kGroupFailed) {
         failed = true;
-        std::string text = "failed: " + e.text + "\n" + render({make_status(sup, seq, last_event, now)});
-        for (const auto& p : sup.processes()) {
-          if (p.state == ProcessState::kFailed) text += "\n--- last lines of " + sup.log_file(p.name) + "\n" + tail_file(sup.log_file(p.name), 15);
-        }
-        notify(text);
-        down_requested = true;
+        notify(failure_text(sup, e.text, make_status(sup, seq, last_event, now)));
+        commands.down_requested = true;
       }
     }
     if (changed || now - last_status >= 0.5) {
@@ -255,7 +287,7 @@ int run_supervisor(const launch::GroupSpec& group, const Options& o, const std::
     if (down_started && sup.all_ended()) break;
   }
   launcher.stop_all(std::chrono::milliseconds(500));
-  Status m = make_status(sup, ++seq, down_source.empty() ? "stopped" : "stopped: down by " + down_source, monotonic_s());
+  Status m = make_status(sup, ++seq, commands.down_source.empty() ? "stopped" : "stopped: down by " + commands.down_source, monotonic_s());
   m.state = Status::STATE_STOPPED;
   for (int i = 0; i < 3; ++i) {
     lcm.publish("SUPERVISOR_STATUS", &m);

@@ -3,6 +3,8 @@
 // hardware-in-the-loop stand-in: the real codec, transport and safety path against a simulated robot.
 #include <poll.h>
 
+#include <array>
+
 #include <humanoid/push_t.hpp>
 #include <humanoid/sim_truth_t.hpp>
 
@@ -19,6 +21,126 @@
 namespace {
 
 using namespace hpr;
+
+/// The emulator's loop: every request answered at once from the simulation's present state, the
+/// physics stepped once per period (lockstep: once per tick of the hal), SIM_TRUTH after each step.
+class EmulatorLoop {
+ public:
+  EmulatorLoop(node::Runtime& rt, const hal::HalConfig& config, const hal::EmulatorOptions& options, sim::Simulator& simulator,
+               std::vector<std::unique_ptr<hal::CanTransport>>& buses, hal::DriveEmulator& emu)
+      : rt_(rt), config_(config), options_(options), simulator_(simulator), buses_(buses), emu_(emu),
+        truth_out_(rt.advertise<humanoid::sim_truth_t>("SIM_TRUTH")) {
+    for (const auto& b : buses_) fds_.push_back({b->fd(), POLLIN, 0});
+    fds_.push_back({rt.lcm().getFileno(), POLLIN, 0});
+    rx_.reserve(256);
+  }
+
+  /// The simulated clock: a period ends when the hal has sent its tick (a frame for every drive and
+  /// SYNC), then the physics steps and every bus gets the clock frame. While the hal is silent (not
+  /// started, killed) the emulator runs on at one period per period of wall time, so the drives'
+  /// own timeout still acts; a tick that has begun may take up to `lockstep_timeout`.
+  void run_lockstep(double dt, double duration) {
+    std::int64_t tick = 0;
+    bool flowing = false;
+    while (!rt_.stop_requested()) {
+      if (duration > 0 && simulator_.time() >= duration) break;
+      const double now = static_cast<double>(tick) * dt;
+      const double start = monotonic_s();
+      while (!rt_.stop_requested()) {
+        serve(now);
+        if (emu_.tick_requested()) break;
+        const double wait = flowing || emu_.any_requested() ? config_.lockstep_timeout : dt;
+        const double left = start + wait - monotonic_s();
+        if (left <= 0) break;
+        poll_for(fds_, left);
+      }
+      flowing = emu_.tick_requested();
+      const double t0 = monotonic_s();
+      emu_.step(now);
+      after_step(now, t0, flowing, tick);
+      ++tick;
+    }
+  }
+
+  /// Real time: frames until the period ends, then a step. The periods that started late.
+  std::int64_t run_realtime(double dt, double duration) {
+    std::int64_t late = 0;
+    PeriodicClock clock(dt);
+    while (!rt_.stop_requested()) {
+      if (duration > 0 && simulator_.time() >= duration) break;
+      while (!rt_.stop_requested()) {
+        serve(monotonic_s());
+        const double left = clock.left();
+        if (left <= 0) break;
+        poll_for(fds_, left);
+      }
+      if (clock.next() > 0.5 * dt) ++late;
+      const double t0 = monotonic_s();
+      emu_.step(t0);
+      after_step(t0, t0, false, 0);
+    }
+    return late;
+  }
+
+ private:
+  /// Every request answered at once from the present state, and LCM (PUSH) when it has input.
+  void serve(double now) {
+    for (std::size_t b = 0; b < buses_.size(); ++b) {
+      rx_.clear();
+      buses_[b]->receive(rx_);
+      for (const auto& f : rx_) emu_.handle(static_cast<int>(b), f, now, *buses_[b]);
+      buses_[b]->flush();
+    }
+    if (fds_.back().revents != 0) rt_.spin_once(0.0);
+  }
+
+  /// After each physics step: bus state, SIM_TRUTH, the drives' own timeout, what changed.
+  void after_step(double now, double t0, bool close_tick, std::int64_t tick) {
+    for (std::size_t b = 0; b < buses_.size(); ++b) {
+      emu_.report_bus_state(static_cast<int>(b), *buses_[b]);
+      if (close_tick) hal::DriveEmulator::report_tick(tick, *buses_[b]);
+      buses_[b]->flush();
+    }
+    rt_.record_step(simulator_.tick(), monotonic_s() - t0);
+    rt_.spin_once(0.0);  // timers (HEALTH) run every period, with or without LCM traffic
+    // The drives' own timeout, reported in HEALTH (the hal stopped talking to them).
+    int timed_out = 0;
+    for (std::size_t i = 0; i < config_.drives.size(); ++i) timed_out += emu_.motor_mode(i) && emu_.timed_out(i, now) ? 1 : 0;
+    if (timed_out > 0) {
+      if (!rt_.has_fault("drive_timeout")) {
+        log::warn("{} drives without commands for {} ms: damping by themselves", timed_out, options_.drive_timeout * 1e3);
+      }
+      rt_.set_fault("drive_timeout", std::to_string(timed_out) + " drives timed out: damping");
+    } else {
+      rt_.clear_fault("drive_timeout");
+    }
+    if (emu_.released() && !released_reported_) {
+      released_reported_ = true;
+      log::info("drives in motor mode: released from the gantry at tick {}", simulator_.tick());
+    }
+    if (emu_.released()) {
+      msg::to_message(simulator_.truth(), kFeet, truth_msg_);
+      truth_out_.publish(truth_msg_);
+    }
+    if (simulator_.truth().fallen && !fallen_reported_) {
+      fallen_reported_ = true;
+      log::warn("the robot fell at t = {:.3f} s", simulator_.time());
+    }
+  }
+
+  inline static const std::array<std::string, 2> kFeet{"right", "left"};
+  node::Runtime& rt_;
+  const hal::HalConfig& config_;
+  const hal::EmulatorOptions& options_;
+  sim::Simulator& simulator_;
+  std::vector<std::unique_ptr<hal::CanTransport>>& buses_;
+  hal::DriveEmulator& emu_;
+  node::Output<humanoid::sim_truth_t> truth_out_;
+  humanoid::sim_truth_t truth_msg_;
+  std::vector<pollfd> fds_;
+  std::vector<hal::CanFrame> rx_;
+  bool fallen_reported_ = false, released_reported_ = false;
+};
 
 int run(const node::CommandLine& cl, const Config& cfg) {
   const Config robot_cfg = cfg.section("robot");
@@ -44,101 +166,14 @@ int run(const node::CommandLine& cl, const Config& cfg) {
     log::info("push {} on '{}': {:.1f} N peak for {:.3f} s", p.id, push->link, push->force_W.norm(), push->duration);
     simulator.add_push(*push);
   });
-  auto truth_out = rt.advertise<humanoid::sim_truth_t>("SIM_TRUTH");
-  humanoid::sim_truth_t truth_msg;
-  const std::array<std::string, 2> feet{"right", "left"};
-
-  std::vector<pollfd> fds;
-  for (const auto& b : buses) fds.push_back({b->fd(), POLLIN, 0});
-  fds.push_back({rt.lcm().getFileno(), POLLIN, 0});
-  std::vector<hal::CanFrame> rx;
-  rx.reserve(256);
-  // Every request answered at once from the present state, and LCM (PUSH) when it has input.
-  auto serve = [&](double now) {
-    for (std::size_t b = 0; b < buses.size(); ++b) {
-      rx.clear();
-      buses[b]->receive(rx);
-      for (const auto& f : rx) emu.handle(static_cast<int>(b), f, now, *buses[b]);
-      buses[b]->flush();
-    }
-    if (fds.back().revents != 0) rt.spin_once(0.0);
-  };
-  bool fallen_reported = false, released_reported = false;
-  // After each physics step: bus state, SIM_TRUTH, the drives' own timeout, what changed.
-  auto after_step = [&](double now, double t0, bool close_tick, std::int64_t tick) {
-    for (std::size_t b = 0; b < buses.size(); ++b) {
-      emu.report_bus_state(static_cast<int>(b), *buses[b]);
-      if (close_tick) hal::DriveEmulator::report_tick(tick, *buses[b]);
-      buses[b]->flush();
-    }
-    rt.record_step(simulator.tick(), monotonic_s() - t0);
-    rt.spin_once(0.0);  // timers (HEALTH) run every period, with or without LCM traffic
-    // The drives' own timeout, reported in HEALTH (the hal stopped talking to them).
-    int timed_out = 0;
-    for (std::size_t i = 0; i < config.drives.size(); ++i) timed_out += emu.motor_mode(i) && emu.timed_out(i, now) ? 1 : 0;
-    if (timed_out > 0) {
-      if (!rt.has_fault("drive_timeout")) log::warn("{} drives without commands for {} ms: damping by themselves", timed_out, options.drive_timeout * 1e3);
-      rt.set_fault("drive_timeout", std::to_string(timed_out) + " drives timed out: damping");
-    } else {
-      rt.clear_fault("drive_timeout");
-    }
-    if (emu.released() && !released_reported) {
-      released_reported = true;
-      log::info("drives in motor mode: released from the gantry at tick {}", simulator.tick());
-    }
-    if (emu.released()) {
-      msg::to_message(simulator.truth(), feet, truth_msg);
-      truth_out.publish(truth_msg);
-    }
-    if (simulator.truth().fallen && !fallen_reported) {
-      fallen_reported = true;
-      log::warn("the robot fell at t = {:.3f} s", simulator.time());
-    }
-  };
-  std::int64_t late = 0;
+  EmulatorLoop loop(rt, config, options, simulator, buses, emu);
   log::info("drive emulator: {} drives on {} buses, {}, {} clock (on its gantry until the first enable)", config.drives.size(),
             config.buses.size(), robot.name, config.lockstep ? "lockstep" : "realtime");
+  std::int64_t late = 0;
   if (config.lockstep) {
-    // The simulated clock: a period ends when the hal has sent its tick (a frame for every drive and
-    // SYNC), then the physics steps and every bus gets the clock frame. While the hal is silent
-    // (not started, killed) the emulator runs on at one period per period of wall time, so the
-    // drives' own timeout still acts; a tick that has begun may take up to `lockstep_timeout`.
-    std::int64_t tick = 0;
-    bool flowing = false;
-    while (!rt.stop_requested()) {
-      if (duration > 0 && simulator.time() >= duration) break;
-      const double now = static_cast<double>(tick) * sim_config.dt;
-      const double start = monotonic_s();
-      while (!rt.stop_requested()) {
-        serve(now);
-        if (emu.tick_requested()) break;
-        const double wait = flowing || emu.any_requested() ? config.lockstep_timeout : sim_config.dt;
-        const double left = start + wait - monotonic_s();
-        if (left <= 0) break;
-        poll_for(fds, left);
-      }
-      flowing = emu.tick_requested();
-      const double t0 = monotonic_s();
-      emu.step(now);
-      after_step(now, t0, flowing, tick);
-      ++tick;
-    }
+    loop.run_lockstep(sim_config.dt, duration);
   } else {
-    PeriodicClock clock(sim_config.dt);
-    while (!rt.stop_requested()) {
-      if (duration > 0 && simulator.time() >= duration) break;
-      // Frames until the period ends.
-      while (!rt.stop_requested()) {
-        serve(monotonic_s());
-        const double left = clock.left();
-        if (left <= 0) break;
-        poll_for(fds, left);
-      }
-      if (clock.next() > 0.5 * sim_config.dt) ++late;
-      const double t0 = monotonic_s();
-      emu.step(t0);
-      after_step(t0, t0, false, 0);
-    }
+    late = loop.run_realtime(sim_config.dt, duration);
   }
   log::info("drive emulator stopped at t = {:.3f} s; late periods {}, frames ignored {}", simulator.time(), late, emu.frames_ignored());
   return node::kExitOk;

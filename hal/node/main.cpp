@@ -73,6 +73,100 @@ void fill_status(const hal::Hal& h, std::int64_t tick, humanoid::hal_status_t& m
   m.frames_malformed = h.frames_malformed();
 }
 
+/// Frames per second on each bus, over the last 0.1 s or more.
+struct BusRates {
+  BusRates(std::size_t buses, double start) : tx_prev(buses, 0), rx_prev(buses, 0), tx_fps(buses, 0.0), rx_fps(buses, 0.0), last(start) {}
+  void update(const hal::Hal& h, double now) {
+    if (now - last < 0.1) return;
+    for (std::size_t b = 0; b < tx_fps.size(); ++b) {
+      const auto& cnt = h.buses()[b]->counters();
+      tx_fps[b] = static_cast<double>(cnt.tx_frames - tx_prev[b]) / (now - last);
+      rx_fps[b] = static_cast<double>(cnt.rx_frames - rx_prev[b]) / (now - last);
+      tx_prev[b] = cnt.tx_frames;
+      rx_prev[b] = cnt.rx_frames;
+    }
+    last = now;
+  }
+  std::vector<std::int64_t> tx_prev, rx_prev;
+  std::vector<double> tx_fps, rx_fps;
+  double last;
+};
+
+/// Lockstep: the next tick starts when the controllers have answered this one; while they are
+/// silent (starting, killed) the hal runs on at one tick per period of wall time, so commands age
+/// and the safety rules act as on the robot. Controllers that answer, only later than a period (a
+/// loaded machine), are waited for: a lockstep run must not depend on timing.
+class LockstepPacer {
+ public:
+  template <class Input>
+  void wait(node::Runtime& rt, const Input& command_in, std::int64_t answered, double w0, const hal::HalConfig& config) {
+    if (flowing_) {
+      flowing_ = rt.spin_until([&] { return command_in.tick() >= answered; }, config.lockstep_timeout);
+    } else {
+      const double until = w0 + config.period;
+      while (!rt.stop_requested() && command_in.tick() < answered) {
+        const double left = until - monotonic_s();
+        if (left <= 0) break;
+        rt.spin_once(left);
+      }
+      if (command_in.tick() < answered && command_in.count() > heard_) {
+        rt.spin_until([&] { return command_in.tick() >= answered; }, config.lockstep_timeout);
+      }
+      flowing_ = command_in.tick() >= answered;
+    }
+    heard_ = command_in.count();
+  }
+
+ private:
+  bool flowing_ = false;    ///< the controllers answered the last tick
+  std::int64_t heard_ = 0;  ///< JOINT_COMMANDs received when the last tick closed
+};
+
+/// The drives' replies of the tick: within the reply window (lockstep: until every bus has the
+/// emulator's clock frame), one poll per wait.
+void receive_replies(hal::Hal& h, std::vector<pollfd>& fds, const hal::HalConfig& config, double t0, double w0) {
+  const double reply_deadline = config.lockstep ? w0 + config.lockstep_timeout : t0 + config.reply_window;
+  while (true) {
+    h.receive();
+    if (config.lockstep ? h.tick_closed() : h.replies_complete()) break;
+    const double left = reply_deadline - monotonic_s();
+    if (left <= 0) break;
+    poll_for(fds, left);
+  }
+}
+
+/// Whether the safety state changed this tick (said in the log).
+bool note_state_change(hal::Hal& h, hal::SafetyState& last_state) {
+  const bool changed = h.safety().state() != last_state || h.safety().changed();
+  if (changed) {
+    log::info("state {}: {}", hal::to_string(h.safety().state()), h.safety().reason());
+    last_state = h.safety().state();
+    h.clear_changed();
+  }
+  return changed;
+}
+
+/// The lifecycle: drives off until enabled (starting), enabled (running), else damping.
+void report_lifecycle(node::Runtime& rt, const hal::Hal& h) {
+  switch (h.safety().state()) {
+    case hal::SafetyState::kOff: rt.report(node::StepOutcome::kNotReady); break;
+    case hal::SafetyState::kEnabled: rt.report(node::StepOutcome::kRunning); break;
+    default: rt.report(node::StepOutcome::kDamping); break;
+  }
+}
+
+/// The run's figures, when it stops.
+void log_summary(const hal::Hal& h, std::int64_t ticks, const RollingStats& work, const RollingStats& jitter, std::int64_t rejected) {
+  std::int64_t missed = 0;
+  for (const auto& d : h.drives()) missed += d.missed;
+  log::info("hal stopped after {} ticks: tick work median {:.1f} us, p99 {:.1f} us; {}; "
+            "commands rejected {}, stale ticks {}, malformed frames {}; replies missed {} of {}",
+            ticks, work.median() * 1e6, work.percentile(0.99) * 1e6,
+            h.config().lockstep ? std::string("lockstep clock")
+                                : fmt::format("period jitter p99 {:.1f} us, max {:.1f} us", jitter.percentile(0.99) * 1e6, jitter.max() * 1e6),
+            rejected, h.commands_stale(), h.frames_malformed(), missed, ticks * static_cast<std::int64_t>(h.drives().size()));
+}
+
 int run(const node::CommandLine& cl, const Config& cfg) {
   const Config robot_cfg = cfg.section("robot");
   const auto robot = model::RobotSpec::load(robot_cfg);
@@ -109,15 +203,13 @@ int run(const node::CommandLine& cl, const Config& cfg) {
 
   std::vector<pollfd> fds;
   for (const auto& b : h.buses()) fds.push_back({b->fd(), POLLIN, 0});
-  std::vector<std::int64_t> tx_prev(config.buses.size(), 0), rx_prev(config.buses.size(), 0);
-  std::vector<double> tx_fps(config.buses.size(), 0.0), rx_fps(config.buses.size(), 0.0);
   RollingStats work(60000), jitter(60000);
   PeriodicClock clock(config.period);
   const double start = hal_now();
-  double last_status = -1.0, last_rate = start;
+  BusRates rates(config.buses.size(), start);
+  LockstepPacer pacer;
+  double last_status = -1.0;
   std::int64_t tick = 0;
-  bool flowing = false;    // lockstep: the controllers answered the last tick
-  std::int64_t heard = 0;  // lockstep: JOINT_COMMANDs received when the last tick closed
   hal::SafetyState last_state = h.safety().state();
   if (enable_on_start) log::info("{}", h.operator_command(humanoid::operator_t::COMMAND_ENABLE, start, "configuration"));
   log::info("hal: {} drives on {} buses, period {} ms, {}, command max age {} ms, state {}", config.drives.size(), config.buses.size(),
@@ -132,16 +224,7 @@ int run(const node::CommandLine& cl, const Config& cfg) {
     if (!lockstep) jitter.add(t0 - clock.deadline());
     rt.spin_once(0.0);  // the freshest JOINT_COMMAND and OPERATOR before the frames go out
     h.begin_tick(tick, t0);
-    // Replies within the window (lockstep: until every bus has the emulator's clock frame), one
-    // poll per wait.
-    const double reply_deadline = lockstep ? w0 + config.lockstep_timeout : t0 + config.reply_window;
-    while (true) {
-      h.receive();
-      if (lockstep ? h.tick_closed() : h.replies_complete()) break;
-      const double left = reply_deadline - monotonic_s();
-      if (left <= 0) break;
-      poll_for(fds, left);
-    }
+    receive_replies(h, fds, config, t0, w0);
     h.end_tick(t0);
     // utime is the hal's clock (h.sensors().time = t0): monotonic in real time, tick × period in
     // lockstep. The estimator integrates over it, so it must advance as the drives' time does (a
@@ -149,30 +232,11 @@ int run(const node::CommandLine& cl, const Config& cfg) {
     msg::to_message(h.sensors(), names, sensors_msg);
     sensors_out.publish(sensors_msg);
     const double now = lockstep ? t0 : monotonic_s();
-    if (now - last_rate >= 0.1) {
-      for (std::size_t b = 0; b < config.buses.size(); ++b) {
-        const auto& cnt = h.buses()[b]->counters();
-        tx_fps[b] = static_cast<double>(cnt.tx_frames - tx_prev[b]) / (now - last_rate);
-        rx_fps[b] = static_cast<double>(cnt.rx_frames - rx_prev[b]) / (now - last_rate);
-        tx_prev[b] = cnt.tx_frames;
-        rx_prev[b] = cnt.rx_frames;
-      }
-      last_rate = now;
-    }
-    const bool changed = h.safety().state() != last_state || h.safety().changed();
-    if (changed) {
-      log::info("state {}: {}", hal::to_string(h.safety().state()), h.safety().reason());
-      last_state = h.safety().state();
-      h.clear_changed();
-    }
-    // The lifecycle: drives off until enabled (starting), enabled (running), else damping.
-    switch (h.safety().state()) {
-      case hal::SafetyState::kOff: rt.report(node::StepOutcome::kNotReady); break;
-      case hal::SafetyState::kEnabled: rt.report(node::StepOutcome::kRunning); break;
-      default: rt.report(node::StepOutcome::kDamping); break;
-    }
+    rates.update(h, now);
+    const bool changed = note_state_change(h, last_state);
+    report_lifecycle(rt, h);
     if (changed || now - last_status >= 0.1) {
-      fill_status(h, tick, status_msg, tx_fps, rx_fps, command_in.errors());
+      fill_status(h, tick, status_msg, rates.tx_fps, rates.rx_fps, command_in.errors());
       status_out.publish(status_msg);
       last_status = now;
       const std::string faults = h.fault_conditions();
@@ -186,26 +250,7 @@ int run(const node::CommandLine& cl, const Config& cfg) {
     work.add(monotonic_s() - w0);
     ++tick;
     if (lockstep) {
-      // The next tick starts when the controllers have answered this one; while they are silent
-      // (starting, killed) the hal runs on at one tick per period of wall time, so commands age
-      // and the safety rules act as on the robot. Controllers that answer, only later than a
-      // period (a loaded machine), are waited for: a lockstep run must not depend on timing.
-      const std::int64_t answered = tick - 1;
-      if (flowing) {
-        flowing = rt.spin_until([&] { return command_in.tick() >= answered; }, config.lockstep_timeout);
-      } else {
-        const double until = w0 + config.period;
-        while (!rt.stop_requested() && command_in.tick() < answered) {
-          const double left = until - monotonic_s();
-          if (left <= 0) break;
-          rt.spin_once(left);
-        }
-        if (command_in.tick() < answered && command_in.count() > heard) {
-          rt.spin_until([&] { return command_in.tick() >= answered; }, config.lockstep_timeout);
-        }
-        flowing = command_in.tick() >= answered;
-      }
-      heard = command_in.count();
+      pacer.wait(rt, command_in, tick - 1, w0, config);
       continue;
     }
     clock.next();
@@ -215,14 +260,7 @@ int run(const node::CommandLine& cl, const Config& cfg) {
       rt.spin_once(left);
     }
   }
-  std::int64_t missed = 0;
-  for (const auto& d : h.drives()) missed += d.missed;
-  log::info("hal stopped after {} ticks: tick work median {:.1f} us, p99 {:.1f} us; {}; "
-            "commands rejected {}, stale ticks {}, malformed frames {}; replies missed {} of {}",
-            tick, work.median() * 1e6, work.percentile(0.99) * 1e6,
-            lockstep ? std::string("lockstep clock")
-                     : fmt::format("period jitter p99 {:.1f} us, max {:.1f} us", jitter.percentile(0.99) * 1e6, jitter.max() * 1e6),
-            command_in.errors(), h.commands_stale(), h.frames_malformed(), missed, tick * static_cast<std::int64_t>(h.drives().size()));
+  log_summary(h, tick, work, jitter, command_in.errors());
   return node::kExitOk;
 }
 

@@ -20,6 +20,101 @@ std::pair<double, double> range(const Config& c, const std::string& key, double 
   return {v[0], v[1]};
 }
 
+/// The buses (`buses`), with the top level's transport defaults: `transport`, and for udp the
+/// hosts and a base port (bus b: hal at base + 2b, the drives' side at base + 2b + 1) unless a bus
+/// gives `local` and `remote`. Each bus's index by name.
+std::map<std::string, int> load_buses(const Config& c, std::vector<BusConfig>& buses) {
+  std::map<std::string, int> bus_index;
+  const std::string transport = c.choice_or("transport", "udp", {"socketcan", "udp"});
+  const std::string hal_host = c.string_or("udp_hal_host", "127.0.0.1");
+  const std::string drive_host = c.string_or("udp_drive_host", "127.0.0.1");
+  const long base_port = c.integer_or("udp_base_port", 21000, 1024, 65000);
+  for (const Config& b : c.items("buses")) {
+    BusConfig bc;
+    bc.name = b.string("name");
+    bc.transport = b.choice_or("transport", transport, {"socketcan", "udp"});
+    bc.fd = b.boolean_or("fd", false);
+    if (bc.transport == "socketcan") {
+      bc.interface = b.string_or("interface", bc.name);
+    } else {
+      const long port = base_port + 2 * static_cast<long>(buses.size());
+      bc.local = b.string_or("local", hal_host + ":" + std::to_string(port));
+      bc.remote = b.string_or("remote", drive_host + ":" + std::to_string(port + 1));
+      for (const auto* e : {&bc.local, &bc.remote}) {
+        try {
+          (void)UdpEndpoint::parse(*e);
+        } catch (const std::exception& ex) {
+          throw ConfigError(b.file() + ": " + b.full_key(e == &bc.local ? "local" : "remote") + ": " + ex.what());
+        }
+      }
+    }
+    if (!bus_index.emplace(bc.name, static_cast<int>(buses.size())).second) {
+      throw ConfigError(b.file() + ": " + b.full_key("name") + ": bus '" + bc.name + "' is defined twice");
+    }
+    buses.push_back(bc);
+  }
+  if (buses.empty()) throw ConfigError(c.file() + ": " + c.full_key("buses") + ": no bus configured");
+  return bus_index;
+}
+
+/// The index of the bus named by `where`'s `key`.
+int bus_of(const Config& where, const std::string& key, const std::map<std::string, int>& bus_index) {
+  const std::string name = where.string(key);
+  const auto it = bus_index.find(name);
+  if (it == bus_index.end()) throw ConfigError(where.file() + ": " + where.full_key(key) + ": unknown bus '" + name + "'");
+  return it->second;
+}
+
+/// The joint an entry of `drives` names: a controlled joint's index, or nj + k for the k-th held one.
+int drive_joint(const Config& d, const model::Model& m) {
+  const std::string joint = d.string("joint");
+  for (std::size_t k = 0; k < m.held_joint_name.size(); ++k) {
+    if (m.held_joint_name[k] == joint) return m.nj + static_cast<int>(k);
+  }
+  try {
+    return m.joint_index(joint);
+  } catch (const std::exception&) {
+    throw ConfigError(d.file() + ": " + d.full_key("joint") + ": '" + joint + "' is not a joint of " + m.source);
+  }
+}
+
+/// An entry of `drives` into `dc` (joint `j`): its id, sign, offset, and limits in drive units
+/// (from the joint's limits, the model's or for a held joint the URDF's; a `limits` block overrides).
+void load_drive(const Config& d, int j, const model::RobotSpec& robot, const DriveDefaults& defaults, DriveConfig& dc) {
+  const model::Model& m = robot.model;
+  dc.joint = d.string("joint");
+  dc.joint_index = j;
+  dc.id = static_cast<int>(d.integer("id", 1, MitCodec::kMaxDriveId));
+  const double sign = d.real_or("sign", 1.0);
+  if (sign != 1.0 && sign != -1.0) throw ConfigError(d.file() + ": " + d.full_key("sign") + ": " + std::to_string(sign) + " is not 1 or -1");
+  dc.sign = sign;
+  dc.offset = d.real_or("offset", 0.0, -10.0, 10.0);
+  double q_lower = -1e9, q_upper = 1e9, v_max = 0.0, tau_max = 0.0;
+  if (j < m.nj) {
+    const auto ju = static_cast<std::size_t>(j);
+    q_lower = m.q_lower[ju], q_upper = m.q_upper[ju], v_max = m.v_max[ju], tau_max = m.tau_max[ju];
+  } else {
+    const model::JointDesc& jd = *robot.description.find_joint(dc.joint);
+    dc.held = true;
+    dc.held_q = m.held_q[static_cast<std::size_t>(j - m.nj)];
+    if (jd.has_limits && jd.type != model::JointType::kContinuous) q_lower = jd.lower, q_upper = jd.upper;
+    if (jd.has_limits) v_max = jd.velocity, tau_max = jd.effort;
+  }
+  dc.q_lower = q_lower;
+  dc.q_upper = q_upper;
+  dc.limits = default_limits(defaults, dc, v_max, tau_max);
+  DriveLimits& l = dc.limits;
+  if (d.has("limits")) {
+    const Config lc = d.section("limits");
+    std::tie(l.p_min, l.p_max) = range(lc, "position", l.p_min, l.p_max);
+    std::tie(l.v_min, l.v_max) = range(lc, "velocity", l.v_min, l.v_max);
+    std::tie(l.kp_min, l.kp_max) = range(lc, "kp", l.kp_min, l.kp_max);
+    std::tie(l.kd_min, l.kd_max) = range(lc, "kd", l.kd_min, l.kd_max);
+    std::tie(l.t_min, l.t_max) = range(lc, "torque", l.t_min, l.t_max);
+    if (l.kp_min != 0.0 || l.kd_min != 0.0) throw ConfigError(lc.file() + ": " + lc.full_key("kp") + ": gain ranges must start at 0");
+  }
+}
+
 }  // namespace
 
 HalConfig HalConfig::load(const Config& c, const model::RobotSpec& robot) {
@@ -49,103 +144,24 @@ HalConfig HalConfig::load(const Config& c, const model::RobotSpec& robot) {
     h.safety.torque_off_after = s.real_or("torque_off_after", h.safety.torque_off_after, 0.0, 60.0);
     h.safety.missed_replies_fault = static_cast<int>(s.integer_or("missed_replies_fault", h.safety.missed_replies_fault, 1, 1000));
   }
-  std::map<std::string, int> bus_index;
-  // Transport defaults for every bus: `transport`, and for udp the hosts and a base port (bus b:
-  // hal at base + 2b, the drives' side at base + 2b + 1) unless a bus gives `local` and `remote`.
-  const std::string transport = c.choice_or("transport", "udp", {"socketcan", "udp"});
-  const std::string hal_host = c.string_or("udp_hal_host", "127.0.0.1");
-  const std::string drive_host = c.string_or("udp_drive_host", "127.0.0.1");
-  const long base_port = c.integer_or("udp_base_port", 21000, 1024, 65000);
-  for (const Config& b : c.items("buses")) {
-    BusConfig bc;
-    bc.name = b.string("name");
-    bc.transport = b.choice_or("transport", transport, {"socketcan", "udp"});
-    bc.fd = b.boolean_or("fd", false);
-    if (bc.transport == "socketcan") {
-      bc.interface = b.string_or("interface", bc.name);
-    } else {
-      const long port = base_port + 2 * static_cast<long>(h.buses.size());
-      bc.local = b.string_or("local", hal_host + ":" + std::to_string(port));
-      bc.remote = b.string_or("remote", drive_host + ":" + std::to_string(port + 1));
-      for (const auto* e : {&bc.local, &bc.remote}) {
-        try {
-          (void)UdpEndpoint::parse(*e);
-        } catch (const std::exception& ex) {
-          throw ConfigError(b.file() + ": " + b.full_key(e == &bc.local ? "local" : "remote") + ": " + ex.what());
-        }
-      }
-    }
-    if (!bus_index.emplace(bc.name, static_cast<int>(h.buses.size())).second) {
-      throw ConfigError(b.file() + ": " + b.full_key("name") + ": bus '" + bc.name + "' is defined twice");
-    }
-    h.buses.push_back(bc);
-  }
-  if (h.buses.empty()) throw ConfigError(c.file() + ": " + c.full_key("buses") + ": no bus configured");
-  auto bus_of = [&](const Config& where, const std::string& key) {
-    const std::string name = where.string(key);
-    const auto it = bus_index.find(name);
-    if (it == bus_index.end()) throw ConfigError(where.file() + ": " + where.full_key(key) + ": unknown bus '" + name + "'");
-    return it->second;
-  };
-  if (c.has("sensors")) h.sensor_bus = bus_of(c.section("sensors"), "bus");
+  const std::map<std::string, int> bus_index = load_buses(c, h.buses);
+  if (c.has("sensors")) h.sensor_bus = bus_of(c.section("sensors"), "bus", bus_index);
 
   const DriveDefaults defaults = DriveDefaults::load(c.has("drive_defaults") ? c.section("drive_defaults") : c);
-
   h.controlled = m.nj;
   h.drives.assign(static_cast<std::size_t>(m.nj) + m.held_joint_name.size(), DriveConfig{});
   std::set<std::pair<int, int>> ids;
   for (const Config& d : c.items("drives")) {
-    const std::string joint = d.string("joint");
-    int j = -1;
-    for (std::size_t k = 0; k < m.held_joint_name.size(); ++k) {
-      if (m.held_joint_name[k] == joint) j = m.nj + static_cast<int>(k);
-    }
-    if (j < 0) {
-      try {
-        j = m.joint_index(joint);
-      } catch (const std::exception&) {
-        throw ConfigError(d.file() + ": " + d.full_key("joint") + ": '" + joint + "' is not a joint of " + m.source);
-      }
-    }
+    const int j = drive_joint(d, m);
     DriveConfig& dc = h.drives[static_cast<std::size_t>(j)];
-    if (dc.joint_index >= 0) throw ConfigError(d.file() + ": " + d.full_key("joint") + ": joint '" + joint + "' is mapped twice");
-    dc.joint = joint;
-    dc.joint_index = j;
-    dc.bus = bus_of(d, "bus");
-    dc.id = static_cast<int>(d.integer("id", 1, MitCodec::kMaxDriveId));
+    if (dc.joint_index >= 0) {
+      throw ConfigError(d.file() + ": " + d.full_key("joint") + ": joint '" + d.string("joint") + "' is mapped twice");
+    }
+    dc.bus = bus_of(d, "bus", bus_index);
+    load_drive(d, j, robot, defaults, dc);
     if (!ids.emplace(dc.bus, dc.id).second) {
       throw ConfigError(d.file() + ": " + d.full_key("id") + ": drive id " + std::to_string(dc.id) + " is used twice on bus '" +
                         h.buses[static_cast<std::size_t>(dc.bus)].name + "'");
-    }
-    const double sign = d.real_or("sign", 1.0);
-    if (sign != 1.0 && sign != -1.0) throw ConfigError(d.file() + ": " + d.full_key("sign") + ": " + std::to_string(sign) + " is not 1 or -1");
-    dc.sign = sign;
-    dc.offset = d.real_or("offset", 0.0, -10.0, 10.0);
-    // The joint's limits: the model's, or for a held joint the URDF's.
-    double q_lower = -1e9, q_upper = 1e9, v_max = 0.0, tau_max = 0.0;
-    if (j < m.nj) {
-      const auto ju = static_cast<std::size_t>(j);
-      q_lower = m.q_lower[ju], q_upper = m.q_upper[ju], v_max = m.v_max[ju], tau_max = m.tau_max[ju];
-    } else {
-      const model::JointDesc& jd = *robot.description.find_joint(joint);
-      dc.held = true;
-      dc.held_q = m.held_q[static_cast<std::size_t>(j - m.nj)];
-      if (jd.has_limits && jd.type != model::JointType::kContinuous) q_lower = jd.lower, q_upper = jd.upper;
-      if (jd.has_limits) v_max = jd.velocity, tau_max = jd.effort;
-    }
-    dc.q_lower = q_lower;
-    dc.q_upper = q_upper;
-    // Scaling defaults from the URDF limits, in drive units; the `limits` block overrides.
-    dc.limits = default_limits(defaults, dc, v_max, tau_max);
-    DriveLimits& l = dc.limits;
-    if (d.has("limits")) {
-      const Config lc = d.section("limits");
-      std::tie(l.p_min, l.p_max) = range(lc, "position", l.p_min, l.p_max);
-      std::tie(l.v_min, l.v_max) = range(lc, "velocity", l.v_min, l.v_max);
-      std::tie(l.kp_min, l.kp_max) = range(lc, "kp", l.kp_min, l.kp_max);
-      std::tie(l.kd_min, l.kd_max) = range(lc, "kd", l.kd_min, l.kd_max);
-      std::tie(l.t_min, l.t_max) = range(lc, "torque", l.t_min, l.t_max);
-      if (l.kp_min != 0.0 || l.kd_min != 0.0) throw ConfigError(lc.file() + ": " + lc.full_key("kp") + ": gain ranges must start at 0");
     }
   }
   for (std::size_t j = 0; j < h.drives.size(); ++j) {

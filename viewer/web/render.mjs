@@ -41,6 +41,7 @@ async function main() {
   page.on('console', (m) => { if (m.type() === 'error') errors.push(m.text()); });
   const q = new URLSearchParams({ render: '1', width: String(w), height: String(h) });
   if (o.label) q.set('label', o.label);
+  page.setDefaultTimeout(120000);  // a loaded machine may take more than the default 30 s to load the page
   await page.goto(`${o.url}?${q}`);
   await page.evaluate(() => window.hpr.ready);
   if (errors.length) throw new Error(`the page reported: ${errors.join('; ')}`);

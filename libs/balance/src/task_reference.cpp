@@ -203,443 +203,21 @@ void PostureReference::begin_stage(Stage s, double t) {
   }
 }
 
-std::array<Sole, 2> PostureReference::soles() const {
-  std::array<Sole, 2> s;
-  for (size_t k = 0; k < 2; ++k) {
-    const model::SE3& X = ground_soles_[k];
-    s[k] = {X.p.head<2>(), std::atan2(X.R(1, 0), X.R(0, 0)), 0.5 * robot_->feet[k].length, 0.5 * robot_->feet[k].width};
-  }
-  return s;
-}
-
-void PostureReference::check_step(double t, const EstimatedState& state) {
-  const auto sole = soles();
-  // After a step the trailing foot follows when it stays nearly unloaded (the DCM came to rest
-  // over the landed foot): a sole that carries almost nothing cannot hold the leg's torques.
-  bool follow = false;
-  if (stage_ != Stage::kHold && last_swing_ >= 0) {
-    const auto trailing = static_cast<size_t>(1 - last_swing_);
-    const double fz = state.foot_force_z[0] + state.foot_force_z[1];
-    const double share = fz > 0 ? state.foot_force_z[trailing] / fz : 0.0;
-    if (share >= config_.step.follow_load) {
-      unloaded_since_ = -1.0;
-    } else if (unloaded_since_ < 0.0) {
-      unloaded_since_ = t;
-    }
-    follow = unloaded_since_ >= 0.0 && t - unloaded_since_ >= config_.step.follow_delay;
-  }
-  const bool needed = excess_ > 0.0;  // update() computed it this tick, for these soles and ξ
-  if (!follow && !needed) return;
-  int swing = -1;
-  if (stage_ == Stage::kHold || last_swing_ < 0) {
-    const double fz = state.foot_force_z[0] + state.foot_force_z[1];
-    const std::array<double, 2> load = fz > 0 ? std::array<double, 2>{state.foot_force_z[0] / fz, state.foot_force_z[1] / fz}
-                                              : std::array<double, 2>{0.5, 0.5};
-    swing = planner_.choose_swing(sole, xi_, load);
-  } else {
-    swing = 1 - last_swing_;  // still settling from a step: the trailing foot follows
-  }
-  const StepPlan plan = planner_.plan(sole, swing, xi_, omega_);
-  // No landing within reach on the declared ground: no step; the ankle and hip strategies do what
-  // they can.
-  if (!plan.placeable) return;
-  step_ = plan;
-  begin_step(t);
-  if (!needed) ++follow_steps_;
-}
-
-void PostureReference::begin_step(double t) {
-  if (!stepped_ && stage_ == Stage::kHold) {
-    drop_start_ = t;
-    drop_z0_ = ref_.p_com.z();
-    // Backwards: the landing behind the stance sole (x < 0 in its frame).
-    const bool backward = soles()[static_cast<size_t>(1 - step_.swing)].to_local(step_.target).x() < 0.0;
-    drop_ = backward ? config_.step.com_drop_backward : config_.step.com_drop;
-  }
-  moving_foot_ = step_.swing;
-  last_swing_ = step_.swing;
-  step_start_ = t;
-  swing_time_ = std::max(step_.duration - config_.step.unload_time, 0.05);
-  ++steps_taken_;
-  begin_stage(Stage::kStepUnload, t);
-}
-
-void PostureReference::follow_lip(const EstimatedState& state, const Eigen::Vector2d& p) {
-  p_hold_ = p;
-  // The measured CoM as the reference (no spring pulls it back), accelerating as the LIP does with
-  // the CMP at p: the wbc's CoM wrench then puts the CoP there. The height is held.
-  ref_.p_com.head<2>() = state.p_com.head<2>();
-  ref_.v_com.head<2>() = state.v_com.head<2>();
-  ref_.a_com.head<2>() = omega_ * omega_ * (state.p_com.head<2>() - p);
-  // The height sinks by com_drop (com_drop_backward) over drop_time from the first step on: bent
-  // knees reach further.
-  const double z1 = com_target(Support::kDouble).z() - drop_;
-  const double T = std::max(config_.step.drop_time, 1e-3);
-  const Vector3d sz = quintic((state.time - drop_start_) / T);
-  ref_.p_com.z() = drop_z0_ + sz(0) * (z1 - drop_z0_);
-  ref_.v_com.z() = sz(1) / T * (z1 - drop_z0_);
-  ref_.a_com.z() = sz(2) / (T * T) * (z1 - drop_z0_);
-}
-
-bool PostureReference::settle_dcm(const EstimatedState& state) {
-  // DCM regulation: ξ̇ = ω (ξ − p) and p = ξ + (k/ω)(ξ − ξ_d) give ξ̇ = −k (ξ − ξ_d); p kept
-  // cop_margin inside the support.
-  const Eigen::Vector2d c = state.p_com.head<2>(), cd = state.v_com.head<2>();
-  const Eigen::Vector2d xi = balance::capture_point(c, cd, omega_);
-  const Eigen::Vector2d xi_d = com1_.head<2>();
-  const Eigen::Vector2d p_want = xi + config_.step.settle_gain / omega_ * (xi - xi_d);
-  Eigen::Vector2d p = support_point(soles(), {true, true}, p_want, config_.step.cop_margin);
-  // The load moves from the stance foot to the landed one over transfer_time: the CMP starts where
-  // the swing held it.
-  const double T = config_.step.transfer_time;
-  if (T > 0.0 && state.time - land_time_ < T) {
-    const double sb = quintic((state.time - land_time_) / T)(0);
-    p = p_hold_ + sb * (p - p_hold_);
-  }
-  follow_lip(state, p);
-  return (xi - xi_d).norm() < 0.01 && cd.norm() < 0.03;
-}
-
-void PostureReference::begin_recover(double t, const EstimatedState* state) {
-  com0_ = ref_.p_com;
-  com_v0_ = ref_.v_com;
-  if (state != nullptr) {
-    com0_.head<2>() = state->p_com.head<2>();
-    com_v0_.head<2>() = state->v_com.head<2>();
-  }
-  com_v0_.z() = 0.0;
-  stage_ = Stage::kStepRecover;
-  stage_start_ = t;
-}
-
-void PostureReference::ramp_landing_load(double since_touchdown) {
-  const double Tl = config_.step.landing_load_time;
-  for (auto& f : ref_.feet) {
-    f.load_limit = Tl > 0 ? std::max(f.load_limit, std::min(1.0, config_.unloaded_fraction + since_touchdown / Tl)) : 1.0;
-  }
-}
-
-model::SE3 PostureReference::measured_sole(const EstimatedState& state, int foot) {
-  const auto fu = static_cast<size_t>(foot);
-  if (state.q.size() != robot_->model.nq) return ground_soles_[fu];
-  model::forward_kinematics(robot_->model, *fk_, state.q);
-  return model::update_frame_placement(robot_->model, *fk_, robot_->feet[fu].sole_frame);
-}
-
-void PostureReference::update_swing(double t, const EstimatedState* state) {
-  const auto mu = static_cast<size_t>(moving_foot_);
-  const double tau_s = (t - swing_start_) / swing_time_;
-  const double remaining = swing_start_ + swing_time_ - t;
-  const double dt = std::max(t - last_t_, 0.0);
-  if (state != nullptr && tau_s < config_.step.replan_fraction && remaining > config_.step.replan_min_time) {
-    // The landing follows the capture point, at most target_rate fast (the estimate is noisy).
-    const StepPlan p = planner_.plan_landing(soles(), moving_foot_, xi_, omega_, remaining);
-    // (A stance sole that slid may leave no landing on the declared ground: the last one stays.)
-    const Eigen::Vector2d d = p.placeable ? Eigen::Vector2d(p.target - step_.target) : Eigen::Vector2d::Zero();
-    const double max_d = config_.step.target_rate * dt;
-    step_.target += d.norm() > max_d ? Eigen::Vector2d(d * (max_d / d.norm())) : d;
-    step_.xi_touchdown = p.xi_touchdown;
-    step_.reachable = p.reachable;
-  }
-  // Horizontal: a quintic from the reference's own motion to the landing, re-drawn each tick.
-  for (int i = 0; i < 2; ++i) {
-    const Vector3d s = quintic_to_rest(swing_p_(i), swing_v_(i), swing_a_(i), step_.target(i), remaining + dt, dt);
-    swing_p_(i) = s(0);
-    swing_v_(i) = s(1);
-    swing_a_(i) = s(2);
-  }
-  // Vertical: 64 τ³ (1 − τ)³ of the swing height, zero velocity and acceleration at lift-off and
-  // at the planned touchdown, aimed touchdown_depth below the ground (the impedance's lag would
-  // otherwise hold the sole above it); past the planned touchdown (the sole not yet loaded) the
-  // reference goes on down at kProbeSpeed until the foot's sensor reports the ground.
-  constexpr double kProbeSpeed = 0.3;  // [m/s]
-  const double h = config_.step.swing_height, T = swing_time_, depth = config_.step.touchdown_depth;
-  const double tc = std::clamp(tau_s, 0.0, 1.0), u = 1.0 - tc;
-  const Vector3d sink = quintic(tc);  // from the lift-off height to touchdown_depth below the ground
-  const double dz = swing_z0_ + depth;
-  swing_p_(2) = ground_soles_[mu].p.z() + 64 * h * tc * tc * tc * u * u * u + swing_z0_ - dz * sink(0);
-  swing_v_(2) = 64 * h * 3 * tc * tc * u * u * (u - tc) / T - dz * sink(1) / T;
-  swing_a_(2) = 64 * h * 6 * tc * u * (u * u - 3 * tc * u + tc * tc) / (T * T) - dz * sink(2) / (T * T);
-  if (tau_s > 1.0) {
-    swing_p_(2) = ground_soles_[mu].p.z() - depth - kProbeSpeed * (tau_s - 1.0) * T;
-    swing_v_(2) = -kProbeSpeed;
-    swing_a_(2) = 0.0;
-  }
-  // Orientation: from the sole's at lift-off to the ground's, a quintic blend on SO(3).
-  const Vector3d phi = model::log3(swing_R0_.transpose() * ground_soles_[mu].R);
-  const Vector3d so = quintic(std::min(tc, 1.0));
-  FootReference& f = ref_.feet[mu];
-  f.contact = false;
-  f.X_WS.R = swing_R0_ * model::exp3(so(0) * phi);
-  f.X_WS.p = swing_p_;
-  f.twist.setZero();
-  f.accel.setZero();
-  f.twist.head<3>() = swing_v_;
-  f.accel.head<3>() = swing_a_;
-  f.twist.tail<3>() = swing_R0_ * phi * (so(1) / T);
-  f.accel.tail<3>() = swing_R0_ * phi * (so(2) / (T * T));
-}
-
-void PostureReference::land(double t, const EstimatedState* state) {
-  const auto mu = static_cast<size_t>(moving_foot_);
-  ground_soles_[mu].p.head<2>() = swing_p_.head<2>();
-  FootReference& f = ref_.feet[mu];
-  f.contact = true;
-  f.load_limit = config_.unloaded_fraction;
-  f.X_WS = ground_soles_[mu];
-  f.twist.setZero();
-  f.accel.setZero();
-  com1_ = com_target(Support::kDouble);
-  current_ = Support::kDouble;
-  ref_.support = Support::kDouble;
-  step_.swing = -1;
-  land_time_ = t;
-  stepped_ = true;
-  unloaded_since_ = -1.0;
-  if (state != nullptr) {
-    stage_ = Stage::kStepSettle;
-    stage_start_ = t;
-  } else {
-    begin_recover(t, state);
-  }
-}
-
-void PostureReference::observe_external_force(double t, const EstimatedState& state) {
-  // The horizontal external force by a momentum observer (no differentiation):
-  // F̂ = K (m ċ − m ċ_0 − ∫ (Σ f_ground + F̂) dt), a first-order estimate of m c̈ − Σ f_ground
-  // with time constant 1/K.
-  const Eigen::Vector2d v = state.v_com.head<2>();
-  const double m = robot_->model.mass;
-  // The ground's force on the feet in contact only: the sensor of a foot in the air reads that
-  // foot's own inertia (tens of newtons while it swings), which is no ground force.
-  Eigen::Vector2d f_ground = Eigen::Vector2d::Zero();
-  for (size_t k = 0; k < 2; ++k) {
-    if (state.contact[k]) f_ground += state.foot_wrench_W[k].head<2>();
-  }
-  const double dt = t - t_prev_state_;
-  const bool running = t_prev_state_ >= 0.0 && dt > 0.0 && dt < 0.1;
-  if (running) {
-    momentum_integral_ += (f_ground + f_ext_) * dt;
-    f_ext_ = (m * (v - v_prev_) - momentum_integral_) / config_.step.force_filter;
-  }
-  // The observer's start, and its restart after a sensor's NaN (the compensation with it).
-  if (!running || !f_ext_.allFinite()) {
-    if (!f_ext_.allFinite()) f_comp_.setZero();
-    v_prev_ = v;
-    momentum_integral_.setZero();
-    f_ext_.setZero();
-  } else if (config_.push_compensation.enabled) {
-    f_comp_ += std::min(1.0, dt / config_.push_compensation.filter) * (f_ext_ - f_comp_);
-    const double n = f_comp_.norm(), f_max = config_.push_compensation.max_force;
-    if (n > f_max) f_comp_ *= f_max / n;
-  }
-  // When the push began: |F̂| last rose above push_onset (a restart above sets F̂ to zero).
-  if (f_ext_.norm() < config_.step.push_onset) {
-    push_start_ = -1.0;
-  } else if (push_start_ < 0.0) {
-    push_start_ = t;
-  }
-  t_prev_state_ = t;
-}
-
 const TaskReference& PostureReference::update(double t, const EstimatedState* state) {
   ref_.time = t;
-  if (state != nullptr && (config_.stepping.enabled || config_.push_compensation.enabled) && omega_ > 0.0) {
-    observe_external_force(t, *state);
-  }
-  if (state != nullptr && config_.stepping.enabled && omega_ > 0.0) {
-    const Eigen::Vector2d v = state->v_com.head<2>();
-    const double m = robot_->model.mass;
-    // The external force counts until the first touchdown of a series of steps: after it, the
-    // impacts of the landing feet and their sensors' transients are no push. How long it will
-    // last is not known: it is taken to last push_duration_ratio times as long again as it has.
-    const double t_pushed = push_start_ < 0.0 ? 0.0 : t - push_start_;
-    xi_ = balance::capture_point(state->p_com.head<2>(), v, omega_);
-    if (!stepped_) xi_ += balance::push_shift(f_ext_, m, omega_, config_.step.push_duration_ratio * t_pushed);
-    // The base's lean from its standing orientation: the horizontal part of its z axis, from
-    // q = (p, quat (x, y, z, w), ...), less that of the standing base's.
-    const Eigen::Vector4d quat = state->q.segment<4>(3);
-    lean_ = 2.0 * Eigen::Vector2d(quat(0) * quat(2) + quat(3) * quat(1), quat(1) * quat(2) - quat(3) * quat(0)) -
-            R1_.col(2).head<2>();
-    excess_ = planner_.excess(soles(), {true, true}, xi_, lean_);
-  }
-  if (state != nullptr && config_.stepping.enabled && target_ == Support::kDouble && current_ == Support::kDouble &&
-      (stage_ == Stage::kHold || ((stage_ == Stage::kStepSettle || stage_ == Stage::kStepRecover) &&
-                                  t - stage_start_ > 2 * config_.step.landing_load_time))) {
-    check_step(t, *state);
-  }
+  if (state != nullptr) observe(t, *state);
   const double elapsed = t - stage_start_;
-  auto blend_com = [&](double duration) {
-    const Vector3d s = quintic(elapsed / duration);
-    ref_.p_com = com0_ + s(0) * (com1_ - com0_);
-    ref_.v_com = s(1) / duration * (com1_ - com0_);
-    ref_.a_com = s(2) / (duration * duration) * (com1_ - com0_);
-    return s(0) >= 1.0;
-  };
   switch (stage_) {
-    case Stage::kInit: {
-      const double T = config_.init_time;
-      const Vector3d s = quintic(elapsed / T);
-      blend_com(T);
-      const Vector3d phi = model::log3(R0_.transpose() * R1_);
-      ref_.R_base = R0_ * model::exp3(s(0) * phi);
-      ref_.omega_base = R0_ * phi * (s(1) / T);
-      ref_.omegadot_base = R0_ * phi * (s(2) / (T * T));
-      ref_.q_free = qf0_ + s(0) * (qf1_ - qf0_);
-      ref_.qd_free = s(1) / T * (qf1_ - qf0_);
-      ref_.qdd_free = s(2) / (T * T) * (qf1_ - qf0_);
-      ref_.settled = false;
-      if (s(0) >= 1.0) {
-        ref_.R_base = R1_;
-        ref_.omega_base.setZero();
-        ref_.omegadot_base.setZero();
-        stage_ = Stage::kHold;
-        stage_start_ = t;
-        if (target_ != current_) begin_stage(Stage::kShift, t);
-      }
-      break;
-    }
-    case Stage::kHold:
-      ref_.v_com.setZero();
-      ref_.a_com.setZero();
-      // The push's feedforward (push_compensation): none without an estimate to observe it in, nor
-      // after a step until the robot is at rest (the landings' impacts are no push).
-      if (config_.push_compensation.enabled && state != nullptr && !stepped_) ref_.a_com.head<2>() = -f_comp_ / robot_->model.mass;
-      ref_.qd_free.setZero();
-      ref_.qdd_free.setZero();
-      ref_.settled = true;
-      break;
-    case Stage::kShift: {
-      const auto mu = static_cast<size_t>(moving_foot_);
-      const bool done = blend_com(config_.shift_time);
-      const double s = quintic(elapsed / config_.shift_time)(0);
-      ref_.feet[mu].load_limit = 1.0 - s * (1.0 - config_.unloaded_fraction);
-      ref_.settled = false;
-      if (done) begin_stage(Stage::kLift, t);
-      break;
-    }
+    case Stage::kInit: stage_init(t, elapsed); break;
+    case Stage::kHold: stage_hold(state); break;
+    case Stage::kShift: stage_shift(t, elapsed); break;
     case Stage::kLift:
-    case Stage::kLower: {
-      const auto mu = static_cast<size_t>(moving_foot_);
-      const double T = config_.lift_time;
-      Vector3d s = quintic(elapsed / T);
-      const double dir = stage_ == Stage::kLift ? 1.0 : -1.0;
-      const double z0 = ground_soles_[mu].p.z() + (stage_ == Stage::kLift ? 0.0 : config_.lift_height);
-      FootReference& f = ref_.feet[mu];
-      f.contact = false;
-      f.X_WS = ground_soles_[mu];
-      f.X_WS.p.z() = z0 + dir * config_.lift_height * s(0);
-      f.twist.setZero();
-      f.accel.setZero();
-      f.twist(2) = dir * config_.lift_height * s(1) / T;
-      f.accel(2) = dir * config_.lift_height * s(2) / (T * T);
-      ref_.v_com.setZero();
-      ref_.a_com.setZero();
-      ref_.settled = false;
-      if (s(0) >= 1.0) {
-        f.twist.setZero();
-        f.accel.setZero();
-        if (stage_ == Stage::kLift) {
-          current_ = target_;
-          ref_.support = current_;
-          stage_ = Stage::kHold;
-          stage_start_ = t;
-        } else {
-          f.contact = true;
-          f.load_limit = config_.unloaded_fraction;
-          f.X_WS = ground_soles_[mu];
-          begin_stage(Stage::kShiftBack, t);
-        }
-      }
-      break;
-    }
-    case Stage::kShiftBack: {
-      const auto mu = static_cast<size_t>(moving_foot_);
-      const bool done = blend_com(config_.shift_time);
-      const double s = quintic(elapsed / config_.shift_time)(0);
-      ref_.feet[mu].load_limit = config_.unloaded_fraction + s * (1.0 - config_.unloaded_fraction);
-      ref_.support = Support::kDouble;
-      ref_.settled = false;
-      if (done) {
-        current_ = Support::kDouble;
-        stage_ = Stage::kHold;
-        stage_start_ = t;
-        if (target_ != current_) begin_stage(Stage::kShift, t);
-      }
-      break;
-    }
-    case Stage::kStepUnload: {
-      // Both feet still on the ground; the swing foot's load limit falls to the unloaded fraction.
-      const auto mu = static_cast<size_t>(moving_foot_);
-      const double T = std::max(config_.step.unload_time, 1e-9);
-      ref_.feet[mu].load_limit = 1.0 - std::min(elapsed / T, 1.0) * (1.0 - config_.unloaded_fraction);
-      if (state != nullptr) {
-        const std::array<bool, 2> stance{moving_foot_ != model::kRight, moving_foot_ != model::kLeft};
-        follow_lip(*state, support_point(soles(), stance, xi_, config_.step.cop_margin));
-      }
-      ref_.support = Support::kDouble;
-      ref_.settled = false;
-      if (elapsed >= config_.step.unload_time) {
-        stage_ = Stage::kStepSwing;
-        stage_start_ = t;
-        swing_start_ = t;
-        // The swing starts from the sole as it is (a trailing sole may have rolled onto its toe).
-        const model::SE3 X = state != nullptr ? measured_sole(*state, moving_foot_) : ground_soles_[mu];
-        swing_R0_ = X.R;
-        swing_p_ = X.p;
-        swing_z0_ = swing_p_.z() - ground_soles_[mu].p.z();
-        swing_v_.setZero();
-        swing_a_.setZero();
-        ref_.support = moving_foot_ == model::kRight ? Support::kLeft : Support::kRight;
-        update_swing(t, state);
-      }
-      break;
-    }
-    case Stage::kStepSwing: {
-      ref_.support = moving_foot_ == model::kRight ? Support::kLeft : Support::kRight;
-      ref_.settled = false;
-      if (state != nullptr) {
-        // The CMP on the stance sole nearest the capture point: the ankle strategy slows ξ as much
-        // as the sole allows.
-        const std::array<bool, 2> stance{moving_foot_ != model::kRight, moving_foot_ != model::kLeft};
-        follow_lip(*state, support_point(soles(), stance, xi_, config_.step.cop_margin));
-      }
-      update_swing(t, state);
-      // Touchdown: once the swing is mostly done and the foot's sensor reports the ground; without
-      // a state, at the planned time; at the latest 0.15 s after it.
-      const double tau_s = (t - swing_start_) / swing_time_;
-      const bool touched = state != nullptr && state->contact[static_cast<size_t>(moving_foot_)] && tau_s > 0.6 &&
-                           measured_sole(*state, moving_foot_).p.z() - ground_soles_[static_cast<size_t>(moving_foot_)].p.z() <
-                               config_.step.touchdown_height;
-      if (touched || (state == nullptr && tau_s >= 1.0) || t - swing_start_ >= swing_time_ + 0.15) land(t, state);
-      break;
-    }
-    case Stage::kStepSettle: {
-      ramp_landing_load(t - land_time_);
-      ref_.support = Support::kDouble;
-      ref_.settled = false;
-      const bool settled = state == nullptr || settle_dcm(*state);
-      if (settled || elapsed >= config_.step.settle_time) begin_recover(t, state);
-      break;
-    }
-    case Stage::kStepRecover: {
-      const double T = config_.step.recover_time;
-      for (int i = 0; i < 3; ++i) {
-        const Vector3d s = quintic_to_rest(com0_(i), com_v0_(i), 0.0, com1_(i), T, std::min(elapsed, T));
-        ref_.p_com(i) = s(0);
-        ref_.v_com(i) = s(1);
-        ref_.a_com(i) = s(2);
-      }
-      ramp_landing_load(t - land_time_);
-      ref_.support = Support::kDouble;
-      ref_.settled = false;
-      if (elapsed >= T) {
-        stage_ = Stage::kHold;
-        stage_start_ = t;
-        stepped_ = false;
-      }
-      break;
-    }
+    case Stage::kLower: stage_lift_or_lower(t, elapsed); break;
+    case Stage::kShiftBack: stage_shift_back(t, elapsed); break;
+    case Stage::kStepUnload: stage_step_unload(t, elapsed, state); break;
+    case Stage::kStepSwing: stage_step_swing(t, state); break;
+    case Stage::kStepSettle: stage_step_settle(t, elapsed, state); break;
+    case Stage::kStepRecover: stage_step_recover(t, elapsed); break;
   }
   last_t_ = t;
   if (stage_ == Stage::kHold && target_ != current_) {
@@ -648,17 +226,106 @@ const TaskReference& PostureReference::update(double t, const EstimatedState* st
   // During the shift both feet still carry load; from the lift on the robot is in single support.
   if (stage_ == Stage::kShift) ref_.support = Support::kDouble;
   if (stage_ == Stage::kLift) ref_.support = target_;
-  StepStatus& st = ref_.stepping;
-  st.enabled = config_.stepping.enabled;
-  st.xi_W = xi_;
-  st.excess = excess_;
-  st.swing = step_.swing;
-  st.target_W = step_.target;
-  st.target_yaw = step_.yaw;
-  st.time_left = step_.swing >= 0 ? std::max(step_start_ + config_.step.unload_time + swing_time_ - t, 0.0) : 0.0;
-  st.steps_taken = steps_taken_;
-  st.follow_steps = follow_steps_;
+  report_stepping(t);
   return ref_;
+}
+
+bool PostureReference::blend_com(double elapsed, double duration) {
+  const Vector3d s = quintic(elapsed / duration);
+  ref_.p_com = com0_ + s(0) * (com1_ - com0_);
+  ref_.v_com = s(1) / duration * (com1_ - com0_);
+  ref_.a_com = s(2) / (duration * duration) * (com1_ - com0_);
+  return s(0) >= 1.0;
+}
+
+void PostureReference::stage_init(double t, double elapsed) {
+  const double T = config_.init_time;
+  const Vector3d s = quintic(elapsed / T);
+  blend_com(elapsed, T);
+  const Vector3d phi = model::log3(R0_.transpose() * R1_);
+  ref_.R_base = R0_ * model::exp3(s(0) * phi);
+  ref_.omega_base = R0_ * phi * (s(1) / T);
+  ref_.omegadot_base = R0_ * phi * (s(2) / (T * T));
+  ref_.q_free = qf0_ + s(0) * (qf1_ - qf0_);
+  ref_.qd_free = s(1) / T * (qf1_ - qf0_);
+  ref_.qdd_free = s(2) / (T * T) * (qf1_ - qf0_);
+  ref_.settled = false;
+  if (s(0) >= 1.0) {
+    ref_.R_base = R1_;
+    ref_.omega_base.setZero();
+    ref_.omegadot_base.setZero();
+    stage_ = Stage::kHold;
+    stage_start_ = t;
+    if (target_ != current_) begin_stage(Stage::kShift, t);
+  }
+}
+
+void PostureReference::stage_hold(const EstimatedState* state) {
+  ref_.v_com.setZero();
+  ref_.a_com.setZero();
+  // The push's feedforward (push_compensation): none without an estimate to observe it in, nor
+  // after a step until the robot is at rest (the landings' impacts are no push).
+  if (config_.push_compensation.enabled && state != nullptr && !stepped_) ref_.a_com.head<2>() = -f_comp_ / robot_->model.mass;
+  ref_.qd_free.setZero();
+  ref_.qdd_free.setZero();
+  ref_.settled = true;
+}
+
+void PostureReference::stage_shift(double t, double elapsed) {
+  const auto mu = static_cast<size_t>(moving_foot_);
+  const bool done = blend_com(elapsed, config_.shift_time);
+  const double s = quintic(elapsed / config_.shift_time)(0);
+  ref_.feet[mu].load_limit = 1.0 - s * (1.0 - config_.unloaded_fraction);
+  ref_.settled = false;
+  if (done) begin_stage(Stage::kLift, t);
+}
+
+void PostureReference::stage_lift_or_lower(double t, double elapsed) {
+  const auto mu = static_cast<size_t>(moving_foot_);
+  const double T = config_.lift_time;
+  Vector3d s = quintic(elapsed / T);
+  const double dir = stage_ == Stage::kLift ? 1.0 : -1.0;
+  const double z0 = ground_soles_[mu].p.z() + (stage_ == Stage::kLift ? 0.0 : config_.lift_height);
+  FootReference& f = ref_.feet[mu];
+  f.contact = false;
+  f.X_WS = ground_soles_[mu];
+  f.X_WS.p.z() = z0 + dir * config_.lift_height * s(0);
+  f.twist.setZero();
+  f.accel.setZero();
+  f.twist(2) = dir * config_.lift_height * s(1) / T;
+  f.accel(2) = dir * config_.lift_height * s(2) / (T * T);
+  ref_.v_com.setZero();
+  ref_.a_com.setZero();
+  ref_.settled = false;
+  if (!(s(0) >= 1.0)) return;
+  f.twist.setZero();
+  f.accel.setZero();
+  if (stage_ == Stage::kLift) {
+    current_ = target_;
+    ref_.support = current_;
+    stage_ = Stage::kHold;
+    stage_start_ = t;
+  } else {
+    f.contact = true;
+    f.load_limit = config_.unloaded_fraction;
+    f.X_WS = ground_soles_[mu];
+    begin_stage(Stage::kShiftBack, t);
+  }
+}
+
+void PostureReference::stage_shift_back(double t, double elapsed) {
+  const auto mu = static_cast<size_t>(moving_foot_);
+  const bool done = blend_com(elapsed, config_.shift_time);
+  const double s = quintic(elapsed / config_.shift_time)(0);
+  ref_.feet[mu].load_limit = config_.unloaded_fraction + s * (1.0 - config_.unloaded_fraction);
+  ref_.support = Support::kDouble;
+  ref_.settled = false;
+  if (done) {
+    current_ = Support::kDouble;
+    stage_ = Stage::kHold;
+    stage_start_ = t;
+    if (target_ != current_) begin_stage(Stage::kShift, t);
+  }
 }
 
 }  // namespace hpr::balance

@@ -147,6 +147,83 @@ std::vector<std::string> GroupSpec::hosts() const {
   return out;
 }
 
+namespace {
+
+/// Merges the included groups' processes into each group, depth first: a group's own processes
+/// first (the backend, then the shared control processes), an own process replacing an included
+/// one of the same name; a cycle or an unknown group is an error.
+void resolve_includes(GroupsFile& f, const Config& groups, std::map<std::string, std::vector<std::string>>& includes) {
+  std::map<std::string, int> mark;  // 1 visiting, 2 done
+  std::function<void(const std::string&)> resolve = [&](const std::string& gname) {
+    if (mark[gname] == 2) return;
+    const Config g = groups.section(gname);
+    if (mark[gname] == 1) g.fail("include", "groups include each other in a cycle");
+    mark[gname] = 1;
+    std::vector<ProcessSpec> merged;
+    for (const auto& inc : includes[gname]) {
+      if (f.groups.count(inc) == 0) g.fail("include", "no group named '" + inc + "'");
+      resolve(inc);
+      for (const auto& p : f.groups[inc].processes) {
+        if (f.groups[gname].find(p.name) == nullptr &&
+            std::none_of(merged.begin(), merged.end(), [&](const ProcessSpec& m) { return m.name == p.name; })) {
+          merged.push_back(p);
+        }
+      }
+    }
+    auto& own = f.groups[gname].processes;
+    own.insert(own.end(), merged.begin(), merged.end());
+    mark[gname] = 2;
+  };
+  for (const auto& gname : f.names) resolve(gname);
+}
+
+/// A group's overrides apply to every process it runs, its own and the included ones (a lockstep
+/// variant of a group runs the same processes without real-time priorities).
+void apply_group_overrides(GroupsFile& f, const Config& groups) {
+  for (const auto& gname : f.names) {
+    const Config g = groups.section(gname);
+    if (!g.has("overrides")) continue;
+    const Config o = g.section("overrides");
+    o.reject_unknown({"rt_priority", "hung_after"});
+    for (auto& p : f.groups[gname].processes) {
+      if (o.has("rt_priority")) p.rt_priority = static_cast<int>(o.integer("rt_priority", 0, 99));
+      if (o.has("hung_after") && p.hung_after_s > 0) p.hung_after_s = o.real("hung_after", 0.01, 3600.0);
+    }
+  }
+}
+
+/// Dependencies: known names, no cycles; the processes put in start order (stable otherwise).
+void order_by_dependencies(GroupSpec& g, const Config& gc, const std::string& path) {
+  for (const auto& p : g.processes) {
+    for (const auto& d : p.depends_on) {
+      if (g.find(d) == nullptr) {
+        const std::string where = gc.has("processes") && gc.section("processes").has(p.name) ? "" : " (included)";
+        throw ConfigError(path + ": groups." + g.name + ".processes." + p.name + ".depends_on = " + d +
+                          ": no process of that name in the group" + where);
+      }
+    }
+  }
+  std::vector<ProcessSpec> ordered;
+  std::set<std::string> placed;
+  std::vector<ProcessSpec> left = g.processes;
+  while (!left.empty()) {
+    auto it = std::find_if(left.begin(), left.end(), [&](const ProcessSpec& p) {
+      return std::all_of(p.depends_on.begin(), p.depends_on.end(), [&](const std::string& d) { return placed.count(d) != 0; });
+    });
+    if (it == left.end()) {
+      std::string cycle;
+      for (const auto& p : left) cycle += (cycle.empty() ? "" : ", ") + p.name;
+      throw ConfigError(path + ": groups." + g.name + ": depends_on forms a cycle among: " + cycle);
+    }
+    placed.insert(it->name);
+    ordered.push_back(*it);
+    left.erase(it);
+  }
+  g.processes = std::move(ordered);
+}
+
+}  // namespace
+
 GroupsFile GroupsFile::load(const std::string& path, const std::map<std::string, std::string>& overrides) {
   const Config root = Config::load(path);
   root.reject_unknown({"vars", "defaults", "lcm_url", "groups"});
@@ -185,76 +262,9 @@ GroupsFile GroupsFile::load(const std::string& path, const std::map<std::string,
     f.names.push_back(gname);
     f.groups[gname] = std::move(spec);
   }
-  // Includes, depth first; a cycle or an unknown group is an error.
-  std::map<std::string, int> mark;  // 1 visiting, 2 done
-  std::function<void(const std::string&)> resolve = [&](const std::string& gname) {
-    if (mark[gname] == 2) return;
-    const Config g = groups.section(gname);
-    if (mark[gname] == 1) g.fail("include", "groups include each other in a cycle");
-    mark[gname] = 1;
-    std::vector<ProcessSpec> merged;
-    for (const auto& inc : includes[gname]) {
-      if (f.groups.count(inc) == 0) g.fail("include", "no group named '" + inc + "'");
-      resolve(inc);
-      for (const auto& p : f.groups[inc].processes) {
-        if (f.groups[gname].find(p.name) == nullptr &&
-            std::none_of(merged.begin(), merged.end(), [&](const ProcessSpec& m) { return m.name == p.name; })) {
-          merged.push_back(p);
-        }
-      }
-    }
-    // A group's own processes first (the backend, then the shared control processes); an own
-    // process replaces an included one of the same name.
-    auto& own = f.groups[gname].processes;
-    own.insert(own.end(), merged.begin(), merged.end());
-    mark[gname] = 2;
-  };
-  for (const auto& gname : f.names) resolve(gname);
-
-  // A group's overrides apply to every process it runs, its own and the included ones (a lockstep
-  // variant of a group runs the same processes without real-time priorities).
-  for (const auto& gname : f.names) {
-    const Config g = groups.section(gname);
-    if (!g.has("overrides")) continue;
-    const Config o = g.section("overrides");
-    o.reject_unknown({"rt_priority", "hung_after"});
-    for (auto& p : f.groups[gname].processes) {
-      if (o.has("rt_priority")) p.rt_priority = static_cast<int>(o.integer("rt_priority", 0, 99));
-      if (o.has("hung_after") && p.hung_after_s > 0) p.hung_after_s = o.real("hung_after", 0.01, 3600.0);
-    }
-  }
-
-  // Dependencies: known names, no cycles; processes put in start order (stable otherwise).
-  for (const auto& gname : f.names) {
-    GroupSpec& g = f.groups[gname];
-    const Config gc = groups.section(gname);
-    for (const auto& p : g.processes) {
-      for (const auto& d : p.depends_on) {
-        if (g.find(d) == nullptr) {
-          const std::string where = gc.has("processes") && gc.section("processes").has(p.name) ? "" : " (included)";
-          throw ConfigError(f.path + ": groups." + gname + ".processes." + p.name + ".depends_on = " + d +
-                            ": no process of that name in the group" + where);
-        }
-      }
-    }
-    std::vector<ProcessSpec> ordered;
-    std::set<std::string> placed;
-    std::vector<ProcessSpec> left = g.processes;
-    while (!left.empty()) {
-      auto it = std::find_if(left.begin(), left.end(), [&](const ProcessSpec& p) {
-        return std::all_of(p.depends_on.begin(), p.depends_on.end(), [&](const std::string& d) { return placed.count(d) != 0; });
-      });
-      if (it == left.end()) {
-        std::string cycle;
-        for (const auto& p : left) cycle += (cycle.empty() ? "" : ", ") + p.name;
-        throw ConfigError(f.path + ": groups." + gname + ": depends_on forms a cycle among: " + cycle);
-      }
-      placed.insert(it->name);
-      ordered.push_back(*it);
-      left.erase(it);
-    }
-    g.processes = std::move(ordered);
-  }
+  resolve_includes(f, groups, includes);
+  apply_group_overrides(f, groups);
+  for (const auto& gname : f.names) order_by_dependencies(f.groups[gname], groups.section(gname), f.path);
   return f;
 }
 

@@ -40,6 +40,95 @@ std::vector<int> RobotSpec::joints(const std::vector<std::string>& names, const 
   return out;
 }
 
+namespace {
+
+/// A controlled joint needs its limits: the controllers bound torques and velocities by them and the
+/// drives' scaling comes from them (an effort of 0 would silently leave a joint without a motor).
+void check_joint_limits(const RobotSpec& r, const Config& c, const std::string& urdf) {
+  for (int j = 0; j < r.model.nj; ++j) {
+    const auto ju = static_cast<size_t>(j);
+    const model::JointDesc& jd = *r.description.find_joint(r.model.joint_name[ju]);
+    std::string why;
+    if (!jd.has_limits) {
+      why = "has no <limit>";
+    } else if (!(jd.effort > 0.0)) {
+      why = fmt::format("has <limit effort=\"{}\">: a controlled joint needs a positive effort", jd.effort);
+    } else if (!(jd.velocity > 0.0)) {
+      why = fmt::format("has <limit velocity=\"{}\">: a controlled joint needs a positive velocity", jd.velocity);
+    }
+    if (!why.empty()) {
+      c.fail("urdf", fmt::format("{}: joint '{}' {} (hold it with robot.held_joints if the balance controller does not "
+                                 "use it)", urdf, jd.name, why));
+    }
+  }
+}
+
+/// A frame added to the model (a sole, an F/T sensor, the IMU), kept for the models built later.
+int add_frame(RobotSpec& r, const std::string& frame_name, const std::string& link, const SE3& X_LF) {
+  r.added_frames.push_back(AddedFrame{frame_name, link, X_LF});
+  return r.model.add_frame(frame_name, link, X_LF);
+}
+
+/// The feet (`feet.right`, `feet.left`): link, sole, F/T sensor and the six joints of each leg; the
+/// joints that are not the legs' are the free ones.
+void load_feet(RobotSpec& r, const Config& c, const std::string& urdf) {
+  const Config feet = c.section("feet");
+  for (int k = 0; k < 2; ++k) {
+    const std::string side = kFootNames[static_cast<size_t>(k)];
+    const Config f = feet.section(side);
+    FootSpec& fs = r.feet[static_cast<size_t>(k)];
+    fs.link = f.string("link");
+    if (!r.model.has_frame(fs.link)) f.fail("link", fmt::format("no such link in {}", urdf));
+    fs.sole_frame = add_frame(r, side + "_sole", fs.link, pose_from(f, "sole_xyz", "sole_rpy"));
+    const auto size = f.reals("sole_size", 2, 0.01, 1.0);
+    fs.length = size[0];
+    fs.width = size[1];
+    fs.ft_link = f.string_or("ft_link", fs.link);
+    if (!r.model.has_frame(fs.ft_link)) f.fail("ft_link", fmt::format("no such link in {}", urdf));
+    fs.ft_frame = add_frame(r, side + "_ft", fs.ft_link, pose_from(f, "ft_xyz", "ft_rpy"));
+    fs.leg_joints = r.model.support[static_cast<size_t>(r.model.frames[static_cast<size_t>(fs.sole_frame)].body)];
+    if (fs.leg_joints.size() != 6) {
+      f.fail("link", fmt::format("the {} leg has {} joints between the base and the foot; the task Jacobian (2) "
+                                 "needs 6 per leg", side, fs.leg_joints.size()));
+    }
+  }
+  r.leg_joints = r.feet[kRight].leg_joints;
+  r.leg_joints.insert(r.leg_joints.end(), r.feet[kLeft].leg_joints.begin(), r.feet[kLeft].leg_joints.end());
+  for (int j = 0; j < r.model.nj; ++j) {
+    if (std::find(r.leg_joints.begin(), r.leg_joints.end(), j) == r.leg_joints.end()) r.free_joints.push_back(j);
+  }
+}
+
+/// `standing_posture` (within the joints' limits) and `segments` (a held joint moves nothing: it
+/// leaves its segment).
+void load_posture_and_segments(RobotSpec& r, const Config& c) {
+  r.q_joints_stand = Eigen::VectorXd::Zero(r.model.nj);
+  if (c.has("standing_posture")) {
+    const Config s = c.section("standing_posture");
+    for (const auto& key : s.keys()) {
+      const int j = r.joints({key}, s, key).front();
+      const double v = s.real(key);
+      const auto ju = static_cast<size_t>(j);
+      if (v < r.model.q_lower[ju] || v > r.model.q_upper[ju]) {
+        s.fail(key, fmt::format("outside the joint limits [{}, {}]", r.model.q_lower[ju], r.model.q_upper[ju]));
+      }
+      r.q_joints_stand(j) = v;
+    }
+  }
+  if (c.has("segments")) {
+    const Config s = c.section("segments");
+    for (const auto& key : s.keys()) {
+      std::vector<std::string> names;
+      for (const auto& n : s.strings(key)) {
+        if (r.held.count(n) == 0) names.push_back(n);
+      }
+      r.segments[key] = r.joints(names, s, key);
+    }
+  }
+}
+
+}  // namespace
+
 RobotSpec RobotSpec::load(const Config& c) {
   RobotSpec r;
   r.name = c.string("name");
@@ -81,83 +170,13 @@ RobotSpec RobotSpec::load(const Config& c) {
   } catch (const ModelError& e) {
     c.fail("urdf", e.what());
   }
-  // A controlled joint needs its limits: the controllers bound torques and velocities by them and the
-  // drives' scaling comes from them (an effort of 0 would silently leave a joint without a motor).
-  for (int j = 0; j < r.model.nj; ++j) {
-    const auto ju = static_cast<size_t>(j);
-    const model::JointDesc& jd = *r.description.find_joint(r.model.joint_name[ju]);
-    std::string why;
-    if (!jd.has_limits) {
-      why = "has no <limit>";
-    } else if (!(jd.effort > 0.0)) {
-      why = fmt::format("has <limit effort=\"{}\">: a controlled joint needs a positive effort", jd.effort);
-    } else if (!(jd.velocity > 0.0)) {
-      why = fmt::format("has <limit velocity=\"{}\">: a controlled joint needs a positive velocity", jd.velocity);
-    }
-    if (!why.empty()) {
-      c.fail("urdf", fmt::format("{}: joint '{}' {} (hold it with robot.held_joints if the balance controller does not "
-                                 "use it)", urdf, jd.name, why));
-    }
-  }
-  auto add_frame = [&r](const std::string& frame_name, const std::string& link, const SE3& X_LF) {
-    r.added_frames.push_back(AddedFrame{frame_name, link, X_LF});
-    return r.model.add_frame(frame_name, link, X_LF);
-  };
-  const Config feet = c.section("feet");
-  for (int k = 0; k < 2; ++k) {
-    const std::string side = kFootNames[static_cast<size_t>(k)];
-    const Config f = feet.section(side);
-    FootSpec& fs = r.feet[static_cast<size_t>(k)];
-    fs.link = f.string("link");
-    if (!r.model.has_frame(fs.link)) f.fail("link", fmt::format("no such link in {}", urdf));
-    fs.sole_frame = add_frame(side + "_sole", fs.link, pose_from(f, "sole_xyz", "sole_rpy"));
-    const auto size = f.reals("sole_size", 2, 0.01, 1.0);
-    fs.length = size[0];
-    fs.width = size[1];
-    fs.ft_link = f.string_or("ft_link", fs.link);
-    if (!r.model.has_frame(fs.ft_link)) f.fail("ft_link", fmt::format("no such link in {}", urdf));
-    fs.ft_frame = add_frame(side + "_ft", fs.ft_link, pose_from(f, "ft_xyz", "ft_rpy"));
-    fs.leg_joints = r.model.support[static_cast<size_t>(r.model.frames[static_cast<size_t>(fs.sole_frame)].body)];
-    if (fs.leg_joints.size() != 6) {
-      f.fail("link", fmt::format("the {} leg has {} joints between the base and the foot; the task Jacobian (2) "
-                                 "needs 6 per leg", side, fs.leg_joints.size()));
-    }
-  }
-  r.leg_joints = r.feet[kRight].leg_joints;
-  r.leg_joints.insert(r.leg_joints.end(), r.feet[kLeft].leg_joints.begin(), r.feet[kLeft].leg_joints.end());
-  for (int j = 0; j < r.model.nj; ++j) {
-    if (std::find(r.leg_joints.begin(), r.leg_joints.end(), j) == r.leg_joints.end()) r.free_joints.push_back(j);
-  }
-
+  check_joint_limits(r, c, urdf);
+  load_feet(r, c, urdf);
   const Config imu = c.section("imu");
   const std::string imu_link = imu.string("link");
   if (!r.model.has_frame(imu_link)) imu.fail("link", fmt::format("no such link in {}", urdf));
-  r.imu_frame = add_frame("imu", imu_link, pose_from(imu, "xyz", "rpy"));
-
-  r.q_joints_stand = Eigen::VectorXd::Zero(r.model.nj);
-  if (c.has("standing_posture")) {
-    const Config s = c.section("standing_posture");
-    for (const auto& key : s.keys()) {
-      const int j = r.joints({key}, s, key).front();
-      const double v = s.real(key);
-      const auto ju = static_cast<size_t>(j);
-      if (v < r.model.q_lower[ju] || v > r.model.q_upper[ju]) {
-        s.fail(key, fmt::format("outside the joint limits [{}, {}]", r.model.q_lower[ju], r.model.q_upper[ju]));
-      }
-      r.q_joints_stand(j) = v;
-    }
-  }
-  if (c.has("segments")) {
-    const Config s = c.section("segments");
-    // A held joint moves nothing: it leaves its segment.
-    for (const auto& key : s.keys()) {
-      std::vector<std::string> names;
-      for (const auto& n : s.strings(key)) {
-        if (r.held.count(n) == 0) names.push_back(n);
-      }
-      r.segments[key] = r.joints(names, s, key);
-    }
-  }
+  r.imu_frame = add_frame(r, "imu", imu_link, pose_from(imu, "xyz", "rpy"));
+  load_posture_and_segments(r, c);
   return r;
 }
 

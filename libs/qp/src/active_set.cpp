@@ -167,11 +167,23 @@ Status Solver::solve(bool hot, const ConstMatrix& H, const ConstVector& g, const
                      const ConstVector& ub, const ConstVector& lbA, const ConstVector& ubA) {
   changes_ = 0;
   have_best_ = false;
-  const Status v = validate(H, g, A, lb, ub, lbA, ubA);
+  Status v = validate(H, g, A, lb, ub, lbA, ubA);
+  if (v == Status::kOptimal) v = take_data(H, g, A, lb, ub, lbA, ubA);
   if (v != Status::kOptimal) {
     finish(v);
     return v;
   }
+  if (hot && have_previous_ && hot_start_fast_path()) return status_;
+  if (!start_working_set(hot)) {
+    finish(Status::kNotPositiveDefinite);
+    return status_;
+  }
+  finish(iterate());
+  return status_;
+}
+
+Status Solver::take_data(const ConstMatrix& H, const ConstVector& g, const ConstMatrix& A, const ConstVector& lb, const ConstVector& ub,
+                         const ConstVector& lbA, const ConstVector& ubA) {
   // Copy H and A, detect an unchanged H (its factorisation is kept) and check finiteness: a sum is
   // finite exactly when every term is, short of an overflow that is no valid input either. Eigen's
   // sum runs on several SIMD accumulators; a scalar running sum would be one long dependency chain.
@@ -190,9 +202,7 @@ Status Solver::solve(bool hot, const ConstMatrix& H, const ConstVector& g, const
   const bool symmetric = asymmetry <= 1e-12 * hscale;
   if (!std::isfinite(sum) || !symmetric) {
     H_factorized_ = false;
-    const Status bad = !std::isfinite(sum) ? Status::kNonFinite : Status::kNotPositiveDefinite;
-    finish(bad);
-    return bad;
+    return !std::isfinite(sum) ? Status::kNonFinite : Status::kNotPositiveDefinite;
   }
   if (!same_H) H_factorized_ = false;
   g_ = g;
@@ -202,46 +212,46 @@ Status Solver::solve(bool hot, const ConstMatrix& H, const ConstVector& g, const
   ubA_ = ubA;
   kkt_current_ = objective_current_ = false;
   row_norms_current_ = false;
+  return Status::kOptimal;
+}
 
-  // Fast path: most hot starts keep their working set; solve it directly and accept a KKT point.
-  // When the data moved a constraint in or out, a few single changes of the working set, each
-  // solved the same way, usually reach the KKT point at a fraction of a refactorisation.
-  if (hot && have_previous_) {
-    trial_ = previous_active_;
-    constexpr int kRetries = 3;  // each one working-set change, within the cap
-    const int attempts = std::min(kRetries, options_.max_working_set_changes);
-    for (int attempt = 0; attempt <= attempts; ++attempt) {
-      Entry add{};
-      int drop = -1;
-      const FastPath r = try_working_set(trial_, &add, &drop);
-      if (r == FastPath::kOptimal) {
-        changes_ = attempt;
-        previous_active_ = active_;
-        status_ = Status::kOptimal;
-        primal_feasible_ = true;
-        prev_x_ = x_;
-        return status_;
-      }
-      if (r == FastPath::kFailed) break;
-      if (r == FastPath::kAdd) {
-        if (static_cast<int>(trial_.size()) >= n_) break;
-        trial_.push_back(add);
-      } else {
-        trial_.erase(trial_.begin() + drop);
-      }
+bool Solver::hot_start_fast_path() {
+  // Most hot starts keep their working set; solve it directly and accept a KKT point. When the data
+  // moved a constraint in or out, a few single changes of the working set, each solved the same
+  // way, usually reach the KKT point at a fraction of a refactorisation.
+  trial_ = previous_active_;
+  constexpr int kRetries = 3;  // each one working-set change, within the cap
+  const int attempts = std::min(kRetries, options_.max_working_set_changes);
+  for (int attempt = 0; attempt <= attempts; ++attempt) {
+    Entry add{};
+    int drop = -1;
+    const FastPath r = try_working_set(trial_, &add, &drop);
+    if (r == FastPath::kOptimal) {
+      changes_ = attempt;
+      previous_active_ = active_;
+      status_ = Status::kOptimal;
+      primal_feasible_ = true;
+      prev_x_ = x_;
+      return true;
+    }
+    if (r == FastPath::kFailed) break;
+    if (r == FastPath::kAdd) {
+      if (static_cast<int>(trial_.size()) >= n_) break;
+      trial_.push_back(add);
+    } else {
+      trial_.erase(trial_.begin() + drop);
     }
   }
+  return false;
+}
 
+bool Solver::start_working_set(bool hot) {
   if (!H_factorized_) {
     H_factorized_ = factorize();
-    if (!H_factorized_) {
-      finish(Status::kNotPositiveDefinite);
-      return status_;
-    }
+    if (!H_factorized_) return false;
   } else {
     J_ = J0_;
   }
-
   active_.clear();
   // Equalities first; they never leave.
   for (int c = 0; c < n_ + m_; ++c) {
@@ -256,45 +266,38 @@ Status Solver::solve(bool hot, const ConstMatrix& H, const ConstVector& g, const
   }
   solve_working_set();
   detail::mark(active_, n_, bound_state_, constraint_state_);
+  return true;
+}
 
-  auto dual_ok = [&]() {
-    const double scale = std::max(1.0, grad_.cwiseAbs().maxCoeff());
-    int worst = -1;
-    double most = -options_.dual_tolerance * scale;
-    for (int i = 0; i < static_cast<int>(active_.size()); ++i) {
-      if (!active_[static_cast<size_t>(i)].equality && u_(i) < most) {
-        most = u_(i);
-        worst = i;
-      }
+int Solver::most_negative_multiplier() const {
+  const double scale = std::max(1.0, grad_.cwiseAbs().maxCoeff());
+  int worst = -1;
+  double most = -options_.dual_tolerance * scale;
+  for (int i = 0; i < static_cast<int>(active_.size()); ++i) {
+    if (!active_[static_cast<size_t>(i)].equality && u_(i) < most) {
+      most = u_(i);
+      worst = i;
     }
-    return worst;
-  };
+  }
+  return worst;
+}
 
-  Status s;
+Status Solver::iterate() {
   while (true) {
     const bool feasible = is_feasible();
-    const int worst = dual_ok();
+    const int worst = most_negative_multiplier();
     if (feasible) {
       consider_candidate();
-      s = worst < 0 ? Status::kOptimal : run_primal();
-      break;
+      return worst < 0 ? Status::kOptimal : run_primal();
     }
-    if (worst < 0) {
-      s = run_dual();
-      break;
-    }
+    if (worst < 0) return run_dual();
     // Neither feasible nor dual feasible: drop the most negative multiplier and re-solve.
     drop_from_factorization(worst);
     ++changes_;
     solve_working_set();
     detail::mark(active_, n_, bound_state_, constraint_state_);
-    if (changes_ >= options_.max_working_set_changes) {
-      s = Status::kIterationLimit;
-      break;
-    }
+    if (changes_ >= options_.max_working_set_changes) return Status::kIterationLimit;
   }
-  finish(s);
-  return status_;
 }
 
 }  // namespace hpr::qp

@@ -175,6 +175,12 @@ class SlurmExecutor final : public Executor {
   [[nodiscard]] int task_of(const Round& r, size_t pending_pos) const {
     return static_cast<int>(pending_pos) / r.per_task;
   }
+  /// The searches the store answers already (--resume), reported; the others pending in `r`.
+  void answer_from_store(const std::vector<SearchSpec>& searches, Round& r) const;
+  /// The round's folder, its searches.jsonl and task.sh; the number of array tasks.
+  int write_round(const std::vector<SearchSpec>& searches, Round& r) const;
+  /// Each search whose array task failed twice, marked failed with the trials it finished.
+  void mark_failed(const std::string& job, const Round& r, const std::vector<SearchSpec>& searches) const;
   std::string submit(const Round& r, const std::vector<int>& tasks) const;
   void follow(const std::string& job, Round& r, const std::vector<SearchSpec>& searches) const;
   void poll_store(Round& r, const std::vector<SearchSpec>& searches) const;
@@ -186,15 +192,8 @@ class SlurmExecutor final : public Executor {
   SearchStore store_;
 };
 
-std::vector<SearchResult> SlurmExecutor::run(const std::vector<SearchSpec>& searches) {
-  std::vector<SearchResult> results(searches.size());
-  Round r;
-  r.results = &results;
-  r.done.assign(searches.size(), false);
-  r.reported.resize(searches.size());
-  r.file.resize(searches.size());
-  r.size_read.assign(searches.size(), 0);
-  // What the store answers already.
+void SlurmExecutor::answer_from_store(const std::vector<SearchSpec>& searches, Round& r) const {
+  std::vector<SearchResult>& results = *r.results;
   for (size_t i = 0; i < searches.size(); ++i) {
     if (!resume_) {
       fs::remove(store_.file(searches[i]));
@@ -217,10 +216,9 @@ std::vector<SearchResult> SlurmExecutor::run(const std::vector<SearchSpec>& sear
       r.pending.push_back(i);
     }
   }
-  if (r.pending.empty()) return results;
-  for (const size_t i : r.pending) r.file[i] = store_.file(searches[i]);
+}
 
-  // The round's folder and files.
+int SlurmExecutor::write_round(const std::vector<SearchSpec>& searches, Round& r) const {
   const fs::path rounds = fs::path(o_.shared_dir) / "rounds";
   fs::create_directories(rounds);
   for (int n = 1;; ++n) {
@@ -250,7 +248,39 @@ std::vector<SearchResult> SlurmExecutor::run(const std::vector<SearchSpec>& sear
   }
   fs::permissions(r.dir / "task.sh", fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec | fs::perms::others_read |
                                          fs::perms::others_exec);
-  const int n_tasks = task_of(r, r.pending.size() - 1) + 1;
+  return task_of(r, r.pending.size() - 1) + 1;
+}
+
+void SlurmExecutor::mark_failed(const std::string& job, const Round& r, const std::vector<SearchSpec>& searches) const {
+  const std::map<int, std::string> states = task_states(job, r);
+  for (size_t p = 0; p < r.pending.size(); ++p) {
+    const size_t i = r.pending[p];
+    if (r.done[i]) continue;
+    const int t = task_of(r, p);
+    SearchResult& res = (*r.results)[i];
+    res = SearchResult{};
+    res.failed = true;
+    res.failure = fmt::format("array task {} failed twice (job {}_{}: {}; log {}), the search is incomplete", t, job, t,
+                              states.at(t), (r.dir / fmt::format("task-{}.log", t)).string());
+    // The trials it did finish, in the order the search asked for them.
+    const auto known = store_.trials(searches[i]);
+    for (const auto& [impulse, trial] : known) res.trials.push_back(trial);
+    if (events_.search) events_.search(searches[i], res);
+  }
+}
+
+std::vector<SearchResult> SlurmExecutor::run(const std::vector<SearchSpec>& searches) {
+  std::vector<SearchResult> results(searches.size());
+  Round r;
+  r.results = &results;
+  r.done.assign(searches.size(), false);
+  r.reported.resize(searches.size());
+  r.file.resize(searches.size());
+  r.size_read.assign(searches.size(), 0);
+  answer_from_store(searches, r);
+  if (r.pending.empty()) return results;
+  for (const size_t i : r.pending) r.file[i] = store_.file(searches[i]);
+  const int n_tasks = write_round(searches, r);
   std::vector<int> all(static_cast<size_t>(n_tasks));
   for (int t = 0; t < n_tasks; ++t) all[static_cast<size_t>(t)] = t;
 
@@ -259,6 +289,7 @@ std::vector<SearchResult> SlurmExecutor::run(const std::vector<SearchSpec>& sear
   note(fmt::format("slurm: job array {} of {} task{} ({} search{}), files in {}", job, n_tasks, n_tasks == 1 ? "" : "s",
                    r.pending.size(), r.pending.size() == 1 ? "" : "es", r.dir.string()));
   follow(job, r, searches);
+  // A task whose searches are incomplete is submitted once more; twice, they are failed.
   for (int attempt = 1;; ++attempt) {
     std::vector<int> failed_tasks;
     for (size_t p = 0; p < r.pending.size(); ++p) {
@@ -268,24 +299,11 @@ std::vector<SearchResult> SlurmExecutor::run(const std::vector<SearchSpec>& sear
       }
     }
     if (failed_tasks.empty()) break;
-    const std::map<int, std::string> states = task_states(job, r);
     if (attempt == 2) {
-      for (size_t p = 0; p < r.pending.size(); ++p) {
-        const size_t i = r.pending[p];
-        if (r.done[i]) continue;
-        const int t = task_of(r, p);
-        SearchResult& res = results[i];
-        res = SearchResult{};
-        res.failed = true;
-        res.failure = fmt::format("array task {} failed twice (job {}_{}: {}; log {}), the search is incomplete", t, job, t,
-                                  states.at(t), (r.dir / fmt::format("task-{}.log", t)).string());
-        // The trials it did finish, in the order the search asked for them.
-        const auto known = store_.trials(searches[i]);
-        for (const auto& [impulse, trial] : known) res.trials.push_back(trial);
-        if (events_.search) events_.search(searches[i], res);
-      }
+      mark_failed(job, r, searches);
       break;
     }
+    const std::map<int, std::string> states = task_states(job, r);
     for (const int t : failed_tasks) {
       note(fmt::format("slurm: array task {} (job {}_{}) ended with its searches incomplete: {}; submitting it again (log {})", t, job, t,
                        states.at(t), (r.dir / fmt::format("task-{}.log", t)).string()));

@@ -4,6 +4,7 @@
 #include <humanoid/health_t.hpp>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <csignal>
@@ -200,36 +201,82 @@ TrialPlan plan_trial(const TrialSpec& spec) {
   return plan;
 }
 
+namespace {
+
+/// The simulator's scenario file for the plan's push (none for a standing trial); its path.
+std::string write_scenario(const TrialSpec& spec, const TrialPlan& plan, const std::string& work) {
+  const std::string scenario = work + "/push.yaml";
+  std::ofstream f(scenario);
+  if (spec.standing()) {
+    f << "pushes: []\n";
+  } else {
+    const Eigen::Vector3d& p = plan.push.point_L;
+    const Eigen::Vector3d& force = plan.push.force_W;
+    f << fmt::format("pushes:\n  - {{link: {}, point: [{:.6f}, {:.6f}, {:.6f}], force: [{:.6f}, {:.6f}, 0.0], start: {:.6f}, "
+                     "duration: {:.6f}, profile: half_sine}}\n",
+                     plan.push.link, p.x(), p.y(), p.z(), force.x(), force.y(), plan.push.start, plan.push.duration);
+  }
+  return scenario;
+}
+
+/// Waits up to 20 s for every controller's HEALTH (each subscribed before the simulator publishes
+/// tick 0); otherwise says which did not start, with the end of its log.
+void wait_for_controllers(lcm::LCM& lcm, const Listener& listener, const std::vector<std::string>& nodes, const std::string& work) {
+  const auto ready_deadline = std::chrono::steady_clock::now() + 20s;
+  auto all_ready = [&] {
+    return std::all_of(nodes.begin(), nodes.end(), [&](const std::string& n) { return listener.seen(n); });
+  };
+  while (!all_ready() && std::chrono::steady_clock::now() < ready_deadline) lcm.handleTimeout(50);
+  if (all_ready()) return;
+  std::string msg = "the controllers did not start:";
+  for (const auto& n : nodes) {
+    if (listener.seen(n)) continue;
+    msg += "\n  " + n + " (no HEALTH within 20 s); the end of " + work + "/" + n + ".log:";
+    std::ifstream f(work + "/" + n + ".log");
+    std::vector<std::string> lines;
+    for (std::string line; std::getline(f, line);) lines.push_back(line);
+    for (size_t i = lines.size() > 5 ? lines.size() - 5 : 0; i < lines.size(); ++i) msg += "\n    " + lines[i];
+  }
+  throw std::runtime_error(msg);
+}
+
+/// Drains what is still in flight. When the simulator has finished, until the evaluation has its
+/// last tick (on a loaded machine this listener may trail the lockstep chain by a second), or its
+/// time stops advancing (HEALTH keeps arriving, so silence never comes).
+void drain(lcm::LCM& lcm, const TrialEvaluator& eval, bool sim_running, double sim_duration) {
+  if (sim_running) {
+    for (int i = 0; i < 5; ++i) lcm.handleTimeout(10);
+    return;
+  }
+  const double last_tick_time = sim_duration - 1.5e-3;
+  auto progress_at = std::chrono::steady_clock::now();
+  double seen = eval.last_time();
+  while (eval.last_time() < last_tick_time && std::chrono::steady_clock::now() - progress_at < 500ms) {
+    lcm.handleTimeout(50);
+    if (eval.last_time() > seen) {
+      seen = eval.last_time();
+      progress_at = std::chrono::steady_clock::now();
+    }
+  }
+}
+
+}  // namespace
+
 TrialResult run_trial(const TrialSpec& spec, const std::function<void(const std::string&)>& progress) {
   if (spec.in_process) return run_trial_in_process(spec, progress);
   if (spec.truth_state) throw std::invalid_argument("--truth-state needs --in-process (the processes run the estimator)");
   const auto wall0 = std::chrono::steady_clock::now();
   const TrialPlan plan = plan_trial(spec);
-  const std::string& config = plan.config;
-  const model::RobotSpec& robot = *plan.robot;
   const double t_push = plan.push.start;
   const double t_end = t_push + plan.push.duration;
-  const Eigen::Vector3d& point_L = plan.push.point_L;
-  const Eigen::Vector3d& force = plan.push.force_W;
-  const std::string& link = plan.push.link;
 
   std::string work = spec.work_dir;
   if (work.empty()) {
     work = (fs::temp_directory_path() / fmt::format("hpr-trial-{}-{}", ::getpid(), wall0.time_since_epoch().count())).string();
   }
   fs::create_directories(work);
-  const std::string scenario = work + "/push.yaml";
-  {
-    std::ofstream f(scenario);
-    if (spec.standing()) {
-      f << "pushes: []\n";
-    } else {
-      f << fmt::format("pushes:\n  - {{link: {}, point: [{:.6f}, {:.6f}, {:.6f}], force: [{:.6f}, {:.6f}, 0.0], start: {:.6f}, "
-                       "duration: {:.6f}, profile: half_sine}}\n",
-                       link, point_L.x(), point_L.y(), point_L.z(), force.x(), force.y(), t_push, plan.push.duration);
-    }
-  }
-  std::vector<std::string> common = {"--config", config};
+  const std::string scenario = write_scenario(spec, plan, work);
+  std::vector<std::string> common = {"--config", plan.config};
   for (const auto& o : plan.overrides) {
     common.emplace_back("--set");
     common.push_back(o);
@@ -243,7 +290,7 @@ TrialResult run_trial(const TrialSpec& spec, const std::function<void(const std:
   launch::ProcessGroup group(spec.lcm_url.empty() ? launch::unique_lcm_url() : spec.lcm_url);
   const std::unique_ptr<lcm::LCM> lcm_handle = node::open_lcm(group.lcm_url());
   lcm::LCM& lcm = *lcm_handle;
-  TrialEvaluator eval(robot, spec.support, t_push, t_end);
+  TrialEvaluator eval(*plan.robot, spec.support, t_push, t_end);
   eval.allow_steps(steps_enabled(spec.overrides));
   Listener listener(lcm, eval);
   if (!spec.log_file.empty()) {
@@ -262,30 +309,9 @@ TrialResult run_trial(const TrialSpec& spec, const std::function<void(const std:
   } else {
     group.start("wbc", with({"--set", "wbc.wait_for_wholebody=false"}), {}, work + "/wbc.log");
   }
-  // Every controller subscribed (its HEALTH seen) before the simulator publishes tick 0.
-  const auto ready_deadline = std::chrono::steady_clock::now() + 20s;
-  auto all_ready = [&] {
-    for (const auto& n : nodes) {
-      if (!listener.seen(n)) return false;
-    }
-    return true;
-  };
-  while (!all_ready() && std::chrono::steady_clock::now() < ready_deadline) lcm.handleTimeout(50);
-  if (!all_ready()) {
-    std::string msg = "the controllers did not start:";
-    for (const auto& n : nodes) {
-      if (listener.seen(n)) continue;
-      msg += "\n  " + n + " (no HEALTH within 20 s); the end of " + work + "/" + n + ".log:";
-      std::ifstream f(work + "/" + n + ".log");
-      std::vector<std::string> lines;
-      for (std::string line; std::getline(f, line);) lines.push_back(line);
-      for (size_t i = lines.size() > 5 ? lines.size() - 5 : 0; i < lines.size(); ++i) msg += "\n    " + lines[i];
-    }
-    throw std::runtime_error(msg);
-  }
-  const double sim_duration = plan.sim_duration;
+  wait_for_controllers(lcm, listener, nodes, work);
   const pid_t sim = group.start("sim_bullet",
-                                with({"--set", "sim.mode=lockstep", "--set", fmt::format("sim.duration={:.6f}", sim_duration),
+                                with({"--set", "sim.mode=lockstep", "--set", fmt::format("sim.duration={:.6f}", plan.sim_duration),
                                       "--set", "sim.scenario=" + scenario}),
                                 {}, work + "/sim_bullet.log");
   TrialWatch watch(spec, eval, t_push, t_end, progress, wall0);
@@ -293,25 +319,8 @@ TrialResult run_trial(const TrialSpec& spec, const std::function<void(const std:
     lcm.handleTimeout(50);
     if (watch.stop()) break;
   }
-  // Drain what is still in flight. When the simulator has finished, until the evaluation has its
-  // last tick (on a loaded machine this listener may trail the lockstep chain by a second), or its
-  // time stops advancing (HEALTH keeps arriving, so silence never comes). Then stop everything
-  // (the logger with SIGINT so that it flushes).
-  if (group.running(sim)) {
-    for (int i = 0; i < 5; ++i) lcm.handleTimeout(10);
-  } else {
-    const double last_tick_time = sim_duration - 1.5e-3;
-    auto progress_at = std::chrono::steady_clock::now();
-    double seen = eval.last_time();
-    while (eval.last_time() < last_tick_time && std::chrono::steady_clock::now() - progress_at < 500ms) {
-      lcm.handleTimeout(50);
-      if (eval.last_time() > seen) {
-        seen = eval.last_time();
-        progress_at = std::chrono::steady_clock::now();
-      }
-    }
-  }
-  group.stop_all(2000ms);
+  drain(lcm, eval, group.running(sim), plan.sim_duration);
+  group.stop_all(2000ms);  // the logger with SIGINT, so that it flushes
   TrialResult r = watch.result();
   r.log_file = spec.log_file;
   if (spec.work_dir.empty()) fs::remove_all(work);

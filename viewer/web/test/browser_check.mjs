@@ -68,6 +68,9 @@ try {
   page.on('pageerror', (e) => errors.push(`pageerror: ${e.message}`));
   page.on('requestfailed', (r) => errors.push(`request failed: ${r.url()}`));
   page.on('response', (r) => { if (r.status() >= 400) errors.push(`HTTP ${r.status()}: ${r.url()}`); });
+  // A loaded machine (the other tests, the builds beside them) may take well over Playwright's 30 s
+  // default to load the page's scripts and meshes.
+  page.setDefaultTimeout(120000);
   await page.goto(`${url}?render=1&width=${W}&height=${H}`);
   await page.evaluate(() => window.hpr.ready);
   const info = await page.evaluate(() => ({ mode: window.hpr.mode, robot: window.hpr.info.name }));

@@ -143,6 +143,20 @@ class PostureReference {
  private:
   enum class Stage { kInit, kHold, kShift, kLift, kLower, kShiftBack, kStepUnload, kStepSwing, kStepSettle, kStepRecover };
   void begin_stage(Stage s, double t);
+  // The steps of update, in order: what the estimate says (stepping_stages.cpp), the stage's
+  // references, the stepping status.
+  void observe(double t, const EstimatedState& state);
+  bool blend_com(double elapsed, double duration);  ///< the CoM from com0_ to com1_; true at the end
+  void stage_init(double t, double elapsed);
+  void stage_hold(const EstimatedState* state);
+  void stage_shift(double t, double elapsed);
+  void stage_lift_or_lower(double t, double elapsed);
+  void stage_shift_back(double t, double elapsed);
+  void stage_step_unload(double t, double elapsed, const EstimatedState* state);
+  void stage_step_swing(double t, const EstimatedState* state);
+  void stage_step_settle(double t, double elapsed, const EstimatedState* state);
+  void stage_step_recover(double t, double elapsed);
+  void report_stepping(double t);
   /// The momentum observer's F̂ from the estimated state at time t, and its low-passed, clamped
   /// copy for push_compensation.
   void observe_external_force(double t, const EstimatedState& state);

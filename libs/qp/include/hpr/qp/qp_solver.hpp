@@ -116,6 +116,13 @@ class Solver {
                const ConstVector& ub, const ConstVector& lbA, const ConstVector& ubA);
   Status validate(const ConstMatrix& H, const ConstVector& g, const ConstMatrix& A, const ConstVector& lb,
                   const ConstVector& ub, const ConstVector& lbA, const ConstVector& ubA) const;
+  // The steps of solve (active_set.cpp), in order.
+  Status take_data(const ConstMatrix& H, const ConstVector& g, const ConstMatrix& A, const ConstVector& lb, const ConstVector& ub,
+                   const ConstVector& lbA, const ConstVector& ubA);  // copies; kNonFinite, kNotPositiveDefinite (asymmetric)
+  bool hot_start_fast_path();             // true: the previous working set (or one change of it) is optimal
+  bool start_working_set(bool hot);       // factorisation, equalities, the previous working set; false: H not PD
+  Status iterate();                       // the dual or primal phase from there
+  int most_negative_multiplier() const;   // of an inequality in the working set, beyond the tolerance; -1: none
   bool factorize();
   // Working-set algebra.
   void normal_times_J(int c, double sign);     // d_ = Jᵀ (sign N_c)
@@ -136,6 +143,14 @@ class Solver {
   // drop the most negative multiplier (`drop`, an index into W); kFailed when neither applies.
   enum class FastPath { kOptimal, kAdd, kDrop, kFailed };
   FastPath try_working_set(const std::vector<Entry>& W, Entry* add, int* drop);
+  // Its steps (hot_start.cpp), in order.
+  bool load_working_set(const std::vector<Entry>& W, bool* any_bound);  // states, free_, rows_; false: not applicable
+  void reduce_to_free(bool any_bound);                                  // Hf_ = H_FF, gf_ = g_F + H_FB x_B
+  bool factor_free_hessian();                                           // Hf_ <- L (lower), rinv_ = 1 / L_jj
+  void lsolve_free(double* v) const;                                    // v <- L⁻¹ v
+  void ltsolve_free(double* v) const;                                   // v <- L⁻ᵀ v
+  bool solve_rows(bool any_bound);                                      // x_F with the rows of W (Schur complement)
+  FastPath multipliers(bool any_bound, int* drop);                      // kDrop: the most negative multiplier
   Status run_dual();
   Status run_primal();
   void finish(Status s);
