@@ -1,5 +1,5 @@
-// The stepping side of the posture reference (docs/RESULTS.md, "Stepping"): the external-force
-// observer, the capture point and the step decision, the stepping stages (unload, swing, settle,
+// The stepping side of the posture reference (docs/RESULTS.md, "Stepping, the third strategy"): the
+// external-force observer, the capture point and the step decision, the stepping stages (unload, swing, settle,
 // recover) and the swing trajectory.
 #include <algorithm>
 #include <cmath>
