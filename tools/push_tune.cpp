@@ -218,12 +218,17 @@ class Tuning {
   }
   void append_results_to(const std::string& path, bool resume) { results_.open(path, resume ? std::ios::app : std::ios::trunc); }
 
+  /// The parameters at the point `u` of the unit cube, as written (6 digits): the results are keyed
+  /// by them, so the same request gets the same answer.
+  std::vector<double> values_at(const std::vector<double>& u) const {
+    std::vector<double> values;
+    for (size_t i = 0; i < params_.size(); ++i) values.push_back(text_value(value_text(from_unit(*params_[i], u[i]))));
+    return values;
+  }
+
   /// The objective at the point `u` of the unit cube (the optimiser's coordinates).
   double objective(const std::vector<double>& u) {
-    std::vector<double> values;
-    for (size_t i = 0; i < params_.size(); ++i) values.push_back(from_unit(*params_[i], u[i]));
-    // The results are keyed by the values as written (6 digits): the same request, the same answer.
-    for (auto& v : values) v = text_value(value_text(v));
+    const std::vector<double> values = values_at(u);
     Evaluation e;
     const auto it = cache_.find(key(values));
     const bool cached = it != cache_.end();
@@ -252,8 +257,7 @@ class Tuning {
 
   /// The evaluation of the configured values, run now if the optimiser never asked for them.
   const Evaluation& configured(const std::vector<double>& u0) {
-    std::vector<double> values;
-    for (size_t i = 0; i < params_.size(); ++i) values.push_back(text_value(value_text(from_unit(*params_[i], u0[i]))));
+    const std::vector<double> values = values_at(u0);
     if (!cache_.contains(key(values))) (void)objective(u0);
     return cache_.at(key(values));
   }
