@@ -48,13 +48,13 @@ void expect_resume_runs_no_trial(const std::vector<std::string>& args, const std
 
 TEST(PushTune, EvaluationsAreRecordedTheOverlayAppliesAndAResumedRunReplaysThem) {
   const std::string dir = hpr::test::temp_dir("push-tune");
-  const std::vector<std::string> args = tune_args(dir, "alpha,K_p", "4", "2");
+  const std::vector<std::string> args = tune_args(dir, "alpha,K_p", "3", "2");
   const auto first = hpr::test::run_command(args);
   ASSERT_EQ(first.exit_code, 0) << first.out;
   const auto results = read_results(dir + "/results.jsonl");
   // One line per point evaluated (a point the optimiser asks for again is answered from memory).
-  ASSERT_GE(results.size(), 3U);
-  ASSERT_LE(results.size(), 4U);
+  ASSERT_GE(results.size(), 2U);
+  ASSERT_LE(results.size(), 3U);
   double best = -1e9;
   json best_eval;
   for (const auto& r : results) {

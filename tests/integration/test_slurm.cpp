@@ -1,9 +1,10 @@
 // push_sweep and push_tune on a real Slurm cluster of one node started for the test
 // (tools/slurm-local: munged, slurmctld and slurmd in the foreground, a generated slurm.conf):
-// the same trials, verdicts and tables as the local executor; a resumed run submits nothing and
+// the same trials, verdicts and tables as the local executor; a run stopped by Ctrl-C cancels its
+// array and, resumed, finishes with those results; a finished run resumed submits nothing and
 // runs no trial; a task that fails is submitted once more and its finished trials are kept; a
-// task that fails twice is reported as failed, by case, never as a fall; Ctrl-C cancels the
-// array. Skipped, saying why, where the Debian packages slurm-wlm and munge are not installed.
+// task that fails twice is reported as failed, by case, never as a fall. Skipped, saying why,
+// where the Debian packages slurm-wlm and munge are not installed.
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -88,33 +89,78 @@ int count(const std::string& text, const std::string& what) {
   return n;
 }
 
-TEST_F(SlurmCluster, ASweepGivesTheLocalResultsAndAResumedOneRunsNothing) {
-  const std::string local = dir_ + "/local", cluster = dir_ + "/cluster-sweep";
+TEST_F(SlurmCluster, ASweepStoppedByCtrlCAndResumedGivesTheLocalResultsAndAFinishedOneRunsNothing) {
+  const std::string local = dir_ + "/local", out = dir_ + "/cluster-sweep", log = dir_ + "/interrupted.log";
   const auto l = sweep(kSweep + " --jobs 2", local);
   ASSERT_EQ(l.exit_code, 0) << l.out;
-  const auto c = sweep(kSweep + " --executor slurm", cluster);
-  ASSERT_EQ(c.exit_code, 0) << c.out;
-  EXPECT_NE(c.out.find("slurm: job array"), std::string::npos) << c.out;
-  // Every case ran as an array task of its own, which logged its trials.
-  for (int t = 0; t < kSweepCases; ++t) {
-    const std::string log = read_file(cluster + "/slurm/rounds/0001/task-" + std::to_string(t) + ".log");
-    EXPECT_NE(log.find("largest recovered impulse"), std::string::npos) << "task " << t << ": " << log;
-  }
-  const json lr = results_of(local), cr = results_of(cluster);
+  const json lr = results_of(local);
   ASSERT_EQ(lr.size(), static_cast<std::size_t>(kSweepCases));
-  EXPECT_EQ(cr, lr) << "slurm:\n" << cr.dump(1) << "\nlocal:\n" << lr.dump(1);
-  EXPECT_EQ(table_of(c.out), table_of(l.out));
-  EXPECT_FALSE(table_of(l.out).empty()) << l.out;
   int trials = 0;
   for (const auto& r : lr) trials += static_cast<int>(r.at("trials").size());
-  EXPECT_EQ(count(c.out, " N s: "), trials) << "one progress line per trial:\n" << c.out;
 
-  // Resumed: every trial is answered from the shared folder, no array is submitted.
-  const auto again = sweep(kSweep + " --executor slurm --resume", cluster);
+  // The array runs, then Ctrl-C: push_sweep cancels it and exits 130.
+  const std::string args = kSweep + " --executor slurm";
+  const pid_t pid = ::fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    const std::string line = "exec " + quote(bin_dir() + "/push_sweep") + " " + args + " --out " + quote(out) + " > " + quote(log) + " 2>&1";
+    ::execl("/bin/sh", "sh", "-c", line.c_str(), static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  bool running = false;
+  for (int i = 0; i < 600 && !running; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    running = read_file(log).find("RUNNING") != std::string::npos;
+  }
+  ::kill(pid, SIGINT);
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  const std::string interrupted = read_file(log);
+  ASSERT_TRUE(running) << interrupted;
+  EXPECT_NE(interrupted.find("slurm: job array"), std::string::npos) << interrupted;
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 130) << interrupted;
+  EXPECT_NE(interrupted.find("cancelled"), std::string::npos) << interrupted;
+  // Nothing of it is left in the queue.
+  bool empty = false;
+  for (int i = 0; i < 100 && !empty; ++i) {
+    empty = sh("squeue --noheader").out.empty();
+    if (!empty) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  EXPECT_TRUE(empty) << sh("squeue").out;
+
+  // Resumed: the trials finished before Ctrl-C are answered from the shared folder, the others run
+  // as array tasks (each case a task of its own, which logs its trials), and the sweep ends with
+  // the local executor's results and table, one progress line per trial.
+  const auto resumed = sweep(args + " --resume", out);
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.out;
+  EXPECT_GE(count(resumed.out, "[stored]"), count(interrupted, "N s: ")) << interrupted << "\n" << resumed.out;
+  EXPECT_EQ(count(resumed.out, " N s: "), trials) << "one progress line per trial:\n" << resumed.out;
+  const json cr = results_of(out);
+  EXPECT_EQ(cr, lr) << "slurm:\n" << cr.dump(1) << "\nlocal:\n" << lr.dump(1);
+  EXPECT_EQ(table_of(resumed.out), table_of(l.out));
+  EXPECT_FALSE(table_of(l.out).empty()) << l.out;
+  // The resumed run's array (round 0002) ran what was left, each case as a task that logged it;
+  // without one, Ctrl-C came after the last trial and every trial was stored.
+  if (fs::exists(out + "/slurm/rounds/0002")) {
+    int tasks = 0;
+    for (const auto& task : fs::directory_iterator(out + "/slurm/rounds/0002")) {
+      if (task.path().extension() != ".log") continue;
+      ++tasks;
+      const std::string text = read_file(task.path().string());
+      EXPECT_NE(text.find("largest recovered impulse"), std::string::npos) << task.path() << ": " << text;
+    }
+    EXPECT_GE(tasks, 1);
+  } else {
+    EXPECT_EQ(count(resumed.out, "[stored]"), trials) << resumed.out;
+  }
+
+  // Finished and resumed once more: every trial is answered from the shared folder, no array.
+  const auto again = sweep(args + " --resume", out);
   ASSERT_EQ(again.exit_code, 0) << again.out;
   EXPECT_EQ(again.out.find("job array"), std::string::npos) << again.out;
   EXPECT_EQ(count(again.out, "[stored]"), trials) << again.out;
-  EXPECT_EQ(results_of(cluster), lr);
+  EXPECT_EQ(results_of(out), lr);
 }
 
 TEST_F(SlurmCluster, AFailedTaskIsSubmittedOnceMoreAndKeepsTheTrialsItFinished) {
@@ -188,46 +234,6 @@ TEST_F(SlurmCluster, ATuningRunGivesTheLocalEvaluations) {
   ASSERT_GE(le.size(), 2U);
   EXPECT_EQ(ce, le);
   EXPECT_EQ(read_file(dir_ + "/tune-slurm/tuned.yaml"), read_file(dir_ + "/tune-local/tuned.yaml"));
-}
-
-TEST_F(SlurmCluster, CtrlCCancelsTheArrayAndTheResumedRunFinishesIt) {
-  const std::string out = dir_ + "/interrupted", log = dir_ + "/interrupted.log";
-  const std::string args = kSweep + " --executor slurm";
-  const pid_t pid = ::fork();
-  ASSERT_GE(pid, 0);
-  if (pid == 0) {
-    const std::string line = "exec " + quote(bin_dir() + "/push_sweep") + " " + args + " --out " + quote(out) + " > " + quote(log) + " 2>&1";
-    ::execl("/bin/sh", "sh", "-c", line.c_str(), static_cast<char*>(nullptr));
-    ::_exit(127);
-  }
-  // Once the array runs, Ctrl-C.
-  bool running = false;
-  for (int i = 0; i < 600 && !running; ++i) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    running = read_file(log).find("RUNNING") != std::string::npos;
-  }
-  ::kill(pid, SIGINT);
-  int status = 0;
-  ::waitpid(pid, &status, 0);
-  ASSERT_TRUE(running) << read_file(log);
-  ASSERT_TRUE(WIFEXITED(status));
-  EXPECT_EQ(WEXITSTATUS(status), 130) << read_file(log);
-  EXPECT_NE(read_file(log).find("cancelled"), std::string::npos) << read_file(log);
-  // Nothing of it is left in the queue.
-  bool empty = false;
-  for (int i = 0; i < 100 && !empty; ++i) {
-    empty = sh("squeue --noheader").out.empty();
-    if (!empty) std::this_thread::sleep_for(std::chrono::milliseconds(100));
-  }
-  EXPECT_TRUE(empty) << sh("squeue").out;
-  // Run again with --resume: the trials finished before Ctrl-C are not run again, and the sweep
-  // ends with the local executor's results.
-  const auto resumed = sweep(args + " --resume", out);
-  ASSERT_EQ(resumed.exit_code, 0) << resumed.out;
-  EXPECT_GE(count(resumed.out, "[stored]"), count(read_file(log), "N s: ")) << read_file(log) << "\n" << resumed.out;
-  const auto l = sweep(kSweep + " --jobs 2", dir_ + "/local");
-  ASSERT_EQ(l.exit_code, 0) << l.out;
-  EXPECT_EQ(results_of(out), results_of(dir_ + "/local"));
 }
 
 // A node that runs another build than the submitting machine's would key its trials by another
