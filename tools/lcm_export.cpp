@@ -28,11 +28,13 @@
 #include <vector>
 
 #include "hpr/common/args.hpp"
+#include "hpr/msg/channels.hpp"
 #include "hpr/msg/log_check.hpp"
 
 namespace {
 
 namespace fs = std::filesystem;
+namespace channels = hpr::msg::channels;
 
 /// One CSV row: names on the first row written, values after.
 class Row {
@@ -292,9 +294,6 @@ class Sink {
   }
 };
 
-bool ends_with(const std::string& s, const std::string& suffix) {
-  return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
-}
 
 }  // namespace
 
@@ -338,19 +337,19 @@ int main(int argc, char** argv) {
         (void)sink.scan<Msg>(ev);  // an undecodable event is counted below, for every channel
       }
     };
-    if (ends_with(ch, "SIM_TRUTH")) {
+    if (channels::names(ch, channels::kSimTruth.name)) {
       go.template operator()<humanoid::sim_truth_t>();
-    } else if (ends_with(ch, "ROBOT_STATE")) {
+    } else if (channels::names(ch, channels::kRobotState.name)) {
       go.template operator()<humanoid::robot_state_t>();
-    } else if (ends_with(ch, "BALANCE_STATUS")) {
+    } else if (channels::names(ch, channels::kBalanceStatus.name)) {
       go.template operator()<humanoid::balance_status_t>();
-    } else if (ends_with(ch, "CAM_REFERENCE")) {
+    } else if (channels::names(ch, channels::kCamReference.name)) {
       go.template operator()<humanoid::cam_reference_t>();
-    } else if (ends_with(ch, "WHOLEBODY_COMMAND")) {
+    } else if (channels::names(ch, channels::kWholebodyCommand.name)) {
       go.template operator()<humanoid::wholebody_command_t>();
-    } else if (ends_with(ch, "ROBOT_SENSORS")) {
+    } else if (channels::names(ch, channels::kRobotSensors.name)) {
       go.template operator()<humanoid::robot_sensors_t>();
-    } else if (ends_with(ch, "JOINT_COMMAND")) {
+    } else if (channels::names(ch, channels::kJointCommand.name)) {
       go.template operator()<humanoid::joint_command_t>();
     } else if (!writing) {
       ++unknown[ch];

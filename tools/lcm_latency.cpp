@@ -25,6 +25,7 @@
 
 #include "hpr/common/args.hpp"
 #include "hpr/common/stats.hpp"
+#include "hpr/msg/channels.hpp"
 #include "hpr/msg/log_check.hpp"
 #include "hpr/msg/ticks.hpp"
 
@@ -63,11 +64,11 @@ int main(int argc, char** argv) {
     return 1;
   }
   // The chain's channels by their message type (a channel may carry a prefix: "robotA/ROBOT_STATE").
-  const std::map<std::string, std::string> chain = {{"humanoid.robot_sensors_t", "ROBOT_SENSORS"},
-                                                    {"humanoid.robot_state_t", "ROBOT_STATE"},
-                                                    {"humanoid.cam_reference_t", "CAM_REFERENCE"},
-                                                    {"humanoid.wholebody_command_t", "WHOLEBODY_COMMAND"},
-                                                    {"humanoid.joint_command_t", "JOINT_COMMAND"}};
+  const std::map<std::string, std::string> chain = {{"humanoid.robot_sensors_t", hpr::msg::channels::kRobotSensors.name},
+                                                    {"humanoid.robot_state_t", hpr::msg::channels::kRobotState.name},
+                                                    {"humanoid.cam_reference_t", hpr::msg::channels::kCamReference.name},
+                                                    {"humanoid.wholebody_command_t", hpr::msg::channels::kWholebodyCommand.name},
+                                                    {"humanoid.joint_command_t", hpr::msg::channels::kJointCommand.name}};
   // channel → tick → first receive time [us] (a republished tick counts from its first copy).
   std::map<std::string, std::map<std::int64_t, std::int64_t>> seen;
   long bad = 0;
@@ -80,17 +81,17 @@ int main(int argc, char** argv) {
     }
     seen[it->second].emplace(hpr::msg::tick_of(e->data, e->datalen), e->timestamp);
   }
-  const bool cam = !seen["CAM_REFERENCE"].empty() && !seen["WHOLEBODY_COMMAND"].empty();
-  std::vector<std::string> path = {"ROBOT_SENSORS", "ROBOT_STATE"};
-  if (cam) path.insert(path.end(), {"CAM_REFERENCE", "WHOLEBODY_COMMAND"});
-  path.push_back("JOINT_COMMAND");
-  const std::map<std::string, std::string> hop_name = {{"ROBOT_STATE", "estimator"},
-                                                       {"CAM_REFERENCE", "reference_gen"},
-                                                       {"WHOLEBODY_COMMAND", "motion_opt"},
-                                                       {"JOINT_COMMAND", "wbc"}};
+  const bool cam = !seen[hpr::msg::channels::kCamReference.name].empty() && !seen[hpr::msg::channels::kWholebodyCommand.name].empty();
+  std::vector<std::string> path = {hpr::msg::channels::kRobotSensors.name, hpr::msg::channels::kRobotState.name};
+  if (cam) path.insert(path.end(), {hpr::msg::channels::kCamReference.name, hpr::msg::channels::kWholebodyCommand.name});
+  path.push_back(hpr::msg::channels::kJointCommand.name);
+  const std::map<std::string, std::string> hop_name = {{hpr::msg::channels::kRobotState.name, "estimator"},
+                                                       {hpr::msg::channels::kCamReference.name, "reference_gen"},
+                                                       {hpr::msg::channels::kWholebodyCommand.name, "motion_opt"},
+                                                       {hpr::msg::channels::kJointCommand.name, "wbc"}};
   std::vector<std::vector<double>> hops(path.size() - 1);
   std::vector<double> total;
-  for (const auto& [tick, t0] : seen["ROBOT_SENSORS"]) {
+  for (const auto& [tick, t0] : seen[hpr::msg::channels::kRobotSensors.name]) {
     std::vector<std::int64_t> t = {t0};
     for (size_t i = 1; i < path.size(); ++i) {
       const auto& m = seen[path[i]];

@@ -24,6 +24,7 @@
 #include "hpr/common/text.hpp"
 #include "hpr/common/time.hpp"
 #include "hpr/common/auth.hpp"
+#include "hpr/msg/channels.hpp"
 #include "hpr/node/lcm_url.hpp"
 #include "hpr/node/runtime.hpp"
 
@@ -213,12 +214,12 @@ int main(int argc, char** argv) {
   const bool asks = m.command == humanoid::operator_t::COMMAND_SET_PARAMS || m.command == humanoid::operator_t::COMMAND_GET_PARAMS;
   Answers answers;
   answers.request_utime = m.utime;
-  if (asks) lcm->subscribe("PARAMS", &Answers::on, &answers);
+  if (asks) lcm->subscribe(hpr::msg::channels::kParams.name, &Answers::on, &answers);
 
   // Three copies 5 ms apart: UDP multicast may drop one; every receiver acts on one request once.
   for (int k = 0; k < 3; ++k) {
     m.tick = k;
-    hpr::node::publish_signed(*lcm, "OPERATOR", m, key);
+    hpr::node::publish_signed(*lcm, hpr::msg::channels::kOperator.name, m, key);
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
   if (!asks) {

@@ -42,6 +42,7 @@
 #include "hpr/common/args.hpp"
 #include "hpr/common/time.hpp"
 #include "hpr/launch/process_group.hpp"
+#include "hpr/msg/channels.hpp"
 #include "hpr/msg/graph.hpp"
 #include "hpr/msg/log_check.hpp"
 #include "hpr/msg/ticks.hpp"
@@ -77,7 +78,8 @@ std::vector<std::string> outputs_of(const std::string& node) {
   return p->writes;
 }
 /// Channels never played back (each process publishes its own).
-const std::set<std::string> kNotPlayed = {"HEALTH", "PARAMS", "SUPERVISOR_STATUS", "SUPERVISOR_COMMAND"};
+const std::set<std::string> kNotPlayed = {hpr::msg::channels::kHealth.name, hpr::msg::channels::kParams.name,
+                                          hpr::msg::channels::kSupervisorStatus.name, hpr::msg::channels::kSupervisorCommand.name};
 
 /// Decodes, clears the wall-clock fields (and the publisher's identity and code), re-encodes: two outputs are equal when these bytes are.
 using Canonical = std::function<std::vector<uint8_t>(const void*, int)>;
@@ -100,15 +102,15 @@ Canonical canonical(std::function<void(Msg&)> clear) {
 
 const std::map<std::string, Canonical>& canonicals() {
   static const std::map<std::string, Canonical> k = {
-      {"ROBOT_STATE", canonical<humanoid::robot_state_t>([](auto&) {})},  // utime is the sensor sample's robot clock
-      {"JOINT_COMMAND", canonical<humanoid::joint_command_t>([](auto& m) { m.utime = 0; })},
-      {"BALANCE_STATUS", canonical<humanoid::balance_status_t>([](auto& m) {
+      {hpr::msg::channels::kRobotState.name, canonical<humanoid::robot_state_t>([](auto&) {})},  // utime is the sensor sample's robot clock
+      {hpr::msg::channels::kJointCommand.name, canonical<humanoid::joint_command_t>([](auto& m) { m.utime = 0; })},
+      {hpr::msg::channels::kBalanceStatus.name, canonical<humanoid::balance_status_t>([](auto& m) {
          m.utime = 0;
          m.qp_solve_time_us = 0;
          m.compute_time_us = 0;
        })},
-      {"CAM_REFERENCE", canonical<humanoid::cam_reference_t>([](auto& m) { m.utime = 0; })},
-      {"WHOLEBODY_COMMAND", canonical<humanoid::wholebody_command_t>([](auto& m) {
+      {hpr::msg::channels::kCamReference.name, canonical<humanoid::cam_reference_t>([](auto& m) { m.utime = 0; })},
+      {hpr::msg::channels::kWholebodyCommand.name, canonical<humanoid::wholebody_command_t>([](auto& m) {
          m.utime = 0;
          m.qp_solve_time_us = 0;
        })},
@@ -175,7 +177,7 @@ class Outputs {
 /// The nodes heard from on HEALTH while it lives.
 class HealthSeen {
  public:
-  explicit HealthSeen(lcm::LCM& lcm) : lcm_(lcm), subscription_(lcm.subscribe("HEALTH", &HealthSeen::on, this)) {}
+  explicit HealthSeen(lcm::LCM& lcm) : lcm_(lcm), subscription_(lcm.subscribe(hpr::msg::channels::kHealth.name, &HealthSeen::on, this)) {}
   ~HealthSeen() { lcm_.unsubscribe(subscription_); }
   HealthSeen(const HealthSeen&) = delete;
   HealthSeen& operator=(const HealthSeen&) = delete;

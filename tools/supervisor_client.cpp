@@ -13,6 +13,7 @@
 
 #include "hpr/common/time.hpp"
 #include "hpr/launch/supervisor.hpp"
+#include "hpr/msg/channels.hpp"
 #include "hpr/msg/commands.hpp"
 #include "hpr/node/runtime.hpp"
 #include "supervisor_cli.hpp"
@@ -77,7 +78,7 @@ void send_command(lcm::LCM& lcm, const Options& o, int8_t command, const std::st
   c.command = command;
   c.process = process;
   static const auth::Key key = auth::load_key(auth::key_path());
-  node::publish_signed(lcm, "SUPERVISOR_COMMAND", c, key);
+  node::publish_signed(lcm, hpr::msg::channels::kSupervisorCommand.name, c, key);
 }
 
 int cmd_down(const Options& o, const std::string& url) {
@@ -90,7 +91,7 @@ int cmd_down(const Options& o, const std::string& url) {
   };
   std::map<std::pair<std::string, std::string>, Seen> seen;
   const std::string me = command_source();
-  Subscription<Status> sub(lcm, "SUPERVISOR_STATUS", [&](const Status& s) {
+  Subscription<Status> sub(lcm, hpr::msg::channels::kSupervisorStatus.name, [&](const Status& s) {
     if (!o.group_filter.empty() && s.group != o.group_filter) return;
     if (o.host_given && s.host != o.host) return;
     // A goodbye from a supervisor not heard before is an old one (another down's), unless it

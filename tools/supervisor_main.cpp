@@ -20,6 +20,7 @@
 #include <humanoid/supervisor_command_t.hpp>
 #include <humanoid/supervisor_status_t.hpp>
 
+#include "hpr/msg/channels.hpp"
 #include "hpr/msg/commands.hpp"
 
 #include <atomic>
@@ -141,7 +142,7 @@ class CommandIntake {
  public:
   CommandIntake(lcm::LCM& lcm, const auth::Key& key, const std::string& me, const std::string& group, launch::Supervisor& sup)
       : me_(me), group_(group), sup_(sup),
-        sub_(lcm, "SUPERVISOR_COMMAND", [this](const humanoid::supervisor_command_t& c) { on(c); }, &key) {}
+        sub_(lcm, hpr::msg::channels::kSupervisorCommand.name, [this](const humanoid::supervisor_command_t& c) { on(c); }, &key) {}
   bool down_requested = false;
   std::string down_source;  ///< who asked for the down: the goodbye names it
 
@@ -192,7 +193,7 @@ class Damper {
     op.support = 0;
     op.reason = reason;
     op.num_params = 0;
-    node::publish_signed(lcm_, "OPERATOR", op, key_);
+    node::publish_signed(lcm_, hpr::msg::channels::kOperator.name, op, key_);
     std::cout << fmt::format("[{}] OPERATOR damp sent: {}", now_text(), reason) << std::endl;
   }
 
@@ -233,11 +234,11 @@ int run_supervisor(const launch::GroupSpec& group, const Options& o, const std::
   std::string last_event;
   bool changed = true;
 
-  Subscription<humanoid::health_t> health_sub(lcm, "HEALTH", [&](const humanoid::health_t& h) {
+  Subscription<humanoid::health_t> health_sub(lcm, hpr::msg::channels::kHealth.name, [&](const humanoid::health_t& h) {
     sup.on_health(h.node, h.state, h.lifecycle, h.rate_hz, h.deadline_misses, h.faults, monotonic_s());
   });
   const std::string& me = o.host;
-  Subscription<Status> status_sub(lcm, "SUPERVISOR_STATUS", [&](const Status& s) {
+  Subscription<Status> status_sub(lcm, hpr::msg::channels::kSupervisorStatus.name, [&](const Status& s) {
     if (s.host == me || s.group != group.name) return;
     for (int i = 0; i < s.num_processes; ++i) {
       sup.on_remote_ready(s.name[i], s.process_state[i] == Status::PROCESS_READY);
@@ -280,7 +281,7 @@ int run_supervisor(const launch::GroupSpec& group, const Options& o, const std::
     }
     if (changed || now - last_status >= 0.5) {
       Status m = make_status(sup, ++seq, last_event, now);
-      lcm.publish("SUPERVISOR_STATUS", &m);
+      lcm.publish(hpr::msg::channels::kSupervisorStatus.name, &m);
       last_status = now;
       changed = false;
     }
@@ -290,7 +291,7 @@ int run_supervisor(const launch::GroupSpec& group, const Options& o, const std::
   Status m = make_status(sup, ++seq, commands.down_source.empty() ? "stopped" : "stopped: down by " + commands.down_source, monotonic_s());
   m.state = Status::STATE_STOPPED;
   for (int i = 0; i < 3; ++i) {
-    lcm.publish("SUPERVISOR_STATUS", &m);
+    lcm.publish(hpr::msg::channels::kSupervisorStatus.name, &m);
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
   std::cout << fmt::format("[{}] group '{}' stopped on host '{}'", now_text(), group.name, me) << std::endl;

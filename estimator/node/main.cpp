@@ -8,6 +8,7 @@
 #include <humanoid/robot_state_t.hpp>
 
 #include "hpr/estimator/node.hpp"
+#include "hpr/msg/channels.hpp"
 #include "hpr/msg/robot_io.hpp"
 #include "hpr/msg/state.hpp"
 #include "hpr/node/command_line.hpp"
@@ -27,10 +28,10 @@ int main(int argc, char** argv) {
         names.joints = robot.model.joint_name;
         SensorSample sample;
         sample.resize(robot.model.nj);
-        auto& sensors = rt.subscribe<humanoid::robot_sensors_t>(
-            "ROBOT_SENSORS", [&](const humanoid::robot_sensors_t& m) { return msg::from_message(m, names, sample); });
+        auto& sensors = rt.subscribe(msg::channels::kRobotSensors,
+            [&](const humanoid::robot_sensors_t& m) { return msg::from_message(m, names, sample); });
         estimator::add_parameters(rt.parameters(), est.tunable_config());
-        auto out = rt.advertise<humanoid::robot_state_t>("ROBOT_STATE");
+        auto out = rt.advertise(msg::channels::kRobotState);
         humanoid::robot_state_t state_msg{};
         estimator::TickReport report;
         rt.on_restart(sensors, [&] { est.reset(); });

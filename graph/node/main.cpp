@@ -11,6 +11,7 @@
 #include <humanoid/robot_sensors_t.hpp>
 
 #include "hpr/estimator/node.hpp"
+#include "hpr/msg/channels.hpp"
 #include "hpr/msg/commands.hpp"
 #include "hpr/msg/robot_io.hpp"
 #include "hpr/node/command_line.hpp"
@@ -60,18 +61,18 @@ int main(int argc, char** argv) {
         node::Runtime rt(cl.name, node::lcm_url(cl, cfg), node::runtime_options(cfg, 1e-3));
         SensorSample sample;
         sample.resize(robot.model.nj);
-        auto& sensors = rt.subscribe<humanoid::robot_sensors_t>(
-            "ROBOT_SENSORS", [&](const humanoid::robot_sensors_t& m) { return msg::from_message(m, c.names(), sample); });
-        rt.subscribe<humanoid::operator_t>("OPERATOR", msg::check_operator, [&](const humanoid::operator_t& m) {
+        auto& sensors = rt.subscribe(msg::channels::kRobotSensors,
+            [&](const humanoid::robot_sensors_t& m) { return msg::from_message(m, c.names(), sample); });
+        rt.subscribe(msg::channels::kOperator, msg::check_operator, [&](const humanoid::operator_t& m) {
           if (const auto s = wbc::apply_operator(c.wbc, m)) c.request_support(*s, c.state().time);
         });
         add_parameters(rt, c);
         estimator::TickReport estimator_report;
-        auto state_out = rt.advertise<humanoid::robot_state_t>("ROBOT_STATE");
-        auto cam_out = rt.advertise<humanoid::cam_reference_t>("CAM_REFERENCE");
-        auto wholebody_out = rt.advertise<humanoid::wholebody_command_t>("WHOLEBODY_COMMAND");
-        auto command_out = rt.advertise<humanoid::joint_command_t>("JOINT_COMMAND");
-        auto balance_out = rt.advertise<humanoid::balance_status_t>("BALANCE_STATUS");
+        auto state_out = rt.advertise(msg::channels::kRobotState);
+        auto cam_out = rt.advertise(msg::channels::kCamReference);
+        auto wholebody_out = rt.advertise(msg::channels::kWholebodyCommand);
+        auto command_out = rt.advertise(msg::channels::kJointCommand);
+        auto balance_out = rt.advertise(msg::channels::kBalanceStatus);
         // The joint command first (the drives wait for it), then what the four processes publish
         // on the way to it, in their order.
         auto publish = [&] {

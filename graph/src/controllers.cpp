@@ -5,6 +5,7 @@
 #include <type_traits>
 
 #include "hpr/msg/balance.hpp"
+#include "hpr/msg/channels.hpp"
 #include "hpr/msg/lcm_section.hpp"
 #include "hpr/msg/state.hpp"
 
@@ -23,7 +24,6 @@ void check_exchange_options(const Config& cfg, const ControllersOptions& run) {
   (void)wb.boolean_or("wait_for_wholebody", true);
   (void)wb.real_or("wholebody_timeout", 0.5, 0.0, 60.0);
   (void)wb.integer_or("wholebody_stale_ticks", 50, 1, 100000);
-  (void)wb.real_or("state_timeout", 0.05, 0.0, 60.0);
   if (run.estimator) (void)cfg.section("estimator").real_or("sensor_timeout", 0.02, 1e-3, 60.0);
   (void)msg::LcmSection::load(cfg);
 }
@@ -36,12 +36,6 @@ Controllers::Controllers(const Config& cfg, const model::RobotSpec& robot, Contr
     : options(opts),
       wbc(robot, wbc::WbcConfig::load(cfg.section("wbc"), robot), balance::PostureReferenceConfig::load(cfg.section("balance")),
           static_cast<int>(cfg.section("wbc").integer_or("bad_state_ticks", 20, 1, 100000))) {
-  // The composed wbc steps on the state it is given; the wbc process's test switch to the
-  // simulator's truth has no counterpart here (a truth-fed loop is ClosedLoop's option): refused.
-  if (const Config wb = cfg.section("wbc"); wb.choice_or("state_source", "estimator", {"estimator", "sim_truth"}) != "estimator") {
-    wb.fail("state_source", "the composed controllers run their own estimator (sim_truth needs the wbc process; in process, "
-                            "push_trial --truth-state feeds every controller the truth)");
-  }
   names_.joints = robot.model.joint_name;
   for (int j : robot.free_joints) free_names_.push_back(robot.model.joint_name[static_cast<size_t>(j)]);
   wbc_out.command.resize(robot.model.nj);
@@ -88,11 +82,11 @@ void Controllers::estimate(const SensorSample& sample) {
 void Controllers::control(std::int32_t extra_status) {
   if (!estimator) throw std::logic_error("Controllers::control: no estimator in this loop");
   if (extra_status == 0) {
-    pass("ROBOT_STATE", estimator->state(), state_msg, state_, names_);
+    pass(msg::channels::kRobotState.name, estimator->state(), state_msg, state_, names_);
   } else {
     flagged_ = estimator->state();
     flagged_.status |= extra_status;
-    pass("ROBOT_STATE", flagged_, state_msg, state_, names_);
+    pass(msg::channels::kRobotState.name, flagged_, state_msg, state_, names_);
   }
   control(state_);
 }
@@ -104,16 +98,16 @@ void Controllers::control(const EstimatedState& state) {
     run_component(Component::kReferenceGen, times.reference_gen_us, [&] {
       generator->step({state_.tick, state_.time, have_balance_ ? &balance_ : nullptr, wholebody_.posture_error}, cam);
     });
-    pass("CAM_REFERENCE", cam, cam_msg, cam_);
+    pass(msg::channels::kCamReference.name, cam, cam_msg, cam_);
     run_component(Component::kMotionOpt, times.motion_opt_us,
                   [&] { have_wholebody = optimizer->step({&state_, &cam_}, wholebody); });
-    if (have_wholebody) pass("WHOLEBODY_COMMAND", wholebody, wholebody_msg, wholebody_, free_names_, names_);
+    if (have_wholebody) pass(msg::channels::kWholebodyCommand.name, wholebody, wholebody_msg, wholebody_, free_names_, names_);
   }
   run_component(Component::kWbc, times.wbc_us,
                 [&] { wbc.step({&state_, have_wholebody ? &wholebody_.command : nullptr}, wbc_out); });
   if (options.messages) msg::to_message(wbc_out.command, names_, command_msg);
   have_balance_ = wbc_out.mode == wbc::WbcComponent::Mode::kBalance;
-  if (have_balance_) pass("BALANCE_STATUS", wbc_out.status, balance_msg, balance_, names_);
+  if (have_balance_) pass(msg::channels::kBalanceStatus.name, wbc_out.status, balance_msg, balance_, names_);
 }
 
 void Controllers::request_support(balance::Support s, double t) {

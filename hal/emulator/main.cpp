@@ -9,6 +9,7 @@
 #include <humanoid/sim_truth_t.hpp>
 
 #include "hpr/common/log.hpp"
+#include "hpr/msg/channels.hpp"
 #include "hpr/common/time.hpp"
 #include "hpr/hal/drive_emulator.hpp"
 #include "hpr/model/robot.hpp"
@@ -29,7 +30,7 @@ class EmulatorLoop {
   EmulatorLoop(node::Runtime& rt, const hal::HalConfig& config, const hal::EmulatorOptions& options, sim::Simulator& simulator,
                std::vector<std::unique_ptr<hal::CanTransport>>& buses, hal::DriveEmulator& emu)
       : rt_(rt), config_(config), options_(options), simulator_(simulator), buses_(buses), emu_(emu),
-        truth_out_(rt.advertise<humanoid::sim_truth_t>("SIM_TRUTH")) {
+        truth_out_(rt.advertise(msg::channels::kSimTruth)) {
     for (const auto& b : buses_) fds_.push_back({b->fd(), POLLIN, 0});
     fds_.push_back({rt.lcm().getFileno(), POLLIN, 0});
     rx_.reserve(256);
@@ -156,7 +157,7 @@ int run(const node::CommandLine& cl, const Config& cfg) {
   auto buses = hal::open_buses(config, true);
   hal::DriveEmulator emu(config, simulator, std::make_unique<hal::MitCodec>(), options);
 
-  rt.subscribe<humanoid::push_t>("PUSH", {}, [&](const humanoid::push_t& p) {
+  rt.subscribe(msg::channels::kPush, {}, [&](const humanoid::push_t& p) {
     std::string why;
     const auto push = sim::from_message(p, robot.model, &why);
     if (!push) {

@@ -8,6 +8,7 @@
 #include <humanoid/robot_sensors_t.hpp>
 
 #include "hpr/common/log.hpp"
+#include "hpr/msg/channels.hpp"
 #include "hpr/common/time.hpp"
 #include "hpr/hal/hal.hpp"
 #include "hpr/model/robot.hpp"
@@ -186,18 +187,18 @@ int run(const node::CommandLine& cl, const Config& cfg) {
   auto hal_now = [&] { return lockstep ? t_tick : monotonic_s(); };
   JointCommand command;
   command.resize(robot.model.nj);
-  auto& command_in = rt.subscribe<humanoid::joint_command_t>("JOINT_COMMAND", [&](const humanoid::joint_command_t& m) {
+  auto& command_in = rt.subscribe(msg::channels::kJointCommand, [&](const humanoid::joint_command_t& m) {
     std::string why = msg::from_message(m, names, command);
     if (why.empty()) why = h.set_command(command, hal_now());
     return why;  // rejected commands are counted by the runtime and by the hal, never sent
   });
   command_in.follow_ticks();  // a forged or corrupted tick is held back, never applied
-  rt.subscribe<humanoid::operator_t>("OPERATOR", msg::check_operator, [&](const humanoid::operator_t& m) {
+  rt.subscribe(msg::channels::kOperator, msg::check_operator, [&](const humanoid::operator_t& m) {
     const std::string what = h.operator_command(m.command, hal_now(), m.source.empty() ? "operator" : m.source);
     if (!what.empty()) log::info("OPERATOR {}: {}{}", m.command, what, m.reason.empty() ? "" : " (" + m.reason + ")");
   });
-  auto sensors_out = rt.advertise<humanoid::robot_sensors_t>("ROBOT_SENSORS");
-  auto status_out = rt.advertise<humanoid::hal_status_t>("HAL_STATUS");
+  auto sensors_out = rt.advertise(msg::channels::kRobotSensors);
+  auto status_out = rt.advertise(msg::channels::kHalStatus);
   humanoid::robot_sensors_t sensors_msg;
   humanoid::hal_status_t status_msg;
 

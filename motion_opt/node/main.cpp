@@ -8,6 +8,7 @@
 #include <humanoid/wholebody_command_t.hpp>
 
 #include "hpr/motion_opt/component.hpp"
+#include "hpr/msg/channels.hpp"
 #include "hpr/msg/balance.hpp"
 #include "hpr/msg/graph.hpp"
 #include "hpr/msg/commands.hpp"
@@ -34,22 +35,22 @@ int main(int argc, char** argv) {
         for (int j : robot.free_joints) free_names.push_back(robot.model.joint_name[static_cast<size_t>(j)]);
         EstimatedState state;
         balance::CamReference cam;
-        auto& state_in = rt.subscribe<humanoid::robot_state_t>(
-            "ROBOT_STATE", [&](const humanoid::robot_state_t& m) { return msg::from_message(m, names, state); });
-        auto& cam_in = rt.subscribe<humanoid::cam_reference_t>(
-            "CAM_REFERENCE", [&](const humanoid::cam_reference_t& m) { return msg::from_message(m, cam); });
-        rt.subscribe<humanoid::operator_t>("OPERATOR", msg::check_operator, [&](const humanoid::operator_t& m) {
+        auto& state_in = rt.subscribe(msg::channels::kRobotState,
+            [&](const humanoid::robot_state_t& m) { return msg::from_message(m, names, state); });
+        auto& cam_in = rt.subscribe(msg::channels::kCamReference,
+            [&](const humanoid::cam_reference_t& m) { return msg::from_message(m, cam); });
+        rt.subscribe(msg::channels::kOperator, msg::check_operator, [&](const humanoid::operator_t& m) {
           if (m.command == humanoid::operator_t::COMMAND_SET_SUPPORT && m.support >= 0 && m.support <= 2) {
             opt.request_support(static_cast<balance::Support>(m.support), state.time);
           }
         });
         motion_opt::add_parameters(rt.parameters(), opt.optimizer().tunable_config());
-        auto out = rt.advertise<humanoid::wholebody_command_t>("WHOLEBODY_COMMAND");
+        auto out = rt.advertise(msg::channels::kWholebodyCommand);
         balance::WholebodyCommand command;
         humanoid::wholebody_command_t msg{};
         std::vector<node::Sync> sync;
         // CAM_REFERENCE of the same tick, optional: without it, the posture task only.
-        const msg::Read& r = msg::read_of("motion_opt", "CAM_REFERENCE");
+        const msg::Read& r = msg::read_of("motion_opt", msg::channels::kCamReference.name);
         if (wait) sync.push_back({&cam_in, r.tick_offset, {}, r.optional});
         rt.on_restart(state_in, [&] { opt.reset(); });
         rt.on_tick(state_in, sync, timeout, [&](const node::TickInfo& info) {

@@ -9,6 +9,7 @@
 #include <humanoid/wholebody_command_t.hpp>
 
 #include "hpr/msg/balance.hpp"
+#include "hpr/msg/channels.hpp"
 #include "hpr/msg/graph.hpp"
 #include "hpr/msg/state.hpp"
 #include "hpr/node/command_line.hpp"
@@ -28,23 +29,23 @@ int main(int argc, char** argv) {
         EstimatedState state;  // only tick and time are read: the header of ROBOT_STATE
         balance::BalanceStatus balance_status;
         balance::WholebodyCommand wholebody;
-        auto& state_in = rt.subscribe<humanoid::robot_state_t>("ROBOT_STATE", [&](const humanoid::robot_state_t& m) {
+        auto& state_in = rt.subscribe(msg::channels::kRobotState, [&](const humanoid::robot_state_t& m) {
           if (m.utime < 0) return std::string("negative time");
           state.tick = m.tick;
           state.time = static_cast<double>(m.utime) * 1e-6;
           return std::string();
         });
-        auto& balance_in = rt.subscribe<humanoid::balance_status_t>(
-            "BALANCE_STATUS", [&](const humanoid::balance_status_t& m) { return msg::from_message(m, balance_status); });
-        auto& wholebody_in = rt.subscribe<humanoid::wholebody_command_t>(
-            "WHOLEBODY_COMMAND", [&](const humanoid::wholebody_command_t& m) { return msg::from_message(m, {}, wholebody); });
+        auto& balance_in = rt.subscribe(msg::channels::kBalanceStatus,
+            [&](const humanoid::balance_status_t& m) { return msg::from_message(m, balance_status); });
+        auto& wholebody_in = rt.subscribe(msg::channels::kWholebodyCommand,
+            [&](const humanoid::wholebody_command_t& m) { return msg::from_message(m, {}, wholebody); });
         reference_gen::add_parameters(rt.parameters(), gen);
-        auto out = rt.advertise<humanoid::cam_reference_t>("CAM_REFERENCE");
+        auto out = rt.advertise(msg::channels::kCamReference);
         balance::CamReference reference;
         humanoid::cam_reference_t msg{};
         std::vector<node::Sync> sync;
         // BALANCE_STATUS of the previous tick, optional: without it, the reference ramps to zero.
-        const msg::Read& b = msg::read_of("reference_gen", "BALANCE_STATUS");
+        const msg::Read& b = msg::read_of("reference_gen", msg::channels::kBalanceStatus.name);
         if (wait) sync.push_back({&balance_in, b.tick_offset, {}, b.optional});
         rt.on_restart(state_in, [&] { gen.reset(); });
         rt.on_tick(state_in, sync, timeout, [&](const node::TickInfo& info) {

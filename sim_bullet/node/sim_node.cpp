@@ -4,6 +4,7 @@
 #include <stdexcept>
 
 #include "hpr/common/log.hpp"
+#include "hpr/msg/channels.hpp"
 #include "hpr/common/time.hpp"
 #include "hpr/msg/sim_truth.hpp"
 #include "hpr/sim/sim_io.hpp"
@@ -26,8 +27,7 @@ SimNode::SimNode(node::Runtime& rt, Simulator& sim, SimNodeOptions options, std:
   const model::Model& m = sim.robot().model;
   names_.joints = m.joint_name;
   if (static_cast<int>(drives_.size()) < m.nj) throw std::invalid_argument("sim_bullet: fewer drive ranges than joints");
-  command_in_ = &rt.subscribe<humanoid::joint_command_t>(
-      "JOINT_COMMAND", [this, nj = m.nj](const humanoid::joint_command_t& msg) {
+  command_in_ = &rt.subscribe(msg::channels::kJointCommand, [this, nj = m.nj](const humanoid::joint_command_t& msg) {
         JointCommand c;
         std::string why = msg::from_message(msg, names_, c);
         if (why.empty()) why = hal::check_command(c, drives_, nj);  // what the hal refuses
@@ -40,7 +40,7 @@ SimNode::SimNode(node::Runtime& rt, Simulator& sim, SimNodeOptions options, std:
         return std::string();
       });
   command_in_->follow_ticks();  // a forged or corrupted tick is held back, never applied
-  rt.subscribe<humanoid::push_t>("PUSH", {}, [this](const humanoid::push_t& p) {
+  rt.subscribe(msg::channels::kPush, {}, [this](const humanoid::push_t& p) {
     std::string why;
     const auto push = from_message(p, sim_.robot().model, &why);
     if (!push) {
@@ -51,8 +51,8 @@ SimNode::SimNode(node::Runtime& rt, Simulator& sim, SimNodeOptions options, std:
               push->duration, push->start < 0 ? sim_.time() : push->start);
     sim_.add_push(*push);
   });
-  sensors_out_ = rt.advertise<humanoid::robot_sensors_t>("ROBOT_SENSORS");
-  truth_out_ = rt.advertise<humanoid::sim_truth_t>("SIM_TRUTH");
+  sensors_out_ = rt.advertise(msg::channels::kRobotSensors);
+  truth_out_ = rt.advertise(msg::channels::kSimTruth);
   if (!options_.scenario.empty()) {
     for (auto& p : load_scenario(options_.scenario)) {
       log::info("scenario push {} on '{}': {:.1f} N peak, {:.3f} s from t = {:.3f} s", p.id, p.link, p.force_W.norm(),

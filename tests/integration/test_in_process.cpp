@@ -317,10 +317,6 @@ TEST(InProcess, TheTruthStateGivesEveryControllerTheSimulatorsStateAndNoEstimato
   spec.truth_state = true;
   spec.in_process = false;
   EXPECT_THROW(hpr::experiments::run_trial(spec), std::invalid_argument);
-  spec.truth_state = false;
-  spec.in_process = true;
-  spec.overrides.push_back("wbc.state_source=sim_truth");
-  EXPECT_THROW(hpr::experiments::run_trial(spec), hpr::ConfigError);
 }
 
 // In process as in the processes, every key of the configuration is checked: a misspelt key of

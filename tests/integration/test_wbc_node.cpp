@@ -1,7 +1,9 @@
-// sim_bullet and wbc as processes in lockstep (state from SIM_TRUTH, the estimator's tests cover
-// the estimated state): standing, a push recovered, BALANCE_STATUS every tick, SIGTERM.
+// sim_bullet, truth_state and wbc as processes in lockstep (the simulator's state, in the
+// estimator's place; the estimator's tests cover the estimated state): standing, a push recovered,
+// BALANCE_STATUS every tick, SIGTERM; truth_state's ROBOT_STATE is SIM_TRUTH's state tick for tick.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <csignal>
 #include <fstream>
 
@@ -22,14 +24,15 @@ TEST(WbcNode, StandsAndRecoversAPushInLockstep) {
   LcmListener lcm(group.lcm_url());
   auto truth = lcm.collect<humanoid::sim_truth_t>("SIM_TRUTH");
   auto status = lcm.collect<humanoid::balance_status_t>("BALANCE_STATUS");
+  auto states = lcm.collect<humanoid::robot_state_t>("ROBOT_STATE");
   const std::string cfg = hpr::test::source_dir() + "/config/toro.yaml";
   const std::string scenario = hpr::test::temp_dir("wbc_push") + "/push.yaml";
   {
     std::ofstream f(scenario);
     f << "pushes:\n  - {link: pelvis, force: [65, 0, 0], start: 2.0, duration: 0.121, profile: half_sine}\n";
   }
-  const pid_t wbc = group.start("wbc", {"--config", cfg, "--set", "wbc.state_source=sim_truth", "--set",
-                                        "wbc.wait_for_wholebody=false"});
+  const pid_t truth_state = group.start("truth_state", {"--config", cfg});
+  const pid_t wbc = group.start("wbc", {"--config", cfg, "--set", "wbc.wait_for_wholebody=false"});
   const pid_t sim = group.start("sim_bullet", {"--config", cfg, "--set", "sim.duration=6.0", "--set",
                                                "sim.scenario=" + scenario});
   ASSERT_TRUE(lcm.wait_for([&] { return !group.running(sim); }, 120s));
@@ -46,10 +49,28 @@ TEST(WbcNode, StandsAndRecoversAPushInLockstep) {
   for (const auto& t : *truth) peak = std::max(peak, std::abs(t.v_WCom[0]));
   EXPECT_GT(peak, 0.03) << "the push must move the robot";
   EXPECT_LT(std::abs(last.v_WCom[0]), 0.01) << "and it must come to rest";
-  group.signal(wbc, SIGTERM);
-  const auto w = group.wait(wbc, 1000ms);
-  EXPECT_TRUE(w.exited);
-  EXPECT_EQ(w.exit_code, 0);
+  // Every state is the simulator's of its tick: the pelvis and the CoM as SIM_TRUTH has them (to
+  // rounding: the state carries the twist in the base frame).
+  ASSERT_GE(states->size(), 5990U);
+  std::size_t compared = 0;
+  for (const auto& st : *states) {
+    const auto t = std::find_if(truth->begin(), truth->end(), [&](const humanoid::sim_truth_t& x) { return x.tick == st.tick; });
+    ASSERT_NE(t, truth->end()) << "no SIM_TRUTH of tick " << st.tick;
+    for (int i = 0; i < 3; ++i) {
+      ASSERT_NEAR(st.p_WB[i], t->p_WB[i], 1e-12) << "tick " << st.tick;
+      ASSERT_NEAR(st.v_WB[i], t->v_WB[i], 1e-12) << "tick " << st.tick;
+      ASSERT_NEAR(st.p_WCom[i], t->p_WCom[i], 1e-12) << "tick " << st.tick;
+    }
+    for (int i = 0; i < 4; ++i) ASSERT_NEAR(std::abs(st.quat_WB[i]), std::abs(t->quat_WB[i]), 1e-12) << "tick " << st.tick;
+    ++compared;
+  }
+  EXPECT_EQ(compared, states->size());
+  for (const pid_t p : {wbc, truth_state}) {
+    group.signal(p, SIGTERM);
+    const auto w = group.wait(p, 1000ms);
+    EXPECT_TRUE(w.exited);
+    EXPECT_EQ(w.exit_code, 0);
+  }
 }
 
 // In lockstep the wbc steps with the motion optimiser's command of the same tick, except when the

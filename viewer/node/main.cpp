@@ -17,6 +17,7 @@
 #include <thread>
 
 #include "hpr/common/log.hpp"
+#include "hpr/msg/channels.hpp"
 #include "hpr/node/command_line.hpp"
 #include "hpr/node/lcm_url.hpp"
 #include "hpr/node/runtime.hpp"
@@ -43,7 +44,7 @@ class Sampler {
     for (std::size_t c = 0; c < chans.size(); ++c) {
       slots_[c].index = c;
       // HEALTH (one per node) and PUSH (rare) are forwarded message by message.
-      slots_[c].every_message = chans[c].name == "HEALTH" || chans[c].name == "PUSH";
+      slots_[c].every_message = chans[c].name == hpr::msg::channels::kHealth.name || chans[c].name == hpr::msg::channels::kPush.name;
       // Room for a display period of messages at 1 kHz (the loop below reads them in batches).
       rt.lcm().subscribe(rt.channel(chans[c].name), &Slot::handle, &slots_[c])->setQueueCapacity(1000);
       slots_[c].sampler = this;
@@ -84,7 +85,7 @@ class Sampler {
     const auto& name = viewer::channels()[s.index].name;
     try {
       auto d = viewer::decode(name, bytes.data(), bytes.size());
-      if (name == "ROBOT_STATE") last_tick_ = d.tick;
+      if (name == hpr::msg::channels::kRobotState.name) last_tick_ = d.tick;
       const auto ts = static_cast<std::uint64_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(
                                                      std::chrono::system_clock::now().time_since_epoch())
                                                      .count());
@@ -122,10 +123,10 @@ std::vector<viewer::LogEvent> read_log(const std::string& path) {
 void check_joints(const viewer::Timeline& timeline, const model::RobotSpec& robot, const std::string& config,
                   const std::string& log_path) {
   const auto frame = timeline.frame(0);
-  if (!frame["channels"].contains("ROBOT_STATE")) return;
+  if (!frame["channels"].contains(hpr::msg::channels::kRobotState.name)) return;
   const auto& m = robot.model;
   std::vector<std::string> unknown;
-  for (const auto& name : frame["channels"]["ROBOT_STATE"]["joint_name"]) {
+  for (const auto& name : frame["channels"][hpr::msg::channels::kRobotState.name]["joint_name"]) {
     const auto n = name.get<std::string>();
     auto has = [&n](const std::vector<std::string>& v) { return std::find(v.begin(), v.end(), n) != v.end(); };
     if (!has(m.joint_name) && !has(m.held_joint_name) && !has(m.locked_joint_name)) unknown.push_back(n);

@@ -1,17 +1,11 @@
 #include "hpr/viewer/channels.hpp"
 
-#include <humanoid/balance_status_t.hpp>
-#include <humanoid/cam_reference_t.hpp>
-#include <humanoid/health_t.hpp>
-#include <humanoid/push_t.hpp>
-#include <humanoid/robot_state_t.hpp>
-#include <humanoid/sim_truth_t.hpp>
-#include <humanoid/wholebody_command_t.hpp>
-
 #include <cmath>
 #include <functional>
 
 #include <fmt/format.h>
+
+#include "hpr/msg/channels.hpp"
 
 namespace hpr::viewer {
 namespace {
@@ -177,7 +171,8 @@ struct Codec {
 };
 
 template <class Msg>
-Codec codec(const char* channel, bool robot_clock = true) {
+Codec codec(const Channel<Msg>& ch, bool robot_clock = true) {
+  const char* channel = ch.name;
   Codec c;
   c.info.name = channel;
   c.info.schema_name = std::string("humanoid.") + Msg::getTypeName();
@@ -201,10 +196,9 @@ Codec codec(const char* channel, bool robot_clock = true) {
 
 const std::vector<Codec>& codecs() {
   static const std::vector<Codec> all{
-      codec<humanoid::robot_state_t>("ROBOT_STATE"),       codec<humanoid::sim_truth_t>("SIM_TRUTH"),
-      codec<humanoid::push_t>("PUSH"),                     codec<humanoid::balance_status_t>("BALANCE_STATUS"),
-      codec<humanoid::cam_reference_t>("CAM_REFERENCE"),   codec<humanoid::wholebody_command_t>("WHOLEBODY_COMMAND"),
-      codec<humanoid::health_t>("HEALTH", false)};
+      codec(msg::channels::kRobotState),    codec(msg::channels::kSimTruth),          codec(msg::channels::kPush),
+      codec(msg::channels::kBalanceStatus), codec(msg::channels::kCamReference),      codec(msg::channels::kWholebodyCommand),
+      codec(msg::channels::kHealth, false)};
   return all;
 }
 

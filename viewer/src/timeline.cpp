@@ -7,6 +7,7 @@
 
 #include <fmt/format.h>
 
+#include "hpr/msg/channels.hpp"
 #include "hpr/viewer/channels.hpp"
 
 namespace hpr::viewer {
@@ -15,7 +16,7 @@ Timeline::Timeline(std::vector<LogEvent> events, double fps) : fps_(fps) {
   if (!(fps > 0.0 && fps <= 1000.0)) throw std::invalid_argument(fmt::format("frame rate {} is not in (0, 1000]", fps));
   const auto& chans = channels();
   by_channel_.resize(chans.size());
-  const int clock_channels[2] = {channel_index("ROBOT_STATE"), channel_index("SIM_TRUTH")};
+  const int clock_channels[2] = {channel_index(hpr::msg::channels::kRobotState.name), channel_index(hpr::msg::channels::kSimTruth.name)};
   // The clock: ROBOT_STATE when the log has it, else SIM_TRUTH.
   int clock = -1;
   for (int c : clock_channels) {
@@ -100,11 +101,11 @@ nlohmann::json Timeline::frame(int i) const {
 
 nlohmann::json Timeline::summary() const {
   using nlohmann::json;
-  const std::size_t balance = static_cast<std::size_t>(channel_index("BALANCE_STATUS"));
-  const std::size_t cam = static_cast<std::size_t>(channel_index("CAM_REFERENCE"));
-  const std::size_t wb = static_cast<std::size_t>(channel_index("WHOLEBODY_COMMAND"));
-  const std::size_t state = static_cast<std::size_t>(channel_index("ROBOT_STATE"));
-  const std::size_t truth = static_cast<std::size_t>(channel_index("SIM_TRUTH"));
+  const std::size_t balance = static_cast<std::size_t>(channel_index(hpr::msg::channels::kBalanceStatus.name));
+  const std::size_t cam = static_cast<std::size_t>(channel_index(hpr::msg::channels::kCamReference.name));
+  const std::size_t wb = static_cast<std::size_t>(channel_index(hpr::msg::channels::kWholebodyCommand.name));
+  const std::size_t state = static_cast<std::size_t>(channel_index(hpr::msg::channels::kRobotState.name));
+  const std::size_t truth = static_cast<std::size_t>(channel_index(hpr::msg::channels::kSimTruth.name));
   json t = json::array(), ankle = json::array(), hip = json::array(), lref = json::array(), lcmd = json::array(),
        lmeas = json::array();
   // Decoding each frame's messages again would cost seconds on a long log; the series need a few

@@ -3,17 +3,16 @@
 #include <cmath>
 
 #include "hpr/common/log.hpp"
+#include "hpr/msg/channels.hpp"
 #include "hpr/msg/graph.hpp"
 
 namespace hpr::wbc {
 
 WbcNodeOptions WbcNodeOptions::load(const Config& c) {
   WbcNodeOptions o;
-  o.use_sim_truth = c.choice_or("state_source", "estimator", {"estimator", "sim_truth"}) == "sim_truth";
   o.wait_for_wholebody = c.boolean_or("wait_for_wholebody", o.wait_for_wholebody);
   o.wholebody_timeout = c.real_or("wholebody_timeout", o.wholebody_timeout, 0.0, 60.0);
   o.wholebody_stale_ticks = static_cast<int>(c.integer_or("wholebody_stale_ticks", o.wholebody_stale_ticks, 1, 100000));
-  o.state_timeout = c.real_or("state_timeout", o.state_timeout, 0.0, 60.0);
   o.bad_state_ticks = static_cast<int>(c.integer_or("bad_state_ticks", o.bad_state_ticks, 1, 100000));
   return o;
 }
@@ -23,55 +22,33 @@ WbcNode::WbcNode(node::Runtime& rt, const model::RobotSpec& robot, WbcComponent&
   names_.joints = robot.model.joint_name;
   for (int j : robot.free_joints) free_names_.push_back(robot.model.joint_name[static_cast<size_t>(j)]);
   out_.command.resize(robot.model.nj);
-  command_out_ = rt.advertise<humanoid::joint_command_t>("JOINT_COMMAND");
-  status_out_ = rt.advertise<humanoid::balance_status_t>("BALANCE_STATUS");
-  wholebody_in_ = &rt.subscribe<humanoid::wholebody_command_t>(
-      "WHOLEBODY_COMMAND", [this](const humanoid::wholebody_command_t& m) { return msg::from_message(m, free_names_, wholebody_); },
+  command_out_ = rt.advertise(msg::channels::kJointCommand);
+  status_out_ = rt.advertise(msg::channels::kBalanceStatus);
+  wholebody_in_ = &rt.subscribe(msg::channels::kWholebodyCommand,
+      [this](const humanoid::wholebody_command_t& m) { return msg::from_message(m, free_names_, wholebody_); },
       [this](const humanoid::wholebody_command_t&) { have_wholebody_ = true; });
-  rt.subscribe<humanoid::operator_t>("OPERATOR", msg::check_operator, [this](const humanoid::operator_t& m) {
+  rt.subscribe(msg::channels::kOperator, msg::check_operator, [this](const humanoid::operator_t& m) {
     if (const auto s = apply_operator(wbc_, m)) wbc_.request_support(*s, state_.time);
   });
   add_parameters(rt.parameters(), wbc_.controller());
   std::vector<node::Sync> sync;
-  if (options_.use_sim_truth) {
-    log::warn("state from SIM_TRUTH: for tests only, a real robot has no such channel");
-    truth_in_ = &rt.subscribe<humanoid::sim_truth_t>(
-        "SIM_TRUTH", [this](const humanoid::sim_truth_t& m) { return msg::from_message(m, truth_); });
-    sensors_in_ = &rt.subscribe<humanoid::robot_sensors_t>(
-        "ROBOT_SENSORS", [this](const humanoid::robot_sensors_t& m) { return msg::from_message(m, names_, sensors_); });
-    sync.push_back({truth_in_, 0, {}});
-  } else {
-    state_in_ = &rt.subscribe<humanoid::robot_state_t>(
-        "ROBOT_STATE", [this](const humanoid::robot_state_t& m) { return msg::from_message(m, names_, state_); });
-  }
+  state_in_ = &rt.subscribe(msg::channels::kRobotState,
+      [this](const humanoid::robot_state_t& m) { return msg::from_message(m, names_, state_); });
   // The motion optimiser's command of the tick, unless this tick only damps (operator damp, no
   // estimate yet to start from, or one unusable for bad_state_ticks): whenever the controller
   // balances it uses the command of this tick, as in the composed pipeline.
   if (options_.wait_for_wholebody) {
     // Optional: with the motion optimiser gone, the wbc runs its own posture reference (the ankle
     // strategy) at full rate.
-    const msg::Read& w = msg::read_of("wbc", "WHOLEBODY_COMMAND");
-    sync.push_back({wholebody_in_, w.tick_offset,
-                    [this] { return options_.use_sim_truth ? !wbc_.damping() : wbc_.uses_wholebody(state_); }, w.optional});
+    const msg::Read& w = msg::read_of("wbc", msg::channels::kWholebodyCommand.name);
+    sync.push_back({wholebody_in_, w.tick_offset, [this] { return wbc_.uses_wholebody(state_); }, w.optional});
   }
-  node::InputBase& primary = options_.use_sim_truth ? static_cast<node::InputBase&>(*sensors_in_) : *state_in_;
-  rt.on_restart(primary, [this] {
+  rt.on_restart(*state_in_, [this] {
     wbc_.reset();
     have_wholebody_ = false;
   });
-  rt.on_tick(primary, sync, options_.wait_for_wholebody ? options_.wholebody_timeout : options_.state_timeout,
+  rt.on_tick(*state_in_, sync, options_.wholebody_timeout,
              [this](const node::TickInfo& info) {
-               if (options_.use_sim_truth) {
-                 if (truth_in_->tick() != info.tick) {
-                   wbc_.damp(info.tick, WbcComponent::Mode::kDampNoState, out_);
-                   rt_.report(node::StepOutcome::kNotReady);
-                   rt_.set_fault("damping", "no SIM_TRUTH for this tick");
-                   publish(false);
-                   return;
-                 }
-                 msg::state_from_truth(truth_, sensors_, state_);
-                 state_.tick = info.tick;
-               }
                const bool fresh = have_wholebody_ && wholebody_in_->tick() >= info.tick - options_.wholebody_stale_ticks;
                if (info.timed_out) rt_.count_stale();
                step(state_, fresh);

@@ -1,5 +1,7 @@
 #include "hpr/msg/graph.hpp"
 
+#include "hpr/msg/channels.hpp"
+
 #include <algorithm>
 #include <stdexcept>
 
@@ -8,34 +10,38 @@ namespace hpr::msg {
 const std::vector<ProcessPorts>& data_flow() {
   static const std::vector<ProcessPorts> kFlow = {
       {"sim_bullet",
-       {{"JOINT_COMMAND", -1, false, true, "drive commands (in lockstep the step waits for the answer to its last sensors)"},
-        {"PUSH", 0, false, true, "pushes to apply"}},
-       {"ROBOT_SENSORS", "SIM_TRUTH"}},
+       {{channels::kJointCommand.name, -1, false, true, "drive commands (in lockstep the step waits for the answer to its last sensors)"},
+        {channels::kPush.name, 0, false, true, "pushes to apply"}},
+       {channels::kRobotSensors.name, channels::kSimTruth.name}},
       {"hal",
-       {{"JOINT_COMMAND", -1, false, true, "drive commands (stale ones time out to damping)"},
-        {"OPERATOR", 0, false, true, "enable, damp, stop"}},
-       {"ROBOT_SENSORS", "HAL_STATUS"}},
-      {"drive_emulator", {{"PUSH", 0, false, true, "pushes to apply"}}, {"SIM_TRUTH"}},
-      {"estimator", {{"ROBOT_SENSORS", 0, true, false, "the sample it filters"}}, {"ROBOT_STATE"}},
+       {{channels::kJointCommand.name, -1, false, true, "drive commands (stale ones time out to damping)"},
+        {channels::kOperator.name, 0, false, true, "enable, damp, stop"}},
+       {channels::kRobotSensors.name, channels::kHalStatus.name}},
+      {"drive_emulator", {{channels::kPush.name, 0, false, true, "pushes to apply"}}, {channels::kSimTruth.name}},
+      {"estimator", {{channels::kRobotSensors.name, 0, true, false, "the sample it filters"}}, {channels::kRobotState.name}},
+      {"truth_state",
+       {{channels::kRobotSensors.name, 0, true, false, "the joints and the tick"},
+        {channels::kSimTruth.name, 0, false, false, "the simulator's base, CoM and contacts of the same tick"}},
+       {channels::kRobotState.name}},
       {"reference_gen",
-       {{"ROBOT_STATE", 0, true, false, "tick and time"},
-        {"BALANCE_STATUS", -1, false, true, "the ankle torque and its limits (the paper's one-period lag)"},
-        {"WHOLEBODY_COMMAND", -1, false, true, "the posture error that ends phase 3"}},
-       {"CAM_REFERENCE"}},
+       {{channels::kRobotState.name, 0, true, false, "tick and time"},
+        {channels::kBalanceStatus.name, -1, false, true, "the ankle torque and its limits (the paper's one-period lag)"},
+        {channels::kWholebodyCommand.name, -1, false, true, "the posture error that ends phase 3"}},
+       {channels::kCamReference.name}},
       {"motion_opt",
-       {{"ROBOT_STATE", 0, true, false, "the state it optimises from"},
-        {"CAM_REFERENCE", 0, false, true, "l_c^ref (without it: the posture task only)"},
-        {"OPERATOR", 0, false, true, "support requests"}},
-       {"WHOLEBODY_COMMAND"}},
+       {{channels::kRobotState.name, 0, true, false, "the state it optimises from"},
+        {channels::kCamReference.name, 0, false, true, "l_c^ref (without it: the posture task only)"},
+        {channels::kOperator.name, 0, false, true, "support requests"}},
+       {channels::kWholebodyCommand.name}},
       {"wbc",
-       {{"ROBOT_STATE", 0, true, false, "the state it controls"},
-        {"WHOLEBODY_COMMAND", 0, false, true, "the task-space command (without it: its own posture reference)"},
-        {"OPERATOR", 0, false, true, "enable, damp, stop, support requests"}},
-       {"JOINT_COMMAND", "BALANCE_STATUS"}},
+       {{channels::kRobotState.name, 0, true, false, "the state it controls"},
+        {channels::kWholebodyCommand.name, 0, false, true, "the task-space command (without it: its own posture reference)"},
+        {channels::kOperator.name, 0, false, true, "enable, damp, stop, support requests"}},
+       {channels::kJointCommand.name, channels::kBalanceStatus.name}},
       {"controllers",
-       {{"ROBOT_SENSORS", 0, true, false, "the sample the four composed controllers step on"},
-        {"OPERATOR", 0, false, true, "enable, damp, stop, support requests"}},
-       {"ROBOT_STATE", "CAM_REFERENCE", "WHOLEBODY_COMMAND", "JOINT_COMMAND", "BALANCE_STATUS"}},
+       {{channels::kRobotSensors.name, 0, true, false, "the sample the four composed controllers step on"},
+        {channels::kOperator.name, 0, false, true, "enable, damp, stop, support requests"}},
+       {channels::kRobotState.name, channels::kCamReference.name, channels::kWholebodyCommand.name, channels::kJointCommand.name, channels::kBalanceStatus.name}},
   };
   return kFlow;
 }

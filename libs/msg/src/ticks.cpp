@@ -1,5 +1,7 @@
 #include "hpr/msg/ticks.hpp"
 
+#include "hpr/msg/channels.hpp"
+
 #include <fmt/format.h>
 
 namespace hpr::msg {
@@ -13,9 +15,10 @@ std::int64_t tick_of(const void* data, int size) {
 }
 
 int flow_rank(const std::string& channel) {
-  static const std::map<std::string, int> k = {{"ROBOT_SENSORS", 0},     {"ROBOT_STATE", 1},   {"CAM_REFERENCE", 2},
-                                               {"WHOLEBODY_COMMAND", 3}, {"JOINT_COMMAND", 4}, {"BALANCE_STATUS", 5},
-                                               {"SIM_TRUTH", 6}};
+  static const std::map<std::string, int> k = {
+      {channels::kRobotSensors.name, 0},  {channels::kRobotState.name, 1},    {channels::kCamReference.name, 2},
+      {channels::kWholebodyCommand.name, 3}, {channels::kJointCommand.name, 4}, {channels::kBalanceStatus.name, 5},
+      {channels::kSimTruth.name, 6}};
   const auto it = k.find(channel);
   return it == k.end() ? kNotInFlow : it->second;
 }

@@ -9,6 +9,7 @@
 
 #include <fmt/format.h>
 
+#include "hpr/msg/channels.hpp"
 #include "hpr/msg/commands.hpp"
 #include "hpr/node/runtime.hpp"
 
@@ -89,7 +90,7 @@ void Runtime::publish_health() {
   const int n = h.getEncodedSize();
   health_buffer_.resize(static_cast<std::size_t>(n));
   if (h.encode(health_buffer_.data(), 0, n) >= 0) {
-    lcm_->publish(channel("HEALTH"), health_buffer_.data(), static_cast<unsigned>(n));
+    lcm_->publish(channel(msg::channels::kHealth.name), health_buffer_.data(), static_cast<unsigned>(n));
   }
 }
 
@@ -100,7 +101,8 @@ ParameterSet& Runtime::parameters(const std::string& node) {
   const bool first = parameters_.empty();
   parameters_.push_back(std::make_unique<ParameterSet>(node));
   if (!first) return *parameters_.back();
-  subscribe<humanoid::operator_t>("OPERATOR", msg::check_operator, [this](const humanoid::operator_t& m) {
+  own_subscription_ = true;
+  subscribe(msg::channels::kOperator, msg::check_operator, [this](const humanoid::operator_t& m) {
     const bool set = m.command == humanoid::operator_t::COMMAND_SET_PARAMS;
     if (!set && m.command != humanoid::operator_t::COMMAND_GET_PARAMS) return;
     // Senders repeat a request (UDP may drop one); each is handled once.
@@ -133,6 +135,7 @@ ParameterSet& Runtime::parameters(const std::string& node) {
     }
     if (handled) last_request_ = id;
   });
+  own_subscription_ = false;
   return *parameters_.back();
 }
 
@@ -154,7 +157,7 @@ void Runtime::publish_parameters(const ParameterSet& set, const ParameterRequest
     p.unit.push_back(q.unit);
   }
   p.num_params = static_cast<int32_t>(p.name.size());
-  lcm_->publish(channel("PARAMS"), &p);
+  lcm_->publish(channel(msg::channels::kParams.name), &p);
 }
 
 }  // namespace hpr::node

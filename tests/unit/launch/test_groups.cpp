@@ -43,8 +43,8 @@ std::vector<std::string> names(const hpr::launch::GroupSpec& g) {
 // each required input of its processes from one of them (the stack's declared data flow).
 TEST(Groups, EveryRobotGroupIsAClosedDataFlow) {
   const GroupsFile f = GroupsFile::load(std::string(HPR_SOURCE_DIR) + "/config/groups.yaml");
-  for (const char* g : {"sim", "sim-lockstep", "sim-composed", "sim-composed-lockstep", "hil", "hil-lockstep", "hardware",
-                        "hardware-composed", "sim-view"}) {
+  for (const char* g : {"sim", "sim-lockstep", "sim-truth-lockstep", "sim-composed", "sim-composed-lockstep", "hil", "hil-lockstep",
+                        "hardware", "hardware-composed", "sim-view"}) {
     std::vector<std::string> commands;
     for (const auto& p : f.group(g).processes) commands.push_back(p.command);
     EXPECT_EQ(hpr::msg::unmet_inputs(commands), std::vector<std::string>{}) << g;
@@ -57,6 +57,10 @@ TEST(Groups, EveryRobotGroupIsAClosedDataFlow) {
     EXPECT_EQ(f.group(g).find("wbc"), nullptr) << g;
   }
   EXPECT_EQ(hpr::msg::unmet_inputs({"estimator", "wbc", "reference_gen", "motion_opt"}).size(), 1U);
+  // The true state needs a simulator: on the hal's sensors it lacks SIM_TRUTH.
+  EXPECT_EQ(hpr::msg::unmet_inputs({"hal", "truth_state", "wbc"}),
+            std::vector<std::string>{"truth_state reads SIM_TRUTH (the simulator's base, CoM and contacts of the same tick), which none "
+                                     "of them writes"});
 }
 
 TEST(Groups, ShippedFileHasEveryBackendWithTheSameControlProcesses) {

@@ -20,6 +20,7 @@
 #include "hpr/common/config.hpp"
 #include "hpr/launch/process_group.hpp"
 #include "hpr/model/algorithms.hpp"
+#include "hpr/msg/channels.hpp"
 #include "hpr/node/lcm_url.hpp"
 
 namespace hpr::experiments {
@@ -92,10 +93,10 @@ class Listener {
  public:
   Listener(lcm::LCM& lcm, TrialEvaluator& eval) : eval_(eval) {
     // The evaluation sees every tick.
-    lcm.subscribe("SIM_TRUTH", &Listener::truth, this)->setQueueCapacity(node::kCountingQueueCapacity);
-    lcm.subscribe("ROBOT_SENSORS", &Listener::sensors, this)->setQueueCapacity(node::kCountingQueueCapacity);
-    lcm.subscribe("WHOLEBODY_COMMAND", &Listener::wholebody, this)->setQueueCapacity(node::kCountingQueueCapacity);
-    lcm.subscribe("HEALTH", &Listener::health, this);
+    lcm.subscribe(hpr::msg::channels::kSimTruth.name, &Listener::truth, this)->setQueueCapacity(node::kCountingQueueCapacity);
+    lcm.subscribe(hpr::msg::channels::kRobotSensors.name, &Listener::sensors, this)->setQueueCapacity(node::kCountingQueueCapacity);
+    lcm.subscribe(hpr::msg::channels::kWholebodyCommand.name, &Listener::wholebody, this)->setQueueCapacity(node::kCountingQueueCapacity);
+    lcm.subscribe(hpr::msg::channels::kHealth.name, &Listener::health, this);
   }
   void truth(const lcm::ReceiveBuffer*, const std::string&, const humanoid::sim_truth_t* m) { eval_.on_truth(*m); }
   void sensors(const lcm::ReceiveBuffer*, const std::string&, const humanoid::robot_sensors_t* m) { eval_.on_sensors(*m); }

@@ -58,6 +58,7 @@
 #include "hpr/node/lifecycle.hpp"
 #include "hpr/node/output.hpp"
 #include "hpr/common/auth.hpp"
+#include "hpr/common/channel.hpp"
 #include "hpr/common/config.hpp"
 #include "hpr/common/log.hpp"
 #include "hpr/common/stats.hpp"
@@ -317,9 +318,24 @@ class Runtime {
   /// The full channel name with the configured prefix.
   [[nodiscard]] std::string channel(const std::string& name) const { return options_.channel_prefix + name; }
 
+  /// Subscribes to `ch` (hpr/msg/channels.hpp). A process of the stack's data flow (by its name,
+  /// hpr/msg/graph.hpp) may read only what its declaration lists: another channel throws
+  /// std::logic_error naming both, so a node that drifts from the declared graph fails at start.
+  template <class Msg>
+  Input<Msg>& subscribe(const Channel<Msg>& ch, typename Input<Msg>::Validator validate = {},
+                        typename Input<Msg>::Callback on_message = {}) {
+    return subscribe<Msg>(std::string(ch.name), std::move(validate), std::move(on_message));
+  }
+  /// Publishes on `ch`; a process of the data flow may write only what its declaration lists.
+  template <class Msg>
+  Output<Msg> advertise(const Channel<Msg>& ch) {
+    return advertise<Msg>(std::string(ch.name));
+  }
+  /// The same by name (a test's or a tool's own channel).
   template <class Msg>
   Input<Msg>& subscribe(const std::string& name, typename Input<Msg>::Validator validate = {},
                         typename Input<Msg>::Callback on_message = {}) {
+    check_declared(name, false);
     const auth::Key* key = nullptr;
     if constexpr (auth::Signed<Msg>) key = deployment_key();
     auto in = std::make_unique<Input<Msg>>(*this, *lcm_, channel(name), std::move(validate), std::move(on_message), key);
@@ -327,9 +343,9 @@ class Runtime {
     inputs_.push_back(std::move(in));
     return ref;
   }
-
   template <class Msg>
   Output<Msg> advertise(const std::string& name) {
+    check_declared(name, true);
     const auth::Key* key = nullptr;
     if constexpr (auth::Signed<Msg>) key = deployment_key();
     return Output<Msg>(lcm_.get(), channel(name), key, source_id_);
@@ -404,6 +420,11 @@ class Runtime {
   [[nodiscard]] std::int64_t deadline_misses() const { return deadline_misses_; }
 
  private:
+  /// Throws std::logic_error when this runtime is a process of the data flow whose declaration
+  /// does not list `channel` among its reads (or, `write`, its writes). The runtime's own OPERATOR
+  /// subscription (live parameters) is not the process's.
+  void check_declared(const std::string& channel, bool write) const;
+  bool own_subscription_ = false;
   friend class InputBase;
   struct Trigger {
     InputBase* primary;

@@ -2,23 +2,20 @@
 /// \file The wbc process: WholeBodyController behind LCM (library hpr::wbc_node, shared with the
 /// composed controllers for the OPERATOR requests and the HEALTH faults of a step).
 ///
-/// Steps on every ROBOT_STATE (or, in tests only, on SIM_TRUTH + ROBOT_SENSORS), towards the
+/// Steps on every ROBOT_STATE (from the estimator, or in a simulated group from truth_state), towards the
 /// WHOLEBODY_COMMAND of the same tick when motion_opt runs (waiting for it up to a timeout), else
 /// towards its own reference posture. Publishes JOINT_COMMAND and BALANCE_STATUS every tick.
 
 #include <humanoid/balance_status_t.hpp>
 #include <humanoid/joint_command_t.hpp>
 #include <humanoid/operator_t.hpp>
-#include <humanoid/robot_sensors_t.hpp>
 #include <humanoid/robot_state_t.hpp>
-#include <humanoid/sim_truth_t.hpp>
 #include <humanoid/wholebody_command_t.hpp>
 
 #include "hpr/msg/commands.hpp"
 #include "hpr/msg/state.hpp"
 #include "hpr/node/runtime.hpp"
 #include "hpr/msg/balance.hpp"
-#include "hpr/msg/sim_truth.hpp"
 #include "hpr/wbc/component.hpp"
 
 #include <optional>
@@ -26,11 +23,9 @@
 namespace hpr::wbc {
 
 struct WbcNodeOptions {
-  bool use_sim_truth = false;        ///< TESTS ONLY: state from SIM_TRUTH + ROBOT_SENSORS
   bool wait_for_wholebody = true;    ///< step only with the WHOLEBODY_COMMAND of the same tick
   double wholebody_timeout = 0.5;    ///< [s] wall time to wait for it
   int wholebody_stale_ticks = 50;    ///< older commands are ignored (own reference posture)
-  double state_timeout = 0.05;       ///< [s] wait for the second state input (truth mode)
   int bad_state_ticks = 20;          ///< damp after this many ticks of a state flagged stale, implausible or diverged
   static WbcNodeOptions load(const Config& wbc_section);
 };
@@ -61,14 +56,10 @@ class WbcNode {
   msg::RobotNames names_;
   std::vector<std::string> free_names_;
   node::Input<humanoid::robot_state_t>* state_in_ = nullptr;
-  node::Input<humanoid::sim_truth_t>* truth_in_ = nullptr;
-  node::Input<humanoid::robot_sensors_t>* sensors_in_ = nullptr;
   node::Input<humanoid::wholebody_command_t>* wholebody_in_ = nullptr;
   node::Output<humanoid::joint_command_t> command_out_;
   node::Output<humanoid::balance_status_t> status_out_;
   EstimatedState state_;
-  SensorSample sensors_;
-  SimTruth truth_;
   balance::WholebodyCommand wholebody_;
   humanoid::joint_command_t command_msg_;
   humanoid::balance_status_t status_msg_;
