@@ -19,6 +19,7 @@
 #include <fstream>
 #include <lcm/lcm-cpp.hpp>
 #include <map>
+#include <set>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -30,6 +31,8 @@
 #include "hpr/msg/ticks.hpp"
 
 namespace {
+
+namespace channels = hpr::msg::channels;
 
 void usage(std::FILE* out) {
   std::fputs("usage: lcm_latency LOG [--json FILE]\n\n"
@@ -63,35 +66,33 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "lcm_latency: cannot open %s\n", log_path.c_str());
     return 1;
   }
-  // The chain's channels by their message type (a channel may carry a prefix: "robotA/ROBOT_STATE").
-  const std::map<std::string, std::string> chain = {{"humanoid.robot_sensors_t", hpr::msg::channels::kRobotSensors.name},
-                                                    {"humanoid.robot_state_t", hpr::msg::channels::kRobotState.name},
-                                                    {"humanoid.cam_reference_t", hpr::msg::channels::kCamReference.name},
-                                                    {"humanoid.wholebody_command_t", hpr::msg::channels::kWholebodyCommand.name},
-                                                    {"humanoid.joint_command_t", hpr::msg::channels::kJointCommand.name}};
+  // The chain's channels (a logged channel may carry a prefix: "robotA/ROBOT_STATE").
+  const std::set<std::string> chain = {channels::kRobotSensors.name, channels::kRobotState.name, channels::kCamReference.name,
+                                       channels::kWholebodyCommand.name, channels::kJointCommand.name};
   // channel → tick → first receive time [us] (a republished tick counts from its first copy).
   std::map<std::string, std::map<std::int64_t, std::int64_t>> seen;
   long bad = 0;
   while (const lcm::LogEvent* e = log.readNextEvent()) {
-    const auto it = chain.find(hpr::msg::type_of_channel(e->channel));
-    if (it == chain.end()) continue;
+    std::string name;
+    channels::with_channel(e->channel, [&](const auto& c) { name = c.name; });
+    if (chain.count(name) == 0) continue;
     if (!hpr::msg::check_message(e->channel, e->data, e->datalen).empty()) {
       ++bad;
       continue;
     }
-    seen[it->second].emplace(hpr::msg::tick_of(e->data, e->datalen), e->timestamp);
+    seen[name].emplace(hpr::msg::tick_of(e->data, e->datalen), e->timestamp);
   }
-  const bool cam = !seen[hpr::msg::channels::kCamReference.name].empty() && !seen[hpr::msg::channels::kWholebodyCommand.name].empty();
-  std::vector<std::string> path = {hpr::msg::channels::kRobotSensors.name, hpr::msg::channels::kRobotState.name};
-  if (cam) path.insert(path.end(), {hpr::msg::channels::kCamReference.name, hpr::msg::channels::kWholebodyCommand.name});
-  path.push_back(hpr::msg::channels::kJointCommand.name);
-  const std::map<std::string, std::string> hop_name = {{hpr::msg::channels::kRobotState.name, "estimator"},
-                                                       {hpr::msg::channels::kCamReference.name, "reference_gen"},
-                                                       {hpr::msg::channels::kWholebodyCommand.name, "motion_opt"},
-                                                       {hpr::msg::channels::kJointCommand.name, "wbc"}};
+  const bool cam = !seen[channels::kCamReference.name].empty() && !seen[channels::kWholebodyCommand.name].empty();
+  std::vector<std::string> path = {channels::kRobotSensors.name, channels::kRobotState.name};
+  if (cam) path.insert(path.end(), {channels::kCamReference.name, channels::kWholebodyCommand.name});
+  path.push_back(channels::kJointCommand.name);
+  const std::map<std::string, std::string> hop_name = {{channels::kRobotState.name, "estimator"},
+                                                       {channels::kCamReference.name, "reference_gen"},
+                                                       {channels::kWholebodyCommand.name, "motion_opt"},
+                                                       {channels::kJointCommand.name, "wbc"}};
   std::vector<std::vector<double>> hops(path.size() - 1);
   std::vector<double> total;
-  for (const auto& [tick, t0] : seen[hpr::msg::channels::kRobotSensors.name]) {
+  for (const auto& [tick, t0] : seen[channels::kRobotSensors.name]) {
     std::vector<std::int64_t> t = {t0};
     for (size_t i = 1; i < path.size(); ++i) {
       const auto& m = seen[path[i]];

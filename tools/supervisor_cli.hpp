@@ -12,9 +12,11 @@
 #include <lcm/lcm-cpp.hpp>
 #include <map>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "hpr/common/auth.hpp"
+#include "hpr/common/channel.hpp"
 #include "hpr/common/log.hpp"
 #include "hpr/launch/groups.hpp"
 
@@ -56,9 +58,10 @@ std::string tail_file(const std::string& path, int lines);
 template <class Msg>
 class Subscription {
  public:
-  Subscription(lcm::LCM& lcm, const std::string& channel, std::function<void(const Msg&)> f, const auth::Key* key = nullptr)
+  Subscription(lcm::LCM& lcm, const Channel<Msg>& channel, std::type_identity_t<std::function<void(const Msg&)>> f,
+               const auth::Key* key = nullptr)
       : lcm_(lcm), f_(std::move(f)), key_(key) {
-    sub_ = lcm_.subscribe(channel, &Subscription::on, this);
+    sub_ = lcm_.subscribe(channel.name, &Subscription::on, this);
   }
   ~Subscription() { lcm_.unsubscribe(sub_); }
   Subscription(const Subscription&) = delete;

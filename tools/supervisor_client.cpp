@@ -91,7 +91,7 @@ int cmd_down(const Options& o, const std::string& url) {
   };
   std::map<std::pair<std::string, std::string>, Seen> seen;
   const std::string me = command_source();
-  Subscription<Status> sub(lcm, hpr::msg::channels::kSupervisorStatus.name, [&](const Status& s) {
+  Subscription sub(lcm, hpr::msg::channels::kSupervisorStatus, [&](const Status& s) {
     if (!o.group_filter.empty() && s.group != o.group_filter) return;
     if (o.host_given && s.host != o.host) return;
     // A goodbye from a supervisor not heard before is an old one (another down's), unless it

@@ -129,7 +129,7 @@ void handle_for(lcm::LCM& lcm, double timeout_s) {
 std::vector<Status> collect_status(lcm::LCM& lcm, double wait_s, const std::string& group_filter) {
   std::map<std::pair<std::string, std::string>, Status> latest;
   {
-    Subscription<Status> sub(lcm, hpr::msg::channels::kSupervisorStatus.name, [&](const Status& s) {
+    Subscription sub(lcm, hpr::msg::channels::kSupervisorStatus, [&](const Status& s) {
       if (!group_filter.empty() && s.group != group_filter) return;
       latest[{s.host, s.group}] = s;
     });

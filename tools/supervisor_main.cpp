@@ -15,12 +15,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include <humanoid/health_t.hpp>
-#include <humanoid/operator_t.hpp>
-#include <humanoid/supervisor_command_t.hpp>
-#include <humanoid/supervisor_status_t.hpp>
-
-#include "hpr/msg/channels.hpp"
+#include "hpr/msg/channels.hpp"  // every channel with its message type
 #include "hpr/msg/commands.hpp"
 
 #include <atomic>
@@ -142,7 +137,7 @@ class CommandIntake {
  public:
   CommandIntake(lcm::LCM& lcm, const auth::Key& key, const std::string& me, const std::string& group, launch::Supervisor& sup)
       : me_(me), group_(group), sup_(sup),
-        sub_(lcm, hpr::msg::channels::kSupervisorCommand.name, [this](const humanoid::supervisor_command_t& c) { on(c); }, &key) {}
+        sub_(lcm, hpr::msg::channels::kSupervisorCommand, [this](const humanoid::supervisor_command_t& c) { on(c); }, &key) {}
   bool down_requested = false;
   std::string down_source;  ///< who asked for the down: the goodbye names it
 
@@ -234,11 +229,11 @@ int run_supervisor(const launch::GroupSpec& group, const Options& o, const std::
   std::string last_event;
   bool changed = true;
 
-  Subscription<humanoid::health_t> health_sub(lcm, hpr::msg::channels::kHealth.name, [&](const humanoid::health_t& h) {
+  Subscription health_sub(lcm, hpr::msg::channels::kHealth, [&](const humanoid::health_t& h) {
     sup.on_health(h.node, h.state, h.lifecycle, h.rate_hz, h.deadline_misses, h.faults, monotonic_s());
   });
   const std::string& me = o.host;
-  Subscription<Status> status_sub(lcm, hpr::msg::channels::kSupervisorStatus.name, [&](const Status& s) {
+  Subscription status_sub(lcm, hpr::msg::channels::kSupervisorStatus, [&](const Status& s) {
     if (s.host == me || s.group != group.name) return;
     for (int i = 0; i < s.num_processes; ++i) {
       sup.on_remote_ready(s.name[i], s.process_state[i] == Status::PROCESS_READY);

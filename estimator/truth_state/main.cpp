@@ -4,7 +4,8 @@
 // estimator would give. Steps on every ROBOT_SENSORS sample (tick k) with the SIM_TRUTH of the same
 // tick and publishes ROBOT_STATE(k): the root link's pose and twist, the CoM and the feet's contacts
 // from SIM_TRUTH, the joints from ROBOT_SENSORS (msg::state_from_truth). A tick whose SIM_TRUTH does
-// not come within `truth_state.truth_timeout` publishes nothing: the wbc's state timeout damps.
+// not come within 0.5 s (the simulator publishes both before it waits) publishes nothing: the wbc,
+// without its state, damps.
 #include <humanoid/robot_sensors_t.hpp>
 #include <humanoid/robot_state_t.hpp>
 #include <humanoid/sim_truth_t.hpp>
@@ -39,7 +40,7 @@ int main(int argc, char** argv) {
         auto out = rt.advertise(msg::channels::kRobotState);
         humanoid::robot_state_t state_msg{};
         const msg::Read& r = msg::read_of("truth_state", msg::channels::kSimTruth.name);
-        constexpr double kTruthTimeout = 0.5;  // [s] a lockstep simulator publishes both before it waits
+        constexpr double kTruthTimeout = 0.5;  // [s]
         rt.on_tick(sensors_in, {{&truth_in, r.tick_offset, {}, r.optional}}, kTruthTimeout, [&](const node::TickInfo& info) {
           if (truth_in.tick() != info.tick + r.tick_offset) {
             rt.set_fault("truth", "no SIM_TRUTH for this tick: no state published");

@@ -101,8 +101,7 @@ ParameterSet& Runtime::parameters(const std::string& node) {
   const bool first = parameters_.empty();
   parameters_.push_back(std::make_unique<ParameterSet>(node));
   if (!first) return *parameters_.back();
-  own_subscription_ = true;
-  subscribe(msg::channels::kOperator, msg::check_operator, [this](const humanoid::operator_t& m) {
+  make_input<humanoid::operator_t>(msg::channels::kOperator.name, msg::check_operator, [this](const humanoid::operator_t& m) {
     const bool set = m.command == humanoid::operator_t::COMMAND_SET_PARAMS;
     if (!set && m.command != humanoid::operator_t::COMMAND_GET_PARAMS) return;
     // Senders repeat a request (UDP may drop one); each is handled once.
@@ -135,7 +134,6 @@ ParameterSet& Runtime::parameters(const std::string& node) {
     }
     if (handled) last_request_ = id;
   });
-  own_subscription_ = false;
   return *parameters_.back();
 }
 

@@ -51,7 +51,6 @@ void install_signal_handlers() {
 }  // namespace
 
 void Runtime::check_declared(const std::string& ch, bool write) const {
-  if (own_subscription_) return;
   const msg::ProcessPorts* p = msg::find_process(name_);
   if (p == nullptr) return;  // a tool, a test, or a process run under another name
   const bool declared = write ? std::find(p->writes.begin(), p->writes.end(), ch) != p->writes.end()
