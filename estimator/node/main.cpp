@@ -34,11 +34,12 @@ int main(int argc, char** argv) {
         auto out = rt.advertise(msg::channels::kRobotState);
         humanoid::robot_state_t state_msg{};
         estimator::TickReport report;
+        estimator::Estimator::Outputs estimate;
         rt.on_restart(sensors, [&] { est.reset(); });
         rt.on_tick(sensors, {}, 0.0, [&](const node::TickInfo&) {
-          const EstimatedState& s = est.update(sample);
-          report(rt, est, s, sample.tick);
-          msg::to_message(s, names, state_msg);
+          est.step({sample}, estimate);
+          report(rt, est, estimate.report, sample.tick);
+          msg::to_message(estimate.state, names, state_msg);
           out.publish(state_msg);
         });
         rt.while_silent(sensors, sensor_timeout, "sensors", [&] {

@@ -162,6 +162,23 @@ bool Estimator::plausible(const SensorSample& s) {
   return implausible_.empty();
 }
 
+void Estimator::step(const Inputs& in, Outputs& out) {
+  out.state = update(in.sensors);
+  report(out.state, out.report);
+}
+
+void Estimator::report(const EstimatedState& s, StepReport& r) const {
+  r.begin();
+  r.set("implausible", !implausible_.empty(), implausible_);
+  if ((s.status & kStatusCovariance) != 0) {
+    r.raise("covariance", "position standard deviation {:.3f} m", position_std());
+  } else {
+    r.clear("covariance");
+  }
+  r.set("contact", (s.status & kStatusNoContact) != 0 && (s.status & kStatusInitialising) == 0, "no foot in contact");
+  if ((s.status & kStatusInitialising) != 0) r.outcome = StepOutcome::kNotReady;
+}
+
 const EstimatedState& Estimator::update(const SensorSample& s) {
   if (!plausible(s)) {
     // The previous estimate, for this tick, flagged: consumers step on every tick and decide.

@@ -1,6 +1,6 @@
 // controllers: the estimator, reference_gen, motion_opt and wbc composed in one process.
 //
-// Steps on every ROBOT_SENSORS (tick k) through hpr::pipeline::Controllers, the same components and
+// Steps on every ROBOT_SENSORS (tick k) through hpr::graph::Controllers, the same components and
 // conversions the four processes run, and publishes every channel they publish: JOINT_COMMAND of
 // tick k first (the robot waits for it), then ROBOT_STATE, CAM_REFERENCE, WHOLEBODY_COMMAND and
 // BALANCE_STATUS of tick k. lcm-spy, recording and replay see the same messages as from the four
@@ -16,28 +16,23 @@
 #include "hpr/msg/robot_io.hpp"
 #include "hpr/node/command_line.hpp"
 #include "hpr/node/runtime.hpp"
-#include "hpr/pipeline/controllers.hpp"
+#include "hpr/graph/controllers.hpp"
 #include "hpr/wbc/node.hpp"
 
 namespace {
 
 using namespace hpr;
 
-/// HEALTH faults of the tick, as the four processes report them (the estimator's and the wbc's
-/// reporting themselves, and motion_opt's QP fault).
-void report(node::Runtime& rt, pipeline::Controllers& c, estimator::TickReport& estimator_report) {
-  estimator_report(rt, *c.estimator, c.state(), c.state().tick);
-  wbc::report_step(rt, c.wbc, c.wbc_out.mode, c.wbc_out.status, c.state());
-  if (c.have_wholebody && c.wholebody.qp_failed) {
-    rt.set_fault("motion_qp", "motion QP failed: posture task within the limits");
-  } else {
-    rt.clear_fault("motion_qp");
-  }
+/// HEALTH of the tick: each component's report, as the four processes apply theirs (with the
+/// estimator's log of refused samples).
+void report(node::Runtime& rt, const graph::Controllers& c, estimator::TickReport& estimator_report) {
+  estimator_report(rt, *c.estimator, *c.reports().front(), c.state().tick);
+  for (const StepReport* r : c.reports().subspan(1)) rt.report(*r);
 }
 
 /// Each component's live parameters, answered under its process's name ("wbc.com.stiffness.z"), as
 /// the four processes answer them.
-void add_parameters(node::Runtime& rt, pipeline::Controllers& c) {
+void add_parameters(node::Runtime& rt, graph::Controllers& c) {
   estimator::add_parameters(rt.parameters("estimator"), c.estimator->tunable_config());
   if (c.generator) reference_gen::add_parameters(rt.parameters("reference_gen"), *c.generator);
   if (c.optimizer) motion_opt::add_parameters(rt.parameters("motion_opt"), c.optimizer->optimizer().tunable_config());
@@ -54,9 +49,9 @@ int main(int argc, char** argv) {
         // wbc.wait_for_wholebody false: the wbc holds its own posture (the ankle strategy, as the
         // wbc process without motion_opt).
         const bool cam = cfg.section("wbc").boolean_or("wait_for_wholebody", true);
-        const pipeline::ControllersOptions run{.cam = cam, .estimator = true, .messages = true};
-        pipeline::check_exchange_options(cfg, run);
-        pipeline::Controllers c(cfg, robot, run);
+        const graph::ControllersOptions run{.cam = cam, .estimator = true, .messages = true};
+        graph::check_exchange_options(cfg, run);
+        graph::Controllers c(cfg, robot, run);
         const double sensor_timeout = cfg.section("estimator").real_or("sensor_timeout", 0.02, 1e-3, 60.0);
         node::Runtime rt(cl.name, node::lcm_url(cl, cfg), node::runtime_options(cfg, 1e-3));
         SensorSample sample;
@@ -76,11 +71,12 @@ int main(int argc, char** argv) {
         // The joint command first (the drives wait for it), then what the four processes publish
         // on the way to it, in their order.
         auto publish = [&] {
-          command_out.publish(c.command_msg);
-          state_out.publish(c.state_msg);
-          if (c.options.cam) cam_out.publish(c.cam_msg);
-          if (c.have_wholebody) wholebody_out.publish(c.wholebody_msg);
-          if (c.wbc_out.mode == wbc::WbcComponent::Mode::kBalance) balance_out.publish(c.balance_msg);
+          const graph::Controllers::Messages& m = c.messages();
+          command_out.publish(m.command);
+          state_out.publish(m.state);
+          if (c.options().cam) cam_out.publish(m.cam);
+          if (c.have_wholebody()) wholebody_out.publish(m.wholebody);
+          if (c.wbc_out().mode == wbc::WbcComponent::Mode::kBalance) balance_out.publish(m.balance);
         };
         rt.on_restart(sensors, [&] { c.reset(); });
         rt.on_tick(sensors, {}, 0.0, [&](const node::TickInfo&) {

@@ -1,4 +1,4 @@
-#include "hpr/pipeline/closed_loop.hpp"
+#include "hpr/graph/closed_loop.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -8,7 +8,7 @@
 #include "hpr/common/args.hpp"
 #include "hpr/msg/sim_truth.hpp"
 
-namespace hpr::pipeline {
+namespace hpr::graph {
 
 SimulatedRobot::SimulatedRobot(const std::string& config_file, const std::vector<std::string>& overrides)
     : cfg(Config::load(config_file, overrides)),
@@ -35,7 +35,7 @@ ClosedLoop::ClosedLoop(const std::string& config_file, const std::vector<std::st
   (void)s.boolean_or("publish_truth", true);
   (void)s.string_or("scenario", "");
   cfg.check_all_read();
-  if (estimator) estimator->update(sensors_as_received());
+  if (estimator) estimate(sensors_as_received());
 }
 
 const SensorSample& ClosedLoop::sensors_as_received() {
@@ -57,7 +57,7 @@ void ClosedLoop::step() {
     control(truth_);
   }
   sim::Simulator::Outputs plant;
-  sim.step({&wbc_out.command}, plant);
+  sim.step({&wbc_out().command}, plant);
   if (estimator) estimate(sensors_as_received());
 }
 
@@ -93,4 +93,4 @@ std::optional<BenchArgs> read_bench_args(int argc, char** argv, const char* name
   return a;
 }
 
-}  // namespace hpr::pipeline
+}  // namespace hpr::graph

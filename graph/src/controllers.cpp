@@ -1,4 +1,4 @@
-#include "hpr/pipeline/controllers.hpp"
+#include "hpr/graph/controllers.hpp"
 
 #include <chrono>
 #include <stdexcept>
@@ -9,7 +9,7 @@
 #include "hpr/msg/lcm_section.hpp"
 #include "hpr/msg/state.hpp"
 
-namespace hpr::pipeline {
+namespace hpr::graph {
 
 void check_exchange_options(const Config& cfg, const ControllersOptions& run) {
   if (run.cam) {
@@ -33,14 +33,14 @@ using Clock = std::chrono::steady_clock;
 }  // namespace
 
 Controllers::Controllers(const Config& cfg, const model::RobotSpec& robot, ControllersOptions opts)
-    : options(opts),
-      wbc(robot, wbc::WbcConfig::load(cfg.section("wbc"), robot), balance::PostureReferenceConfig::load(cfg.section("balance")),
-          static_cast<int>(cfg.section("wbc").integer_or("bad_state_ticks", 20, 1, 100000))) {
+    : wbc(robot, wbc::WbcConfig::load(cfg.section("wbc"), robot), balance::PostureReferenceConfig::load(cfg.section("balance")),
+          static_cast<int>(cfg.section("wbc").integer_or("bad_state_ticks", 20, 1, 100000))),
+      options_(opts) {
   names_.joints = robot.model.joint_name;
   for (int j : robot.free_joints) free_names_.push_back(robot.model.joint_name[static_cast<size_t>(j)]);
-  wbc_out.command.resize(robot.model.nj);
-  if (options.estimator) estimator.emplace(robot, estimator::EstimatorConfig::load(cfg.section("estimator")));
-  if (options.cam) {
+  wbc_out_.command.resize(robot.model.nj);
+  if (options_.estimator) estimator.emplace(robot, estimator::EstimatorConfig::load(cfg.section("estimator")));
+  if (options_.cam) {
     generator.emplace(reference_gen::GeneratorConfig::load(cfg.section("reference_gen")));
     optimizer.emplace(robot, motion_opt::MotionOptConfig::load(cfg.section("motion_opt"), robot),
                       balance::PostureReferenceConfig::load(cfg.section("balance")));
@@ -49,7 +49,7 @@ Controllers::Controllers(const Config& cfg, const model::RobotSpec& robot, Contr
 
 template <class Message, class Value, class... Context>
 void Controllers::pass(const char* channel, const Value& sent, Message& m, Value& value, const Context&... context) {
-  if (!options.messages) {
+  if (!options_.messages) {
     value = sent;
     return;
   }
@@ -76,38 +76,56 @@ void Controllers::run_component(Component c, double& us, F&& f) {
 
 void Controllers::estimate(const SensorSample& sample) {
   if (!estimator) throw std::logic_error("Controllers::estimate: no estimator in this loop");
-  run_component(Component::kEstimator, times.estimator_us, [&] { estimator->update(sample); });
+  run_component(Component::kEstimator, times_.estimator_us, [&] { estimator->step({sample}, estimate_out_); });
 }
 
 void Controllers::control(std::int32_t extra_status) {
   if (!estimator) throw std::logic_error("Controllers::control: no estimator in this loop");
+  n_reports_ = 0;
   if (extra_status == 0) {
-    pass(msg::channels::kRobotState.name, estimator->state(), state_msg, state_, names_);
+    pass(msg::channels::kRobotState.name, estimator->state(), messages_.state, state_, names_);
   } else {
     flagged_ = estimator->state();
     flagged_.status |= extra_status;
-    pass(msg::channels::kRobotState.name, flagged_, state_msg, state_, names_);
+    pass(msg::channels::kRobotState.name, flagged_, messages_.state, state_, names_);
+    estimator->report(state_, estimate_out_.report);
   }
-  control(state_);
+  reports_[n_reports_++] = &estimate_out_.report;
+  step_controllers();
 }
 
 void Controllers::control(const EstimatedState& state) {
-  if (&state != &state_) state_ = state;
-  have_wholebody = false;
-  if (options.cam) {
-    run_component(Component::kReferenceGen, times.reference_gen_us, [&] {
-      generator->step({state_.tick, state_.time, have_balance_ ? &balance_ : nullptr, wholebody_.posture_error}, cam);
+  state_ = state;
+  n_reports_ = 0;
+  step_controllers();
+}
+
+void Controllers::step_controllers() {
+  have_wholebody_ = false;
+  if (options_.cam) {
+    run_component(Component::kReferenceGen, times_.reference_gen_us, [&] {
+      generator->step({.tick = state_.tick,
+                       .time = state_.time,
+                       .balance = OptionalRef<balance::BalanceStatus>::when(have_balance_, balance_),
+                       .posture_error = wholebody_.posture_error},
+                      reference_out_);
     });
-    pass(msg::channels::kCamReference.name, cam, cam_msg, cam_);
-    run_component(Component::kMotionOpt, times.motion_opt_us,
-                  [&] { have_wholebody = optimizer->step({&state_, &cam_}, wholebody); });
-    if (have_wholebody) pass(msg::channels::kWholebodyCommand.name, wholebody, wholebody_msg, wholebody_, free_names_, names_);
+    reports_[n_reports_++] = &reference_out_.report;
+    pass(msg::channels::kCamReference.name, reference_out_.reference, messages_.cam, cam_);
+    run_component(Component::kMotionOpt, times_.motion_opt_us, [&] { optimizer->step({.state = state_, .cam = cam_}, motion_out_); });
+    reports_[n_reports_++] = &motion_out_.report;
+    have_wholebody_ = motion_out_.valid;
+    if (have_wholebody_) {
+      pass(msg::channels::kWholebodyCommand.name, motion_out_.wholebody, messages_.wholebody, wholebody_, free_names_, names_);
+    }
   }
-  run_component(Component::kWbc, times.wbc_us,
-                [&] { wbc.step({&state_, have_wholebody ? &wholebody_.command : nullptr}, wbc_out); });
-  if (options.messages) msg::to_message(wbc_out.command, names_, command_msg);
-  have_balance_ = wbc_out.mode == wbc::WbcComponent::Mode::kBalance;
-  if (have_balance_) pass(msg::channels::kBalanceStatus.name, wbc_out.status, balance_msg, balance_, names_);
+  run_component(Component::kWbc, times_.wbc_us, [&] {
+    wbc.step({.state = state_, .wholebody = OptionalRef<balance::TaskReference>::when(have_wholebody_, wholebody_.command)}, wbc_out_);
+  });
+  reports_[n_reports_++] = &wbc_out_.report;
+  if (options_.messages) msg::to_message(wbc_out_.command, names_, messages_.command);
+  have_balance_ = wbc_out_.mode == wbc::WbcComponent::Mode::kBalance;
+  if (have_balance_) pass(msg::channels::kBalanceStatus.name, wbc_out_.status, messages_.balance, balance_, names_);
 }
 
 void Controllers::request_support(balance::Support s, double t) {
@@ -121,8 +139,8 @@ void Controllers::reset() {
   if (optimizer) optimizer->reset();
   wbc.reset();
   have_balance_ = false;
-  have_wholebody = false;
+  have_wholebody_ = false;
   wholebody_.posture_error = 0.0;
 }
 
-}  // namespace hpr::pipeline
+}  // namespace hpr::graph

@@ -9,21 +9,21 @@
 #include <cstdio>
 #include <vector>
 
-#include "hpr/pipeline/closed_loop.hpp"
+#include "hpr/graph/closed_loop.hpp"
 #include "hpr/common/stats.hpp"
 
 int main(int argc, char** argv) {
-  const auto args = hpr::pipeline::read_bench_args(argc, argv, "bench_motion_opt");
+  const auto args = hpr::graph::read_bench_args(argc, argv, "bench_motion_opt");
   if (!args) return 2;
   const std::string& robot = args->robot;
   const double seconds = args->seconds;
-  hpr::pipeline::ClosedLoop loop(std::string(HPR_SOURCE_DIR) + "/config/" + robot + ".yaml", {}, {.cam = true});
+  hpr::graph::ClosedLoop loop(std::string(HPR_SOURCE_DIR) + "/config/" + robot + ".yaml", {}, {.cam = true});
   loop.push_base(18.0, 65.0, Eigen::Vector3d::UnitX(), 3.0);
   std::vector<double> us;
   int max_changes = 0;
   loop.run(seconds, [&] {
-    us.push_back(loop.times.motion_opt_us);
-    max_changes = std::max(max_changes, loop.wholebody.qp_iterations);
+    us.push_back(loop.times().motion_opt_us);
+    max_changes = std::max(max_changes, loop.wholebody().qp_iterations);
   });
   std::printf("motion_opt step (%s, %zu ticks, 18 N s push at t = 3 s, fallen %d): median %.1f us, p99 %.1f us, max %.1f us; "
               "working-set changes per tick max %d\n",

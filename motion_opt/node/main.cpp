@@ -46,7 +46,7 @@ int main(int argc, char** argv) {
         });
         motion_opt::add_parameters(rt.parameters(), opt.optimizer().tunable_config());
         auto out = rt.advertise(msg::channels::kWholebodyCommand);
-        balance::WholebodyCommand command;
+        motion_opt::MotionOptComponent::Outputs command;
         humanoid::wholebody_command_t msg{};
         std::vector<node::Sync> sync;
         // CAM_REFERENCE of the same tick, optional: without it, the posture task only.
@@ -55,24 +55,11 @@ int main(int argc, char** argv) {
         rt.on_restart(state_in, [&] { opt.reset(); });
         rt.on_tick(state_in, sync, timeout, [&](const node::TickInfo& info) {
           const bool fresh = cam_in.has_value() && cam_in.tick() >= info.tick - stale_ticks;
-          // Nothing goes out before a usable estimate started the posture (the wbc damps meanwhile).
-          if (!opt.step({&state, fresh ? &cam : nullptr}, command)) {
-            rt.report(node::StepOutcome::kNotReady);
-            return;
-          }
-          if (!fresh) {
-            rt.set_fault("reference", "CAM_REFERENCE stale: posture task only");
-          } else {
-            rt.clear_fault("reference");
-          }
-          if (command.qp_failed) {
-            rt.set_fault("qp", std::string("QP failed (") + std::string(qp::to_string(static_cast<qp::Status>(command.qp_status))) +
-                                   "): posture task within the limits");
-          } else {
-            rt.clear_fault("qp");
-          }
-          command.tick = info.tick;
-          msg::to_message(command, free_names, names, msg);
+          opt.step({.state = state, .cam = OptionalRef<balance::CamReference>::when(fresh, cam)}, command);
+          rt.report(command.report);
+          if (!command.valid) return;
+          command.wholebody.tick = info.tick;
+          msg::to_message(command.wholebody, free_names, names, msg);
           out.publish(msg);
         });
         return rt.run();

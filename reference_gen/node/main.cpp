@@ -41,7 +41,7 @@ int main(int argc, char** argv) {
             [&](const humanoid::wholebody_command_t& m) { return msg::from_message(m, {}, wholebody); });
         reference_gen::add_parameters(rt.parameters(), gen);
         auto out = rt.advertise(msg::channels::kCamReference);
-        balance::CamReference reference;
+        reference_gen::ReferenceGenerator::Outputs reference;
         humanoid::cam_reference_t msg{};
         std::vector<node::Sync> sync;
         // BALANCE_STATUS of the previous tick, optional: without it, the reference ramps to zero.
@@ -49,16 +49,13 @@ int main(int argc, char** argv) {
         if (wait) sync.push_back({&balance_in, b.tick_offset, {}, b.optional});
         rt.on_restart(state_in, [&] { gen.reset(); });
         rt.on_tick(state_in, sync, timeout, [&](const node::TickInfo& info) {
-          gen.step({info.tick, state.time, balance_in.has_value() ? &balance_status : nullptr,
-                    wholebody_in.has_value() ? wholebody.posture_error : 0.0},
+          gen.step({.tick = info.tick,
+                    .time = state.time,
+                    .balance = OptionalRef<balance::BalanceStatus>::when(balance_in.has_value(), balance_status),
+                    .posture_error = wholebody_in.has_value() ? wholebody.posture_error : 0.0},
                    reference);
-          if (reference.stale && info.tick > 1) {
-            rt.set_fault("balance", reference.ramping ? "BALANCE_STATUS stale: CAM reference ramped to zero"
-                                                      : "BALANCE_STATUS stale: CAM reference held");
-          } else {
-            rt.clear_fault("balance");
-          }
-          msg::to_message(reference, msg);
+          rt.report(reference.report);
+          msg::to_message(reference.reference, msg);
           out.publish(msg);
         });
         return rt.run();

@@ -162,10 +162,13 @@ void ReferenceGenerator::set_axis_params(int i, AxisParams p) {
 
 void ReferenceGenerator::step(const Inputs& in, Outputs& out) {
   static const balance::BalanceStatus kNone{};
-  step(in.time, config_.dt, in.balance != nullptr ? *in.balance : kNone, in.balance != nullptr, in.posture_error);
+  step(in.time, config_.dt, in.balance ? *in.balance : kNone, in.balance.has_value(), in.posture_error);
   out_.tick = in.tick;
-  out_.balance_tick = in.balance != nullptr ? in.balance->tick : -1;
-  out = out_;
+  out_.balance_tick = in.balance ? in.balance->tick : -1;
+  out.reference = out_;
+  out.report.begin();
+  out.report.set("balance", out_.stale && in.tick > 1,
+                 out_.ramping ? "BALANCE_STATUS stale: CAM reference ramped to zero" : "BALANCE_STATUS stale: CAM reference held");
 }
 
 const CamReference& ReferenceGenerator::step(double t, double dt, const BalanceInput& b, bool balance_valid,

@@ -1,5 +1,5 @@
 // Stepping in closed loop: the simulator, the estimator in the loop and the CAM strategy in one
-// process (hpr/pipeline), with config/overlays/toro_stepping.yaml (and H1-2's own,
+// process (hpr/graph), with config/overlays/toro_stepping.yaml (and H1-2's own,
 // config/overlays/h1_2_stepping.yaml).
 #include <gtest/gtest.h>
 
@@ -57,7 +57,7 @@ Outcome push_from_behind(double impulse, const std::vector<std::string>& overrid
   loop.run(6.0, [&] {
     for (size_t k = 0; k < 2; ++k) o.max_foot_travel = std::max(o.max_foot_travel, (loop.sim.truth().p_WF[k] - p0[k]).head<2>().norm());
     // What the wholebody command publishes for display: the step under way until touchdown.
-    const hpr::balance::StepStatus& st = loop.wholebody.command.stepping;
+    const hpr::balance::StepStatus& st = loop.wholebody().command.stepping;
     if (swing >= 0 && st.swing < 0) {
       ++o.steps_shown;
       o.landing_miss = std::max(o.landing_miss, (loop.sim.truth().p_WF[static_cast<size_t>(swing)].head<2>() - target).norm());
@@ -336,7 +336,7 @@ TEST(SteppingClosedLoop, WhileNoStepIsDueTheStackComputesWhatItComputesWithoutSt
   for (int k = 0; k < 4000; ++k) {
     off.step();
     on.step();
-    ASSERT_EQ(off.wbc_out.command.tau_ff, on.wbc_out.command.tau_ff) << "tick " << k;
+    ASSERT_EQ(off.wbc_out().command.tau_ff, on.wbc_out().command.tau_ff) << "tick " << k;
   }
   EXPECT_FALSE(on.sim.truth().fallen);
   EXPECT_EQ(on.optimizer->posture_reference().reference().stepping.steps_taken, 0);

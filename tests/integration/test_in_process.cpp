@@ -1,5 +1,5 @@
 // The in-process pipeline against the processes: the same push through push_trial's processes in
-// lockstep (recorded) and through hpr::pipeline::ClosedLoop must give the same messages, tick by
+// lockstep (recorded) and through hpr::graph::ClosedLoop must give the same messages, tick by
 // tick and bit for bit: ROBOT_STATE, CAM_REFERENCE, WHOLEBODY_COMMAND and JOINT_COMMAND. And the
 // two ways of running a trial (run_trial with and without in_process) must judge alike.
 #include <gtest/gtest.h>
@@ -22,7 +22,7 @@
 #include "hpr/experiments/trial.hpp"
 #include "hpr/msg/robot_io.hpp"
 #include "hpr/msg/state.hpp"
-#include "hpr/pipeline/closed_loop.hpp"
+#include "hpr/graph/closed_loop.hpp"
 #include "process_group.hpp"
 
 namespace {
@@ -137,10 +137,10 @@ void expect_same_messages(TrialSpec spec, const std::string& name, int min_steps
   ASSERT_GT(commands.size(), 3000U);
 
   const auto plan = hpr::experiments::plan_trial(spec);
-  hpr::pipeline::ClosedLoopOptions options;
+  hpr::graph::ClosedLoopOptions options;
   options.cam = strategy == Strategy::kCam;
   options.estimator_in_loop = true;
-  hpr::pipeline::ClosedLoop loop(plan.config, plan.overrides, options);
+  hpr::graph::ClosedLoop loop(plan.config, plan.overrides, options);
   loop.sim.add_push(plan.push);
   hpr::msg::RobotNames names;
   names.joints = loop.spec.model.joint_name;
@@ -174,7 +174,7 @@ void expect_same_messages(TrialSpec spec, const std::string& name, int min_steps
         cam_cmp.add(k, differ("l_ref_W", r->second.l_ref_W, o.l_ref_W.data(), 3));
       }
       if (const auto w = wholebodies.find(k); w != wholebodies.end()) {
-        const auto& o = loop.wholebody;
+        const auto& o = loop.wholebody();
         hpr::msg::to_message(o, free_names, names, wholebody);
         const auto& rec = w->second;
         const auto& w_in = wholebody;  // the in-process command as its message
@@ -197,7 +197,7 @@ void expect_same_messages(TrialSpec spec, const std::string& name, int min_steps
                          differ("follow_steps", rec.follow_steps, w_in.follow_steps)}));
       }
     }
-    hpr::msg::to_message(loop.wbc_out.command, names, command);
+    hpr::msg::to_message(loop.wbc_out().command, names, command);
     const auto& rec = c->second;
     command_cmp.add(k, first_of({differ("tau_ff", rec.tau_ff, command.tau_ff), differ("q_des", rec.q_des, command.q_des),
                                  differ("qd_des", rec.qd_des, command.qd_des), differ("kp", rec.kp, command.kp),
@@ -298,13 +298,13 @@ TEST(InProcess, TheTruthStateGivesEveryControllerTheSimulatorsStateAndNoEstimato
   ASSERT_TRUE(truth.recovered) << truth.failure;
 
   const auto plan = hpr::experiments::plan_trial(spec);
-  hpr::pipeline::ClosedLoop loop(plan.config, plan.overrides, {.cam = true, .estimator_in_loop = false});
+  hpr::graph::ClosedLoop loop(plan.config, plan.overrides, {.cam = true, .estimator_in_loop = false});
   loop.sim.add_push(plan.push);
   double peak_cam_y = 0.0;  // the commanded CAM from the push on, as the evaluator reads it
   while (loop.sim.time() < plan.sim_duration) {
     const double t = loop.sim.time();
     loop.step();
-    if (loop.have_wholebody && t >= plan.push.start) peak_cam_y = std::max(peak_cam_y, std::abs(loop.wholebody.l_cmd.y()));
+    if (loop.have_wholebody() && t >= plan.push.start) peak_cam_y = std::max(peak_cam_y, std::abs(loop.wholebody().l_cmd.y()));
   }
   EXPECT_FALSE(loop.estimator.has_value()) << "no estimator runs";
   EXPECT_GT(peak_cam_y, 0.1) << "the hip strategy acted";
@@ -325,13 +325,13 @@ TEST(InProcess, TheTruthStateGivesEveryControllerTheSimulatorsStateAndNoEstimato
 TEST(InProcess, AMisspeltOrOutOfRangeLcmKeyIsRefusedAsTheProcessesRefuseIt) {
   const std::string config = hpr::test::source_dir() + "/config/toro.yaml";
   try {
-    hpr::pipeline::ClosedLoop loop(config, {"lcm.tick_windw=5"}, {.cam = true, .estimator_in_loop = false});
+    hpr::graph::ClosedLoop loop(config, {"lcm.tick_windw=5"}, {.cam = true, .estimator_in_loop = false});
     ADD_FAILURE() << "lcm.tick_windw was accepted";
   } catch (const hpr::ConfigError& e) {
     EXPECT_NE(std::string(e.what()).find("did you mean 'tick_window'?"), std::string::npos) << e.what();
   }
   try {
-    hpr::pipeline::ClosedLoop loop(config, {"lcm.time_slack_s=-1"}, {.cam = true, .estimator_in_loop = false});
+    hpr::graph::ClosedLoop loop(config, {"lcm.time_slack_s=-1"}, {.cam = true, .estimator_in_loop = false});
     ADD_FAILURE() << "lcm.time_slack_s = -1 was accepted";
   } catch (const hpr::ConfigError& e) {
     EXPECT_NE(std::string(e.what()).find("lcm.time_slack_s"), std::string::npos) << e.what();

@@ -1,18 +1,18 @@
 #pragma once
-// The in-process closed loop (hpr/pipeline) for a robot of this tree's config folder, by name.
+// The in-process closed loop (hpr/graph) for a robot of this tree's config folder, by name.
 #include <string>
 #include <vector>
 
-#include "hpr/pipeline/closed_loop.hpp"
+#include "hpr/graph/closed_loop.hpp"
 #include "process_group.hpp"
 
 namespace hpr::test {
 
-using pipeline::ClosedLoopOptions;
+using graph::ClosedLoopOptions;
 
-struct ClosedLoop : pipeline::ClosedLoop {
+struct ClosedLoop : graph::ClosedLoop {
   explicit ClosedLoop(const std::string& robot, const std::vector<std::string>& overrides = {}, ClosedLoopOptions loop_options = {})
-      : pipeline::ClosedLoop(source_dir() + "/config/" + robot + ".yaml", overrides, loop_options) {}
+      : graph::ClosedLoop(source_dir() + "/config/" + robot + ".yaml", overrides, loop_options) {}
 };
 
 }  // namespace hpr::test

@@ -73,55 +73,18 @@ std::optional<balance::Support> apply_operator(WbcComponent& wbc, const humanoid
   return std::nullopt;
 }
 
-bool report_step(node::Runtime& rt, const WbcComponent& wbc, WbcComponent::Mode mode, const BalanceStatus& status,
-                 const EstimatedState& state) {
-  switch (mode) {
-    case WbcComponent::Mode::kDampNoState:
-      rt.report(node::StepOutcome::kNotReady);
-      rt.set_fault("damping", "no usable ROBOT_STATE yet (status " + std::to_string(state.status) + ")");
-      return false;
-    case WbcComponent::Mode::kDampOperator:
-      rt.report(node::StepOutcome::kDamping);
-      rt.set_fault("damping", "operator damp");
-      return false;
-    case WbcComponent::Mode::kDampBadState:
-      rt.report(node::StepOutcome::kDamping);
-      rt.set_fault("damping", "ROBOT_STATE flagged (status " + std::to_string(state.status) + ") for " +
-                                  std::to_string(wbc.bad_state_count()) + " ticks");
-      return false;
-    case WbcComponent::Mode::kBalance:
-      break;
-  }
-  rt.clear_fault("damping");
-  if (status.qp_fallback) {
-    rt.set_fault("qp", "contact QP failed: last valid wrenches kept");
-  } else {
-    rt.clear_fault("qp");
-  }
-  if (status.singular) {
-    rt.set_fault("singular", "task Jacobian singular (stretched knee): last valid inverse kept");
-  } else {
-    rt.clear_fault("singular");
-  }
-  return true;
-}
-
-void WbcNode::publish(bool balanced) {
+void WbcNode::publish() {
   msg::to_message(out_.command, names_, command_msg_);
   command_out_.publish(command_msg_);
-  if (!balanced) return;
+  if (out_.mode != WbcComponent::Mode::kBalance) return;
   msg::to_message(out_.status, names_, status_msg_);
   status_out_.publish(status_msg_);
 }
 
 void WbcNode::step(const EstimatedState& state, bool wholebody_fresh) {
-  wbc_.step({&state, wholebody_fresh ? &wholebody_.command : nullptr}, out_);
-  const bool balanced = report_step(rt_, wbc_, out_.mode, out_.status, state);
-  if (balanced) {
-    if (!wholebody_fresh && have_wholebody_) rt_.set_fault("wholebody", "WHOLEBODY_COMMAND stale: holding the reference posture");
-    if (wholebody_fresh) rt_.clear_fault("wholebody");
-  }
-  publish(balanced);
+  wbc_.step({.state = state, .wholebody = OptionalRef<balance::TaskReference>::when(wholebody_fresh, wholebody_.command)}, out_);
+  rt_.report(out_.report);
+  publish();
 }
 
 }  // namespace hpr::wbc

@@ -1,6 +1,5 @@
 #include "hpr/wbc/component.hpp"
 
-#include <stdexcept>
 
 namespace hpr::wbc {
 
@@ -17,6 +16,7 @@ WbcComponent::WbcComponent(const model::RobotSpec& robot, WbcConfig config, bala
 void WbcComponent::reset() {
   reference_.reset();
   bad_state_count_ = 0;
+  had_wholebody_ = false;
 }
 
 void WbcComponent::damp(std::int64_t tick, Mode why, Outputs& out) const {
@@ -33,24 +33,56 @@ WbcComponent::Mode WbcComponent::mode_for(const EstimatedState& s) const {
 }
 
 void WbcComponent::step(const Inputs& in, Outputs& out) {
-  if (in.state == nullptr) throw std::invalid_argument("WbcComponent::step: no state");
-  const EstimatedState& s = *in.state;
+  const EstimatedState& s = in.state;
+  out.report.begin();
   const Mode mode = mode_for(s);
-  if (mode == Mode::kDampNoState) return damp(s.tick, mode, out);
-  if (!reference_.started()) reference_.start(s.q, s.time);
-  const balance::TaskReference& own = reference_.update(s.time, s.usable() ? &s : nullptr);
-  if (mode == Mode::kDampOperator) return damp(s.tick, mode, out);
-  bad_state_count_ = s.usable() ? 0 : bad_state_count_ + 1;
-  if (mode == Mode::kDampBadState) return damp(s.tick, mode, out);
-  robot_state_.tick = s.tick;
-  robot_state_.time = s.time;
-  robot_state_.q = s.q;
-  robot_state_.v = s.v;
-  const auto t0 = std::chrono::steady_clock::now();
-  out.command = wbc_.step(robot_state_, in.wholebody != nullptr ? *in.wholebody : own);
-  out.status = wbc_.status();
-  out.status.compute_time_us = std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count();
-  out.mode = Mode::kBalance;
+  if (mode != Mode::kDampNoState) {
+    if (!reference_.started()) reference_.start(s.q, s.time);
+    const balance::TaskReference& own = reference_.update(s.time, s.usable() ? &s : nullptr);
+    if (mode != Mode::kDampOperator) bad_state_count_ = s.usable() ? 0 : bad_state_count_ + 1;
+    if (mode == Mode::kBalance) {
+      robot_state_.tick = s.tick;
+      robot_state_.time = s.time;
+      robot_state_.q = s.q;
+      robot_state_.v = s.v;
+      const auto t0 = std::chrono::steady_clock::now();
+      out.command = wbc_.step(robot_state_, in.wholebody ? *in.wholebody : own);
+      out.status = wbc_.status();
+      out.status.compute_time_us = std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count();
+      out.mode = Mode::kBalance;
+    }
+  }
+  if (mode != Mode::kBalance) damp(s.tick, mode, out);
+  report(s, in, out);
+  had_wholebody_ = had_wholebody_ || in.wholebody.has_value();
+}
+
+void WbcComponent::report(const EstimatedState& s, const Inputs& in, Outputs& out) const {
+  StepReport& r = out.report;
+  switch (out.mode) {
+    case Mode::kDampNoState:
+      r.outcome = StepOutcome::kNotReady;
+      r.raise("damping", "no usable ROBOT_STATE yet (status {})", s.status);
+      return;
+    case Mode::kDampOperator:
+      r.outcome = StepOutcome::kDamping;
+      r.raise("damping", "operator damp");
+      return;
+    case Mode::kDampBadState:
+      r.outcome = StepOutcome::kDamping;
+      r.raise("damping", "ROBOT_STATE flagged (status {}) for {} ticks", s.status, bad_state_count_);
+      return;
+    case Mode::kBalance:
+      break;
+  }
+  r.clear("damping");
+  r.set("contact_qp", out.status.qp_fallback, "contact QP failed: last valid wrenches kept");
+  r.set("singular", out.status.singular, "task Jacobian singular (stretched knee): last valid inverse kept");
+  if (in.wholebody) {
+    r.clear("wholebody");
+  } else if (had_wholebody_) {
+    r.raise("wholebody", "WHOLEBODY_COMMAND stale: holding the reference posture");
+  }
 }
 
 }  // namespace hpr::wbc

@@ -55,7 +55,7 @@ void receive(const std::string& url, bool typed, int count, int fd) {
   if (typed) {
     hpr::node::Runtime rt("bench_rx", url);
     rt.subscribe<humanoid::robot_sensors_t>(
-        "ROBOT_SENSORS",
+        "BENCH_HOP",
         [](const humanoid::robot_sensors_t& m) { return m.num_joints == 27 ? std::string() : std::string("size"); },
         [&](const humanoid::robot_sensors_t& m) { lat.push_back(static_cast<double>(now_ns() - m.utime) * 1e-3); });
     rt.spin_until([&] { return static_cast<int>(lat.size()) >= count; }, 3.0 * count / 1000.0 + 10.0);
@@ -70,7 +70,7 @@ void receive(const std::string& url, bool typed, int count, int fd) {
         lat->push_back(static_cast<double>(t - sent) * 1e-3);
       }
     } h{&lat};
-    lcm.subscribe("ROBOT_SENSORS_RAW", &H::on, &h);
+    lcm.subscribe("BENCH_HOP_RAW", &H::on, &h);
     const std::int64_t end = now_ns() + static_cast<std::int64_t>((3.0 * count / 1000.0 + 10.0) * 1e9);
     while (static_cast<int>(lat.size()) < count && now_ns() < end) lcm.handleTimeout(100);
   }
@@ -81,7 +81,7 @@ void receive(const std::string& url, bool typed, int count, int fd) {
 
 void send(const std::string& url, bool typed, int count, double rate, int joints) {
   lcm::LCM lcm(url);
-  auto out = hpr::node::Output<humanoid::robot_sensors_t>(&lcm, "ROBOT_SENSORS");
+  auto out = hpr::node::Output<humanoid::robot_sensors_t>(&lcm, "BENCH_HOP");
   humanoid::robot_sensors_t m = make_message(joints);
   std::vector<std::uint8_t> raw(static_cast<size_t>(m.getEncodedSize()) + 8);
   m.encode(raw.data(), 0, m.getEncodedSize());
@@ -103,7 +103,7 @@ void send(const std::string& url, bool typed, int count, double rate, int joints
     } else {
       const std::int64_t t = now_ns();
       std::memcpy(raw.data() + raw.size() - 8, &t, 8);
-      lcm.publish("ROBOT_SENSORS_RAW", raw.data(), static_cast<unsigned>(raw.size()));
+      lcm.publish("BENCH_HOP_RAW", raw.data(), static_cast<unsigned>(raw.size()));
     }
   }
 }

@@ -260,6 +260,17 @@ void Runtime::report(StepOutcome outcome) {
   log_lifecycle(lifecycle_.on_step(outcome), stepped_from);
 }
 
+void Runtime::report(const StepReport& component) {
+  for (const StepReport::Fault& f : component.faults()) {
+    if (f.change == StepReport::Change::kRaised) {
+      set_fault(std::string(f.key), std::string(f.message()));
+    } else if (f.change == StepReport::Change::kCleared) {
+      clear_fault(std::string(f.key));
+    }
+  }
+  if (component.outcome != StepOutcome::kRunning) report(component.outcome);
+}
+
 void Runtime::log_lifecycle(bool changed, Lifecycle from) {
   if (changed) log::info("lifecycle: {} -> {}", to_string(from), to_string(lifecycle_.state()));
 }

@@ -9,6 +9,7 @@
 #include <humanoid/operator_t.hpp>
 #include <humanoid/robot_sensors_t.hpp>
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <optional>
 #include <thread>
@@ -401,6 +402,39 @@ TEST(Lifecycle, TheMachineTakesOnlyItsTransitions) {
   EXPECT_EQ(m.state(), Lifecycle::kStopped);
   EXPECT_EQ(m.transitions(), 6);
   EXPECT_STREQ(hpr::node::to_string(Lifecycle::kDamping), "damping");
+}
+
+// A component's report (hpr/common/component.hpp) applied to HEALTH: raised faults set with their
+// text, cleared ones cleared, the others left; the outcome drives the lifecycle, and a running
+// outcome does not undo what an earlier component of the same step reported.
+TEST_F(TickStream, AComponentsReportSetsClearsAndLeavesItsFaultsAndDrivesTheLifecycle) {
+  static constexpr std::array<std::string_view, 2> kKeys{"motion_qp", "reference"};
+  hpr::StepReport first(kKeys), second(kKeys);
+  rt.on_tick(sensors, {}, 0.0, [&](const hpr::node::TickInfo&) {
+    rt.report(first);
+    rt.report(second);
+  });
+  first.begin();
+  second.begin();
+  first.raise("motion_qp", "motion QP failed ({})", "max iterations");
+  first.raise("reference", "CAM_REFERENCE stale");
+  first.outcome = StepOutcome::kNotReady;
+  send(1);
+  EXPECT_EQ(rt.fault_text("motion_qp"), "motion QP failed (max iterations)");
+  EXPECT_TRUE(rt.has_fault("reference"));
+  EXPECT_EQ(rt.lifecycle(), Lifecycle::kStarting) << "the second report, running, left the first's not-ready";
+  first.begin();
+  first.clear("motion_qp");
+  send(2);
+  EXPECT_FALSE(rt.has_fault("motion_qp"));
+  EXPECT_TRUE(rt.has_fault("reference")) << "left as it was";
+  EXPECT_EQ(rt.lifecycle(), Lifecycle::kRunning);
+  first.begin();
+  second.set("reference", false, "");
+  second.outcome = StepOutcome::kDamping;
+  send(3);
+  EXPECT_FALSE(rt.has_fault("reference"));
+  EXPECT_EQ(rt.lifecycle(), Lifecycle::kDamping);
 }
 
 TEST_F(TickStream, TheLifecycleFollowsTheStepsAndARestartedSource) {

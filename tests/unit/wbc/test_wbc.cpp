@@ -449,9 +449,15 @@ TEST(WbcComponent, UsesTheMotionOptimisersCommandExactlyWhenItBalances) {
     s.status = status;
     wbc.set_damping(damp);
     const bool uses = wbc.uses_wholebody(s);
-    wbc.step({&s, uses ? &wholebody : nullptr}, out);
+    wbc.step({.state = s, .wholebody = OptionalRef<balance::TaskReference>::when(uses, wholebody)}, out);
     EXPECT_EQ(out.mode == wbc::WbcComponent::Mode::kBalance, balances) << "tick " << k;
     EXPECT_EQ(uses, balances) << "tick " << k;
+    // The report says the same: the damping fault while it damps (not ready before the posture
+    // started, damping after), cleared once it balances.
+    EXPECT_EQ(out.report.raised("damping"), !balances) << "tick " << k;
+    EXPECT_EQ(out.report.fault("damping").change == StepReport::Change::kCleared, balances) << "tick " << k;
+    const StepOutcome expected = balances ? StepOutcome::kRunning : k == 0 ? StepOutcome::kNotReady : StepOutcome::kDamping;
+    EXPECT_EQ(out.report.outcome, expected) << "tick " << k;
   }
 }
 

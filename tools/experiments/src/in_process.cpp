@@ -16,14 +16,14 @@
 #include "hpr/experiments/trial.hpp"
 #include "hpr/msg/robot_io.hpp"
 #include "hpr/msg/sim_truth.hpp"
-#include "hpr/pipeline/closed_loop.hpp"
+#include "hpr/graph/closed_loop.hpp"
 
 namespace hpr::experiments {
 
 namespace {
 
-pipeline::ClosedLoopOptions loop_options(const TrialSpec& spec) {
-  pipeline::ClosedLoopOptions options;
+graph::ClosedLoopOptions loop_options(const TrialSpec& spec) {
+  graph::ClosedLoopOptions options;
   options.cam = spec.strategy == Strategy::kCam;
   // The controllers see the estimator's state, or (truth_state) the simulator's truth.
   options.estimator_in_loop = !spec.truth_state;
@@ -53,13 +53,13 @@ struct InProcessRun {
     if (watch.stop()) return false;
     const double t = loop.sim.time();
     loop.step();
-    if (loop.have_wholebody) {
+    if (loop.have_wholebody()) {
       // The evaluator reads the commanded CAM of WHOLEBODY_COMMAND (stamped with the state's time).
       wholebody.utime = static_cast<std::int64_t>(std::llround(t * 1e6));
-      const Eigen::Vector3d& l_cmd = loop.wholebody.l_cmd;
+      const Eigen::Vector3d& l_cmd = loop.wholebody().l_cmd;
       for (int k = 0; k < 3; ++k) wholebody.l_cmd_W[k] = l_cmd(k);
-      wholebody.steps_taken = loop.wholebody.command.stepping.steps_taken;
-      wholebody.follow_steps = loop.wholebody.command.stepping.follow_steps;
+      wholebody.steps_taken = loop.wholebody().command.stepping.steps_taken;
+      wholebody.follow_steps = loop.wholebody().command.stepping.follow_steps;
       eval.on_wholebody(wholebody);
     }
     return true;
@@ -78,7 +78,7 @@ struct InProcessRun {
   }
 
   TrialPlan plan;
-  pipeline::ClosedLoop loop;
+  graph::ClosedLoop loop;
   TrialEvaluator eval;
   msg::RobotNames names;
   humanoid::sim_truth_t truth{};

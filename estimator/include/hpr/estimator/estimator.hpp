@@ -41,7 +41,9 @@
 #include <Eigen/Core>
 #include <array>
 #include <string>
+#include <string_view>
 
+#include "hpr/common/component.hpp"
 #include "hpr/common/config.hpp"
 #include "hpr/common/parameters.hpp"
 #include "hpr/common/robot_io.hpp"
@@ -123,10 +125,22 @@ class Estimator {
   /// contact. A sample that fails the plausibility checks leaves the estimate untouched and is flagged
   /// (the returned state carries the sample's tick, so that consumers still step on it).
   const EstimatedState& update(const SensorSample& sample);
-  /// The ports of one tick: ROBOT_SENSORS of tick k in, ROBOT_STATE of tick k out (update()).
-  using Inputs = SensorSample;
-  using Outputs = EstimatedState;
-  void step(const Inputs& in, Outputs& out) { out = update(in); }
+  /// The component's tick (hpr/common/component.hpp): ROBOT_SENSORS of tick k in, ROBOT_STATE of
+  /// tick k out (update()), with the faults "implausible" (the refused sample's reason),
+  /// "covariance" (position uncertainty too large) and "contact" (no foot in contact once
+  /// initialised), not ready while it initialises.
+  static constexpr std::array<std::string_view, 3> kFaultKeys{"implausible", "covariance", "contact"};
+  struct Inputs {
+    const SensorSample& sensors;  ///< ROBOT_SENSORS of tick k
+  };
+  struct Outputs {
+    EstimatedState state;  ///< ROBOT_STATE of tick k
+    StepReport report{kFaultKeys};
+  };
+  void step(const Inputs& in, Outputs& out);
+  /// The report of a tick that ended in `s` (step() makes it; a tick without a sample, which
+  /// republishes the last state flagged, makes it too).
+  void report(const EstimatedState& s, StepReport& r) const;
   /// Forgets everything; the next sample initialises.
   void reset();
 

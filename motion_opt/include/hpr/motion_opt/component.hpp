@@ -5,8 +5,12 @@
 /// a posture) started from the first usable estimate, and the optimisation (13) towards the CAM
 /// reference of the same tick. No LCM, no allocation per tick once the adjusted set has been seen.
 
+#include <array>
+#include <string_view>
+
 #include "hpr/balance/ports.hpp"
 #include "hpr/balance/task_reference.hpp"
+#include "hpr/common/component.hpp"
 #include "hpr/common/robot_io.hpp"
 #include "hpr/motion_opt/optimizer.hpp"
 
@@ -14,17 +18,24 @@ namespace hpr::motion_opt {
 
 class MotionOptComponent {
  public:
+  /// The component's tick (hpr/common/component.hpp). Faults: "reference" (no CAM_REFERENCE for
+  /// the tick: the posture task only) and "motion_qp" (the QP failed: the posture task within the
+  /// limits); not ready, with nothing to publish, while no usable estimate has started the posture
+  /// reference (the wbc damps meanwhile).
+  static constexpr std::array<std::string_view, 2> kFaultKeys{"reference", "motion_qp"};
   struct Inputs {
-    const EstimatedState* state = nullptr;       ///< ROBOT_STATE of tick k (required)
-    const balance::CamReference* cam = nullptr;  ///< CAM_REFERENCE of tick k; nullptr when missing or stale
+    const EstimatedState& state;               ///< ROBOT_STATE of tick k
+    OptionalRef<balance::CamReference> cam;    ///< CAM_REFERENCE of tick k; empty when missing or stale
   };
-  using Outputs = balance::WholebodyCommand;  ///< WHOLEBODY_COMMAND of tick k
+  struct Outputs {
+    balance::WholebodyCommand wholebody;  ///< WHOLEBODY_COMMAND of tick k (when `valid`)
+    bool valid = false;                   ///< this tick made one (else the last one is kept)
+    StepReport report{kFaultKeys};
+  };
 
   MotionOptComponent(const model::RobotSpec& robot, MotionOptConfig config, balance::PostureReferenceConfig posture);
 
-  /// One tick. False (and `out` untouched) while no usable estimate has started the posture
-  /// reference: nothing is published then, and the wbc damps.
-  bool step(const Inputs& in, Outputs& out);
+  void step(const Inputs& in, Outputs& out);
 
   /// A support mode requested by the operator, from time t on.
   void request_support(balance::Support s, double t) { reference_.request_support(s, t); }

@@ -25,8 +25,10 @@
 #include <array>
 #include <cstdint>
 #include <limits>
+#include <string_view>
 
 #include "hpr/balance/ports.hpp"
+#include "hpr/common/component.hpp"
 #include "hpr/common/config.hpp"
 #include "hpr/common/parameters.hpp"
 
@@ -113,16 +115,22 @@ class ReferenceGenerator {
  public:
   explicit ReferenceGenerator(GeneratorConfig config);
 
-  /// The ports of one tick: CAM_REFERENCE of tick k from ROBOT_STATE k (its tick and time), the
-  /// BALANCE_STATUS of tick k−1 (the paper's one-period lag between the torque computation and the
-  /// reference update) and the posture error of the last WHOLEBODY_COMMAND.
+  /// The component's tick (hpr/common/component.hpp): CAM_REFERENCE of tick k from ROBOT_STATE k
+  /// (its tick and time), the BALANCE_STATUS of tick k−1 (the paper's one-period lag between the
+  /// torque computation and the reference update) and the posture error of the last
+  /// WHOLEBODY_COMMAND. Fault "balance": BALANCE_STATUS stale (the reference held, then ramped to
+  /// zero) after the first two ticks.
+  static constexpr std::array<std::string_view, 1> kFaultKeys{"balance"};
   struct Inputs {
     std::int64_t tick = 0;
-    double time = 0.0;                                ///< [s]
-    const balance::BalanceStatus* balance = nullptr;  ///< latest BALANCE_STATUS; nullptr before the first
-    double posture_error = 0.0;                       ///< [rad]
+    double time = 0.0;                              ///< [s]
+    OptionalRef<balance::BalanceStatus> balance;    ///< latest BALANCE_STATUS; empty before the first
+    double posture_error = 0.0;                     ///< [rad]
   };
-  using Outputs = balance::CamReference;
+  struct Outputs {
+    CamReference reference;  ///< CAM_REFERENCE of tick k
+    StepReport report{kFaultKeys};
+  };
   /// One tick of the configured period (no allocation).
   void step(const Inputs& in, Outputs& out);
 

@@ -7,10 +7,13 @@
 /// unusable for `bad_state_ticks` ticks. No LCM, no allocation per tick.
 
 #include <chrono>
+#include <array>
 #include <cstdint>
+#include <string_view>
 
 #include "hpr/balance/ports.hpp"
 #include "hpr/balance/task_reference.hpp"
+#include "hpr/common/component.hpp"
 #include "hpr/common/robot_io.hpp"
 #include "hpr/wbc/controller.hpp"
 
@@ -18,9 +21,15 @@ namespace hpr::wbc {
 
 class WbcComponent {
  public:
+  /// The component's tick (hpr/common/component.hpp). Faults: "damping" (why the tick damps),
+  /// "contact_qp" (the contact QP failed: the last valid wrenches kept), "singular" (the task
+  /// Jacobian singular: the last valid inverse kept) and "wholebody" (the motion optimiser's
+  /// command, seen before, missing this tick: its own posture reference); not ready while no
+  /// estimate has started the posture, damping while it damps.
+  static constexpr std::array<std::string_view, 4> kFaultKeys{"damping", "contact_qp", "singular", "wholebody"};
   struct Inputs {
-    const EstimatedState* state = nullptr;             ///< ROBOT_STATE of tick k (required)
-    const balance::TaskReference* wholebody = nullptr;  ///< WHOLEBODY_COMMAND of tick k; nullptr: own posture
+    const EstimatedState& state;                    ///< ROBOT_STATE of tick k
+    OptionalRef<balance::TaskReference> wholebody;  ///< WHOLEBODY_COMMAND of tick k; empty: own posture
   };
   /// What the tick did.
   enum class Mode : std::int8_t {
@@ -33,6 +42,7 @@ class WbcComponent {
     JointCommand command;            ///< JOINT_COMMAND of tick k
     balance::BalanceStatus status;   ///< BALANCE_STATUS of tick k (mode kBalance only)
     Mode mode = Mode::kDampNoState;
+    StepReport report{kFaultKeys};
   };
 
   /// `bad_state_ticks`: consecutive unusable estimates tolerated (one refused sample keeps the
@@ -76,6 +86,9 @@ class WbcComponent {
   JointCommand damp_;       ///< the damping command, sized once
   bool damping_ = false;
   int bad_state_count_ = 0;
+  bool had_wholebody_ = false;  ///< a command of the motion optimiser came since the start
+
+  void report(const EstimatedState& s, const Inputs& in, Outputs& out) const;
 };
 
 }  // namespace hpr::wbc

@@ -10,14 +10,13 @@
 
 namespace hpr::estimator {
 
-/// Reports one estimator tick on `rt`: faults "implausible" (the refused sample's reason),
-/// "covariance" (position uncertainty too large) and "contact" (no foot in contact once
-/// initialised), and NotReady while it initialises. A refused sample is logged at once when its
-/// kind (the reason's text before ':') is new, else at most once a second with a count of those
-/// not logged, so a fallen robot does not flood the log.
+/// Reports one estimator tick on `rt`: its report (Estimator::report: the faults "implausible",
+/// "covariance" and "contact", not ready while it initialises) and the log of refused samples: a
+/// refused sample is logged at once when its kind (the reason's text before ':') is new, else at
+/// most once a second with a count of those not logged, so a fallen robot does not flood the log.
 class TickReport {
  public:
-  void operator()(node::Runtime& rt, const Estimator& est, const EstimatedState& s, std::int64_t tick);
+  void operator()(node::Runtime& rt, const Estimator& est, const StepReport& report, std::int64_t tick);
 
  private:
   std::string last_kind_;

@@ -14,13 +14,15 @@
 
 #include <cstdint>
 
+#include "hpr/common/component.hpp"
+
 namespace hpr::node {
 
 enum class Lifecycle : std::int8_t { kWaiting = 0, kStarting = 1, kRunning = 2, kDamping = 3, kStopped = 4 };
 const char* to_string(Lifecycle s);
 
-/// What a step did, as the node reports it.
-enum class StepOutcome : std::int8_t { kNotReady, kRunning, kDamping };
+/// What a step did, as the node reports it (a component's, hpr/common/component.hpp).
+using StepOutcome = hpr::StepOutcome;
 
 class LifecycleMachine {
  public:

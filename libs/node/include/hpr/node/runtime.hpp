@@ -210,6 +210,10 @@ class Runtime {
   /// that reports nothing was running. Outside an on_tick step (a node on its own clock), it
   /// applies at once.
   void report(StepOutcome outcome);
+  /// A component's tick (hpr/common/component.hpp): the faults it raised are set and those it
+  /// cleared cleared, under the component's keys, and an outcome other than running is reported as
+  /// above (a running one leaves what an earlier component of the same step reported).
+  void report(const StepReport& component);
   [[nodiscard]] Lifecycle lifecycle() const { return lifecycle_.state(); }
 
   /// Records one step's compute time (on_tick steps are timed automatically).
@@ -222,6 +226,11 @@ class Runtime {
                  double clear_after_s = std::numeric_limits<double>::infinity());
   void clear_fault(const std::string& key);
   [[nodiscard]] bool has_fault(const std::string& key) const { return faults_.count(key) != 0; }
+  /// The text of fault `key` ("" when it is not set).
+  [[nodiscard]] std::string fault_text(const std::string& key) const {
+    const auto it = faults_.find(key);
+    return it == faults_.end() ? std::string() : it->second.text;
+  }
   void publish_health();
 
   /// The node's live parameters. The first call subscribes to OPERATOR (sets and gets addressed to

@@ -203,7 +203,7 @@ TrialPlan plan_trial(const TrialSpec& spec);
 /// line per simulated second (may be empty).
 TrialResult run_trial(const TrialSpec& spec, const std::function<void(const std::string&)>& progress = {});
 
-/// The same experiment through the in-process pipeline (hpr::pipeline: the simulator, estimator,
+/// The same experiment through the in-process pipeline (hpr::graph: the simulator, estimator,
 /// reference generator, motion optimiser and wbc libraries stepping in one thread, no LCM, no
 /// log), evaluated from the same messages. Many times faster than run_trial, for sweeps and
 /// tuning; run_trial stays the end-to-end check of the processes. `spec.log_file` must be empty.

@@ -1,6 +1,6 @@
 #pragma once
 /// \file The wbc process: WholeBodyController behind LCM (library hpr::wbc_node, shared with the
-/// composed controllers for the OPERATOR requests and the HEALTH faults of a step).
+/// composed controllers for the OPERATOR requests).
 ///
 /// Steps on every ROBOT_STATE (from the estimator, or in a simulated group from truth_state), towards the
 /// WHOLEBODY_COMMAND of the same tick when motion_opt runs (waiting for it up to a timeout), else
@@ -35,19 +35,13 @@ struct WbcNodeOptions {
 /// caller passes it on to whichever components plan the support), nothing otherwise.
 std::optional<balance::Support> apply_operator(WbcComponent& wbc, const humanoid::operator_t& m);
 
-/// The HEALTH faults and lifecycle outcome of a wbc step that ended in `mode` on `state` ("damping"
-/// with its reason, "qp" and "singular" while balancing), as the wbc process reports them. Returns
-/// whether the wbc balanced (BALANCE_STATUS goes out only then).
-bool report_step(node::Runtime& rt, const WbcComponent& wbc, WbcComponent::Mode mode, const BalanceStatus& status,
-                 const EstimatedState& state);
-
 class WbcNode {
  public:
   WbcNode(node::Runtime& rt, const model::RobotSpec& robot, WbcComponent& wbc, WbcNodeOptions options);
 
  private:
   void step(const EstimatedState& state, bool wholebody_fresh);
-  void publish(bool balanced);
+  void publish();
 
   node::Runtime& rt_;
   WbcComponent& wbc_;

@@ -21,11 +21,11 @@
 #include "hpr/model/urdf.hpp"
 #include "hpr/msg/robot_io.hpp"
 #include "hpr/msg/state.hpp"
-#include "hpr/pipeline/controllers.hpp"
+#include "hpr/graph/controllers.hpp"
 #include "hpr/reference_gen/generator.hpp"
 #include "hpr/sim/simulator.hpp"
 
-namespace hpr::pipeline {
+namespace hpr::graph {
 
 struct ClosedLoopOptions {
   bool cam = false;                ///< reference_gen + motion_opt in the loop (else the ankle strategy)
@@ -78,4 +78,4 @@ struct BenchArgs {
 /// Reads argv; on bad use prints why (prefixed by `name`) and returns nothing.
 std::optional<BenchArgs> read_bench_args(int argc, char** argv, const char* name);
 
-}  // namespace hpr::pipeline
+}  // namespace hpr::graph

@@ -19,12 +19,16 @@
 #include <humanoid/robot_state_t.hpp>
 #include <humanoid/wholebody_command_t.hpp>
 
+#include <array>
+#include <cstddef>
 #include <functional>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
 #include "hpr/balance/ports.hpp"
+#include "hpr/common/component.hpp"
 #include "hpr/common/config.hpp"
 #include "hpr/estimator/estimator.hpp"
 #include "hpr/model/robot.hpp"
@@ -33,7 +37,7 @@
 #include "hpr/reference_gen/generator.hpp"
 #include "hpr/wbc/component.hpp"
 
-namespace hpr::pipeline {
+namespace hpr::graph {
 
 /// The components, for a probe around each one's step.
 enum class Component { kEstimator, kReferenceGen, kMotionOpt, kWbc };
@@ -77,28 +81,39 @@ class Controllers {
   /// Forgets the estimate, the references and the held posture (a clock that restarted).
   void reset();
 
-  /// The state the last control tick used.
+  /// The state the last control tick used (ROBOT_STATE as its readers decode it).
   [[nodiscard]] const EstimatedState& state() const { return state_; }
   [[nodiscard]] const msg::RobotNames& names() const { return names_; }
+  [[nodiscard]] const ControllersOptions& options() const { return options_; }
 
-  ControllersOptions options;
+  // What each component made in the last tick.
+  [[nodiscard]] const balance::CamReference& cam() const { return reference_out_.reference; }  ///< CAM_REFERENCE
+  [[nodiscard]] const balance::WholebodyCommand& wholebody() const { return motion_out_.wholebody; }  ///< WHOLEBODY_COMMAND
+  /// motion_opt made a WHOLEBODY_COMMAND this tick.
+  [[nodiscard]] bool have_wholebody() const { return have_wholebody_; }
+  [[nodiscard]] const wbc::WbcComponent::Outputs& wbc_out() const { return wbc_out_; }  ///< JOINT_COMMAND, BALANCE_STATUS
+  /// The reports of the components that stepped in the last tick, in the data flow's order
+  /// (estimator, reference_gen, motion_opt, wbc): a composed process applies them to its HEALTH as
+  /// the separate processes apply theirs.
+  [[nodiscard]] std::span<const StepReport* const> reports() const { return {reports_.data(), n_reports_}; }
+
+  /// The messages of the last tick (with `options().messages`).
+  struct Messages {
+    humanoid::robot_state_t state{};          ///< ROBOT_STATE
+    humanoid::cam_reference_t cam{};          ///< CAM_REFERENCE (with cam)
+    humanoid::wholebody_command_t wholebody{};  ///< WHOLEBODY_COMMAND (when have_wholebody())
+    humanoid::joint_command_t command{};      ///< JOINT_COMMAND
+    humanoid::balance_status_t balance{};     ///< BALANCE_STATUS (when the wbc balanced)
+  };
+  [[nodiscard]] const Messages& messages() const { return messages_; }
+  /// Compute time of each component in the last tick.
+  [[nodiscard]] const StepTimes& times() const { return times_; }
+
+  // The components (a test reads their state; a composed process adds their live parameters).
   std::optional<estimator::Estimator> estimator;
   std::optional<reference_gen::ReferenceGenerator> generator;
   std::optional<motion_opt::MotionOptComponent> optimizer;
   wbc::WbcComponent wbc;
-  // What each component published in the last tick.
-  balance::CamReference cam;            ///< CAM_REFERENCE
-  balance::WholebodyCommand wholebody;  ///< WHOLEBODY_COMMAND
-  bool have_wholebody = false;          ///< motion_opt published this tick
-  wbc::WbcComponent::Outputs wbc_out;   ///< JOINT_COMMAND and BALANCE_STATUS
-  /// The messages of the last tick (with `options.messages`): ROBOT_STATE, CAM_REFERENCE,
-  /// WHOLEBODY_COMMAND (when have_wholebody), JOINT_COMMAND, BALANCE_STATUS (when the wbc balanced).
-  humanoid::robot_state_t state_msg{};
-  humanoid::cam_reference_t cam_msg{};
-  humanoid::wholebody_command_t wholebody_msg{};
-  humanoid::joint_command_t command_msg{};
-  humanoid::balance_status_t balance_msg{};
-  StepTimes times;
   /// Called right before (`entering` true) and right after each component's step, when set: for a
   /// test that counts what a component does (allocations, say) apart from the rest.
   std::function<void(Component, bool entering)> probe;
@@ -111,9 +126,22 @@ class Controllers {
   /// Times `f` (a component's step) into `us`, with the probe around it.
   template <class F>
   void run_component(Component c, double& us, F&& f);
+  /// reference_gen, motion_opt and wbc on state_.
+  void step_controllers();
 
+  ControllersOptions options_;
   msg::RobotNames names_;
   std::vector<std::string> free_names_;
+  // Each component's outputs.
+  estimator::Estimator::Outputs estimate_out_;
+  reference_gen::ReferenceGenerator::Outputs reference_out_;
+  motion_opt::MotionOptComponent::Outputs motion_out_;
+  wbc::WbcComponent::Outputs wbc_out_;
+  bool have_wholebody_ = false;
+  std::array<const StepReport*, 4> reports_{};
+  std::size_t n_reports_ = 0;
+  Messages messages_;
+  StepTimes times_;
   // The channels as their receivers decode them.
   EstimatedState state_;            ///< ROBOT_STATE of the tick
   EstimatedState flagged_;          ///< the estimate with extra status bits
@@ -123,4 +151,4 @@ class Controllers {
   balance::WholebodyCommand wholebody_;
 };
 
-}  // namespace hpr::pipeline
+}  // namespace hpr::graph
