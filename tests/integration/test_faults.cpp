@@ -374,11 +374,15 @@ FAULTS_TEST(CommandsWithoutTheDeploymentsCodeAreRefusedCountedAndTheRobotStands)
 
 // Bit flips on every clocked channel of the control chain for a second: each 2 ms, a copy of the
 // latest message of each channel with one random bit flipped (the fingerprint, a tick, a time, a
-// count, a number, the code). Every copy fails its authentication code and is refused before it is
-// decoded, by every process that reads the channel, and counted there; the chain runs on with the
-// real streams and the robot stands. (Without the codes, a copy whose one changed number still
-// decodes, a pelvis height or a contact flag, reaches the controllers: the robot fell in 1 of 2
-// runs, docs/SAFETY.md.)
+// count, a number, the code). Every copy that a reader takes in fails its authentication code and
+// is refused before it is decoded, and counted there; the chain runs on with the real streams and
+// the robot stands. (Without the codes, a copy whose one changed number still decodes, a pelvis
+// height or a contact flag, reaches the controllers: the robot fell in 1 of 2 runs,
+// docs/SAFETY.md.) A control node keeps LCM's subscription queue of 30 messages (it wants the
+// latest message, not a backlog: hpr/node/lcm_url.hpp), so a reader held up on a loaded machine
+// (the simulator, stepping the physics in lockstep) drops part of the flood before reading it; each
+// reader must refuse at least half of what was sent to it, which it cannot unless it checks the
+// code on that channel. That every single flipped bit fails the code is Auth.EveryFlippedBit*.
 FAULTS_TEST(BitFlipsInEveryClockedChannelForASecondAreRefusedAndTheRobotStands) {
   Running r;
   ASSERT_TRUE(r.started());
@@ -408,7 +412,7 @@ FAULTS_TEST(BitFlipsInEveryClockedChannelForASecondAreRefusedAndTheRobotStands) 
   EXPECT_FALSE(w.truth.fallen) << "the robot fell";
   EXPECT_GT(w.truth.p_WB[2], 0.8) << "the pelvis sank";
   EXPECT_FALSE(w.first_damp.has_value()) << "the supervisor damped: " << w.damp_reason;
-  // Every flipped copy is refused by its code by every reader of its channel.
+  // The flipped copies each reader took in are refused by their code: at least half of them (see above).
   std::map<std::string, std::int64_t> expected;
   for (const auto& n : readers) {
     const hpr::msg::ProcessPorts* p = hpr::msg::find_process(n);
@@ -420,7 +424,7 @@ FAULTS_TEST(BitFlipsInEveryClockedChannelForASecondAreRefusedAndTheRobotStands) 
   }
   const auto counted = [&] {
     for (const auto& n : readers) {
-      if (w.health[n].unauthenticated - before[n] < expected[n]) return false;
+      if (2 * (w.health[n].unauthenticated - before[n]) < expected[n]) return false;
     }
     return true;
   };
@@ -429,6 +433,7 @@ FAULTS_TEST(BitFlipsInEveryClockedChannelForASecondAreRefusedAndTheRobotStands) 
     for (const auto& n : readers) s += n + " refused " + std::to_string(w.health[n].unauthenticated - before[n]) + " of " + std::to_string(expected[n]) + "; ";
     return s;
   }();
+  for (const auto& n : readers) EXPECT_LE(w.health[n].unauthenticated - before[n], expected[n]) << n << " counted a copy twice";
   for (const auto& n : readers) {
     const std::string log = g.log(n);
     EXPECT_NE(log.find("no valid authentication code"), std::string::npos) << n << " did not say why:\n" << log;
