@@ -103,7 +103,7 @@ Canonical canonical(std::function<void(Msg&)> clear) {
 const std::map<std::string, Canonical>& canonicals() {
   static const std::map<std::string, Canonical> k = {
       {hpr::msg::channels::kRobotState.name, canonical<humanoid::robot_state_t>([](auto&) {})},  // utime is the sensor sample's robot clock
-      {hpr::msg::channels::kJointCommand.name, canonical<humanoid::joint_command_t>([](auto& m) { m.utime = 0; })},
+      {hpr::msg::channels::kJointCommand.name, canonical<humanoid::joint_command_t>([](auto&) {})},  // utime: the state's robot clock
       {hpr::msg::channels::kBalanceStatus.name, canonical<humanoid::balance_status_t>([](auto& m) {
          m.utime = 0;
          m.qp_solve_time_us = 0;

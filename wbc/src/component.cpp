@@ -19,9 +19,10 @@ void WbcComponent::reset() {
   had_wholebody_ = false;
 }
 
-void WbcComponent::damp(std::int64_t tick, Mode why, Outputs& out) const {
+void WbcComponent::damp(const EstimatedState& s, Mode why, Outputs& out) const {
   out.command = damp_;
-  out.command.tick = tick;
+  out.command.tick = s.tick;
+  out.command.time = s.time;
   out.mode = why;
 }
 
@@ -52,7 +53,7 @@ void WbcComponent::step(const Inputs& in, Outputs& out) {
       out.mode = Mode::kBalance;
     }
   }
-  if (mode != Mode::kBalance) damp(s.tick, mode, out);
+  if (mode != Mode::kBalance) damp(s, mode, out);
   report(s, in, out);
   had_wholebody_ = had_wholebody_ || in.wholebody.has_value();
 }

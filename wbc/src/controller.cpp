@@ -283,6 +283,7 @@ void WholeBodyController::joint_command(const RobotState& state, const balance::
   const Eigen::VectorXd& q = state.q;
   // The free joints' impedance may be left to the drives.
   command_.tick = state.tick;
+  command_.time = state.time;
   command_.mode = JointCommand::Mode::kRun;
   command_.tau_ff = tau_total_;
   command_.kp.setZero();

@@ -88,6 +88,7 @@ std::string from_message(const humanoid::robot_sensors_t& m, const RobotNames& n
 void to_message(const JointCommand& c, const RobotNames& names, humanoid::joint_command_t& m) {
   const int n = static_cast<int>(c.tau_ff.size());
   m.tick = c.tick;
+  m.utime = static_cast<int64_t>(std::llround(c.time * 1e6));
   m.mode = static_cast<int8_t>(c.mode);
   m.num_joints = n;
   m.joint_name = names.joints;
@@ -107,6 +108,7 @@ std::string from_message(const humanoid::joint_command_t& m, const RobotNames& n
   }
   JointCommand tmp;
   tmp.tick = m.tick;
+  tmp.time = static_cast<double>(m.utime) * 1e-6;
   tmp.mode = static_cast<JointCommand::Mode>(m.mode);
   tmp.tau_ff = Eigen::Map<const Eigen::VectorXd>(m.tau_ff.data(), n);
   tmp.q_des = Eigen::Map<const Eigen::VectorXd>(m.q_des.data(), n);

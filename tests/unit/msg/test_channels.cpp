@@ -85,6 +85,7 @@ TEST_F(Channels, JointCommandArrivesUnchanged) {
   JointCommand c;
   c.resize(4);
   c.tick = 77;
+  c.time = 12.345678;  // its stream's clock: the time rule at the drives reads it
   c.mode = JointCommand::Mode::kRun;
   fill(c.tau_ff);
   fill(c.q_des);
@@ -96,6 +97,8 @@ TEST_F(Channels, JointCommandArrivesUnchanged) {
   JointCommand got;
   ASSERT_EQ(msg::from_message(through_bytes(m), names, got), "");
   EXPECT_EQ(got.tick, c.tick);
+  EXPECT_EQ(m.utime, 12345678);
+  EXPECT_DOUBLE_EQ(got.time, c.time);
   EXPECT_EQ(got.mode, c.mode);
   EXPECT_EQ(got.tau_ff, c.tau_ff);
   EXPECT_EQ(got.q_des, c.q_des);

@@ -61,7 +61,7 @@ class WbcComponent {
   [[nodiscard]] bool uses_wholebody(const EstimatedState& s) const { return mode_for(s) == Mode::kBalance; }
   /// A damping command for `tick` (every joint: zero torque, damping gain kDampGain) without
   /// stepping, for a tick whose inputs are unusable.
-  void damp(std::int64_t tick, Mode why, Outputs& out) const;
+  void damp(const EstimatedState& s, Mode why, Outputs& out) const;
   static constexpr double kDampGain = 5.0;  ///< [N m s/rad]
 
   /// Operator damp (true) until enable (false).

@@ -40,6 +40,7 @@ struct JointCommand {
   enum class Mode : std::int8_t { kOff = 0, kDamp = 1, kRun = 2 };
   Mode mode = Mode::kOff;
   std::int64_t tick = -1;
+  double time = 0.0;  ///< [s] the time of the sample the command answers (its stream's clock: the time rule holds it)
   Eigen::VectorXd tau_ff, q_des, qd_des, kp, kd;
 
   void resize(int joints) { tau_ff = q_des = qd_des = kp = kd = Eigen::VectorXd::Zero(joints); }
