@@ -43,7 +43,7 @@
 #include "hpr/common/time.hpp"
 #include "hpr/launch/process_group.hpp"
 #include "hpr/msg/channels.hpp"
-#include "hpr/msg/graph.hpp"
+#include "hpr/graph/data_flow.hpp"
 #include "hpr/msg/log_check.hpp"
 #include "hpr/msg/ticks.hpp"
 #include "hpr/node/lcm_url.hpp"
@@ -71,11 +71,11 @@ Exit status: 0 when every compared output matches and none is missing, 1 otherwi
 /// What a node publishes (the channels compared), from the stack's declared data flow.
 std::vector<std::string> outputs_of(const std::string& node) {
   static const std::set<std::string> kRerunnable = {"estimator", "wbc", "reference_gen", "motion_opt", "controllers"};
-  const hpr::msg::ProcessPorts* p = hpr::msg::find_process(node);
+  const hpr::Ports* p = hpr::graph::find_process(node);
   if (p == nullptr || kRerunnable.count(node) == 0) {
     throw std::invalid_argument("unknown node '" + node + "' (estimator, wbc, reference_gen, motion_opt, controllers)");
   }
-  return p->writes;
+  return {p->writes.begin(), p->writes.end()};
 }
 /// Channels never played back (each process publishes its own).
 const std::set<std::string> kNotPlayed = {hpr::msg::channels::kHealth.name, hpr::msg::channels::kParams.name,

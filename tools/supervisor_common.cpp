@@ -16,7 +16,7 @@
 #include "hpr/common/time.hpp"
 #include "hpr/launch/supervisor.hpp"
 #include "hpr/msg/channels.hpp"
-#include "hpr/msg/graph.hpp"
+#include "hpr/graph/data_flow.hpp"
 #include "hpr/node/lifecycle.hpp"
 #include "supervisor_cli.hpp"
 
@@ -147,7 +147,7 @@ std::vector<Status> collect_status(lcm::LCM& lcm, double wait_s, const std::stri
 std::vector<std::string> unmet_inputs(const launch::GroupSpec& g) {
   std::vector<std::string> commands;
   for (const auto& p : g.processes) commands.push_back(fs::path(p.command).filename().string());
-  return msg::unmet_inputs(commands);
+  return graph::unmet_inputs(commands);
 }
 
 }  // namespace hpr::supervisor_cli

@@ -47,7 +47,6 @@
 #include "hpr/launch/groups.hpp"
 #include "hpr/launch/process_group.hpp"
 #include "hpr/launch/supervisor.hpp"
-#include "hpr/msg/graph.hpp"
 #include "hpr/node/lifecycle.hpp"
 #include "hpr/node/runtime.hpp"
 #include "hpr/common/auth.hpp"

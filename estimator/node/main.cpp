@@ -23,7 +23,7 @@ int main(int argc, char** argv) {
         const Config section = cfg.section("estimator");
         estimator::Estimator est(robot, estimator::EstimatorConfig::load(section));
         const double sensor_timeout = section.real_or("sensor_timeout", 0.02, 1e-3, 60.0);
-        node::Runtime rt(cl.name, node::lcm_url(cl, cfg), node::runtime_options(cfg, 1e-3));
+        node::Runtime rt(estimator::Estimator::kPorts, cl.name, node::lcm_url(cl, cfg), node::runtime_options(cfg, 1e-3));
         msg::RobotNames names;
         names.joints = robot.model.joint_name;
         SensorSample sample;

@@ -11,9 +11,9 @@
 #include <humanoid/sim_truth_t.hpp>
 
 #include "hpr/common/robot_io.hpp"
+#include "hpr/estimator/estimator.hpp"
 #include "hpr/msg/channels.hpp"
 #include "hpr/model/robot.hpp"
-#include "hpr/msg/graph.hpp"
 #include "hpr/msg/robot_io.hpp"
 #include "hpr/msg/sim_truth.hpp"
 #include "hpr/msg/state.hpp"
@@ -26,7 +26,7 @@ int main(int argc, char** argv) {
       argc, argv, "truth_state", "the simulator's true state as ROBOT_STATE (simulated groups only)",
       [](const node::CommandLine& cl, const Config& cfg) {
         const auto robot = model::RobotSpec::load(cfg.section("robot"));
-        node::Runtime rt(cl.name, node::lcm_url(cl, cfg), node::runtime_options(cfg, 1e-3));
+        node::Runtime rt(estimator::kTruthStatePorts, cl.name, node::lcm_url(cl, cfg), node::runtime_options(cfg, 1e-3));
         msg::RobotNames names;
         names.joints = robot.model.joint_name;
         SensorSample sample;
@@ -39,7 +39,7 @@ int main(int argc, char** argv) {
             rt.subscribe(msg::channels::kSimTruth, [&](const humanoid::sim_truth_t& m) { return msg::from_message(m, truth); });
         auto out = rt.advertise(msg::channels::kRobotState);
         humanoid::robot_state_t state_msg{};
-        const msg::Read& r = msg::read_of("truth_state", msg::channels::kSimTruth.name);
+        const Read& r = estimator::kTruthStatePorts.at(channel::kSimTruth);
         constexpr double kTruthTimeout = 0.5;  // [s]
         rt.on_tick(sensors_in, {{&truth_in, r.tick_offset, {}, r.optional}}, kTruthTimeout, [&](const node::TickInfo& info) {
           if (truth_in.tick() != info.tick + r.tick_offset) {

@@ -17,6 +17,7 @@
 #include "hpr/node/command_line.hpp"
 #include "hpr/node/runtime.hpp"
 #include "hpr/graph/controllers.hpp"
+#include "hpr/graph/data_flow.hpp"
 #include "hpr/wbc/node.hpp"
 
 namespace {
@@ -53,7 +54,7 @@ int main(int argc, char** argv) {
         graph::check_exchange_options(cfg, run);
         graph::Controllers c(cfg, robot, run);
         const double sensor_timeout = cfg.section("estimator").real_or("sensor_timeout", 0.02, 1e-3, 60.0);
-        node::Runtime rt(cl.name, node::lcm_url(cl, cfg), node::runtime_options(cfg, 1e-3));
+        node::Runtime rt(graph::controllers_ports(), cl.name, node::lcm_url(cl, cfg), node::runtime_options(cfg, 1e-3));
         SensorSample sample;
         sample.resize(robot.model.nj);
         auto& sensors = rt.subscribe(msg::channels::kRobotSensors,

@@ -100,6 +100,21 @@ void Controllers::control(const EstimatedState& state) {
   step_controllers();
 }
 
+// The wiring below, checked against the components' declared ports: a declaration that changes
+// (another channel, another tick) stops the composition from compiling.
+using estimator::Estimator;
+using motion_opt::MotionOptComponent;
+using reference_gen::ReferenceGenerator;
+using wbc::WbcComponent;
+static_assert(Estimator::kPorts.read(channel::kRobotSensors)->trigger);
+static_assert(wired(Estimator::kPorts, channel::kRobotState, ReferenceGenerator::kPorts, 0));
+static_assert(wired(Estimator::kPorts, channel::kRobotState, MotionOptComponent::kPorts, 0));
+static_assert(wired(Estimator::kPorts, channel::kRobotState, WbcComponent::kPorts, 0));
+static_assert(wired(WbcComponent::kPorts, channel::kBalanceStatus, ReferenceGenerator::kPorts, -1));    // balance_ of the last tick
+static_assert(wired(MotionOptComponent::kPorts, channel::kWholebodyCommand, ReferenceGenerator::kPorts, -1));  // the last command's
+static_assert(wired(ReferenceGenerator::kPorts, channel::kCamReference, MotionOptComponent::kPorts, 0));
+static_assert(wired(MotionOptComponent::kPorts, channel::kWholebodyCommand, WbcComponent::kPorts, 0));
+
 void Controllers::step_controllers() {
   have_wholebody_ = false;
   if (options_.cam) {

@@ -12,6 +12,7 @@
 #include "hpr/msg/channels.hpp"
 #include "hpr/common/time.hpp"
 #include "hpr/hal/drive_emulator.hpp"
+#include "hpr/hal/ports.hpp"
 #include "hpr/model/robot.hpp"
 #include "hpr/model/urdf.hpp"
 #include "hpr/msg/sim_truth.hpp"
@@ -152,7 +153,7 @@ int run(const node::CommandLine& cl, const Config& cfg) {
   const sim::SimConfig sim_config = sim::SimConfig::load(sim_cfg);
   sim_cfg.known(sim::kSimProcessKeys);
   const double duration = cfg.has("emulator") ? cfg.section("emulator").real_or("duration", 0.0, 0.0, 1e7) : 0.0;
-  node::Runtime rt(cl.name, node::lcm_url(cl, cfg), node::runtime_options(cfg, sim_config.dt));
+  node::Runtime rt(hal::kEmulatorPorts, cl.name, node::lcm_url(cl, cfg), node::runtime_options(cfg, sim_config.dt));
   sim::Simulator simulator(robot, sim_config);
   auto buses = hal::open_buses(config, true);
   hal::DriveEmulator emu(config, simulator, std::make_unique<hal::MitCodec>(), options);

@@ -11,6 +11,7 @@
 #include "hpr/msg/channels.hpp"
 #include "hpr/common/time.hpp"
 #include "hpr/hal/hal.hpp"
+#include "hpr/hal/ports.hpp"
 #include "hpr/model/robot.hpp"
 #include "hpr/msg/commands.hpp"
 #include "hpr/msg/robot_io.hpp"
@@ -175,7 +176,7 @@ int run(const node::CommandLine& cl, const Config& cfg) {
   hal::HalConfig config = hal::HalConfig::load(hal_cfg, robot);
   const bool enable_on_start = hal_cfg.boolean_or("enable_on_start", false);
   const double duration = hal_cfg.real_or("duration", 0.0, 0.0, 1e7);
-  node::Runtime rt(cl.name, node::lcm_url(cl, cfg), node::runtime_options(cfg, config.period));
+  node::Runtime rt(hal::kPorts, cl.name, node::lcm_url(cl, cfg), node::runtime_options(cfg, config.period));
   hal::Hal h(config, hal::open_buses(config, false), std::make_unique<hal::MitCodec>());
   for (std::size_t b = 0; b < config.buses.size(); ++b) log::info("bus {}: {}", config.buses[b].name, h.buses()[b]->describe());
 

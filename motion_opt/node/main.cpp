@@ -10,7 +10,6 @@
 #include "hpr/motion_opt/component.hpp"
 #include "hpr/msg/channels.hpp"
 #include "hpr/msg/balance.hpp"
-#include "hpr/msg/graph.hpp"
 #include "hpr/msg/commands.hpp"
 #include "hpr/msg/state.hpp"
 #include "hpr/node/command_line.hpp"
@@ -28,7 +27,7 @@ int main(int argc, char** argv) {
         const bool wait = section.boolean_or("wait_for_reference", true);
         const double timeout = section.real_or("reference_timeout", 0.5, 0.0, 60.0);
         const long stale_ticks = section.integer_or("reference_stale_ticks", 20, 1, 100000);
-        node::Runtime rt(cl.name, node::lcm_url(cl, cfg), node::runtime_options(cfg, opt.optimizer().config().dt));
+        node::Runtime rt(motion_opt::MotionOptComponent::kPorts, cl.name, node::lcm_url(cl, cfg), node::runtime_options(cfg, opt.optimizer().config().dt));
         msg::RobotNames names;
         names.joints = robot.model.joint_name;
         std::vector<std::string> free_names;
@@ -50,7 +49,7 @@ int main(int argc, char** argv) {
         humanoid::wholebody_command_t msg{};
         std::vector<node::Sync> sync;
         // CAM_REFERENCE of the same tick, optional: without it, the posture task only.
-        const msg::Read& r = msg::read_of("motion_opt", msg::channels::kCamReference.name);
+        const Read& r = motion_opt::MotionOptComponent::kPorts.at(channel::kCamReference);
         if (wait) sync.push_back({&cam_in, r.tick_offset, {}, r.optional});
         rt.on_restart(state_in, [&] { opt.reset(); });
         rt.on_tick(state_in, sync, timeout, [&](const node::TickInfo& info) {

@@ -10,7 +10,6 @@
 
 #include "hpr/msg/balance.hpp"
 #include "hpr/msg/channels.hpp"
-#include "hpr/msg/graph.hpp"
 #include "hpr/msg/state.hpp"
 #include "hpr/node/command_line.hpp"
 #include "hpr/node/runtime.hpp"
@@ -25,7 +24,7 @@ int main(int argc, char** argv) {
         reference_gen::ReferenceGenerator gen(reference_gen::GeneratorConfig::load(section));
         const bool wait = section.boolean_or("wait_for_balance", true);
         const double timeout = section.real_or("balance_timeout", 0.5, 0.0, 60.0);
-        node::Runtime rt(cl.name, node::lcm_url(cl, cfg), node::runtime_options(cfg, gen.config().dt));
+        node::Runtime rt(reference_gen::ReferenceGenerator::kPorts, cl.name, node::lcm_url(cl, cfg), node::runtime_options(cfg, gen.config().dt));
         EstimatedState state;  // only tick and time are read: the header of ROBOT_STATE
         balance::BalanceStatus balance_status;
         balance::WholebodyCommand wholebody;
@@ -45,7 +44,7 @@ int main(int argc, char** argv) {
         humanoid::cam_reference_t msg{};
         std::vector<node::Sync> sync;
         // BALANCE_STATUS of the previous tick, optional: without it, the reference ramps to zero.
-        const msg::Read& b = msg::read_of("reference_gen", msg::channels::kBalanceStatus.name);
+        const Read& b = reference_gen::ReferenceGenerator::kPorts.at(channel::kBalanceStatus);
         if (wait) sync.push_back({&balance_in, b.tick_offset, {}, b.optional});
         rt.on_restart(state_in, [&] { gen.reset(); });
         rt.on_tick(state_in, sync, timeout, [&](const node::TickInfo& info) {

@@ -1,5 +1,6 @@
 // sim_bullet: the Bullet simulation of the robot, speaking the same LCM channels as the hardware.
 #include "hpr/node/command_line.hpp"
+#include "hpr/sim/ports.hpp"
 #include "sim_node.hpp"
 
 int main(int argc, char** argv) {
@@ -10,7 +11,7 @@ int main(int argc, char** argv) {
                                const hpr::Config sim_cfg = cfg.section("sim");
                                const auto sim_config = hpr::sim::SimConfig::load(sim_cfg);
                                const auto options = hpr::sim::SimNodeOptions::load(sim_cfg);
-                               hpr::node::Runtime rt(cl.name, hpr::node::lcm_url(cl, cfg),
+                               hpr::node::Runtime rt(hpr::sim::kPorts, cl.name, hpr::node::lcm_url(cl, cfg),
                                                      hpr::node::runtime_options(cfg, sim_config.dt));
                                // The hal's drive ranges: its section when the configuration has one
                                // (validated here too), else the defaults from the URDF limits.

@@ -20,7 +20,7 @@
 #include "allocation_counter.hpp"
 #include "closed_loop.hpp"
 #include "hpr/msg/channels.hpp"
-#include "hpr/msg/graph.hpp"
+#include "hpr/graph/data_flow.hpp"
 
 namespace {
 
@@ -167,7 +167,7 @@ std::set<std::string> quoted(const std::string& cell) {
 }
 
 // The README's table of the components (what each steps on, reads at which tick, writes, and the
-// HEALTH faults it reports) says what the declarations say: the data flow (hpr/msg/graph.hpp) and
+// HEALTH faults it reports) says what the declarations say: the declared ports (hpr/graph/data_flow.hpp) and
 // each component's kFaultKeys. OPERATOR, a command rather than a data channel, is left out of it.
 TEST(Components, TheReadmesTableSaysWhatTheDeclarationsSay) {
   std::ifstream readme(hpr::test::source_dir() + "/README.md");
@@ -191,14 +191,14 @@ TEST(Components, TheReadmesTableSaysWhatTheDeclarationsSay) {
     if (it == components.end() || row.size() < 5) continue;
     const auto& [process, fault_keys] = it->second;
     seen.insert(process);
-    const hpr::msg::ProcessPorts* p = hpr::msg::find_process(process);
+    const hpr::Ports* p = hpr::graph::find_process(process);
     ASSERT_NE(p, nullptr) << process;
     std::map<std::string, int> steps_on, reads, writes;
     for (const auto& r : p->reads) {
       if (r.channel == hpr::msg::channels::kOperator.name) continue;
-      (r.trigger ? steps_on : reads)[r.channel] = r.tick_offset;
+      (r.trigger ? steps_on : reads)[std::string(r.channel)] = r.tick_offset;
     }
-    for (const auto& w : p->writes) writes[w] = 0;
+    for (const auto& w : p->writes) writes[std::string(w)] = 0;
     EXPECT_EQ(ticked_channels(row[1]), steps_on) << process << ": steps on";
     EXPECT_EQ(ticked_channels(row[2]), reads) << process << ": reads";
     EXPECT_EQ(ticked_channels(row[3]), writes) << process << ": writes";
@@ -206,7 +206,7 @@ TEST(Components, TheReadmesTableSaysWhatTheDeclarationsSay) {
   }
   EXPECT_EQ(seen.size(), components.size()) << "a component is missing from the README's table";
   // And its table of the processes has every process of the data flow.
-  for (const auto& p : hpr::msg::data_flow()) EXPECT_TRUE(first_cells.count("`" + p.name + "`")) << p.name;
+  for (const auto& p : hpr::graph::data_flow()) EXPECT_TRUE(first_cells.count("`" + std::string(p.name) + "`")) << p.name;
 }
 
 }  // namespace

@@ -24,7 +24,7 @@
 #include <random>
 #include <thread>
 
-#include "hpr/msg/graph.hpp"
+#include "hpr/graph/data_flow.hpp"
 #include "lcm_listener.hpp"
 #include "process_group.hpp"
 #include "shell.hpp"
@@ -418,10 +418,10 @@ FAULTS_TEST(BitFlipsInEveryClockedChannelForASecondAreRefusedAndTheRobotStands) 
   // The flipped copies each reader took in are refused by their code: at least half of them (see above).
   std::map<std::string, std::int64_t> expected;
   for (const auto& n : readers) {
-    const hpr::msg::ProcessPorts* p = hpr::msg::find_process(n);
+    const hpr::Ports* p = hpr::graph::find_process(n);
     ASSERT_NE(p, nullptr) << n;
     for (const auto& read : p->reads) {
-      if (sent.count(read.channel) != 0) expected[n] += sent[read.channel];
+      if (sent.count(std::string(read.channel)) != 0) expected[n] += sent[std::string(read.channel)];
     }
     EXPECT_GT(expected[n], 0) << n << " reads none of the flipped channels";
   }
@@ -587,9 +587,14 @@ FAULTS_TEST(WithoutItsOptionalComponentsTheChainRunsOnAtFullRate) {
   EXPECT_TRUE(chain_runs(w, from, 1000, 15s)) << "the chain crawls without motion_opt: tick " << w.command.tick;
   // Full rate: HEALTH's step rate, and the wbc says what it runs without.
   ASSERT_TRUE(w.wait_for([&] { return w.health["wbc"].rate_hz > 100.0; }, 5s)) << "wbc at " << w.health["wbc"].rate_hz << " Hz";
-  const auto& faults = w.health["wbc"].faults;
-  const bool says = std::any_of(faults.begin(), faults.end(), [](const std::string& f) { return f.find("WHOLEBODY_COMMAND absent") != std::string::npos; });
-  EXPECT_TRUE(says) << "wbc HEALTH does not say that WHOLEBODY_COMMAND is absent";
+  // Its component says so once the command is stale (wholebody_stale_ticks), its runtime once the
+  // input has been silent for its timeout; HEALTH goes out at its own rate: waited for.
+  const auto says = [&] {
+    const auto& faults = w.health["wbc"].faults;
+    return std::any_of(faults.begin(), faults.end(), [](const std::string& f) { return f.find("WHOLEBODY_COMMAND stale") != std::string::npos; }) &&
+           std::any_of(faults.begin(), faults.end(), [](const std::string& f) { return f.find("WHOLEBODY_COMMAND absent") != std::string::npos; });
+  };
+  EXPECT_TRUE(w.wait_for(says, 5s)) << "wbc HEALTH does not say that WHOLEBODY_COMMAND is stale and absent";
   EXPECT_EQ(int{w.health["wbc"].state}, int{humanoid::health_t::STATE_DEGRADED});
   EXPECT_FALSE(w.truth.fallen);
 }

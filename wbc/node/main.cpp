@@ -12,7 +12,7 @@ int main(int argc, char** argv) {
                           wbc::WbcComponent wbc(robot, wbc::WbcConfig::load(wc, robot),
                                                 balance::PostureReferenceConfig::load(cfg.section("balance")),
                                                 options.bad_state_ticks);
-                          node::Runtime rt(cl.name, node::lcm_url(cl, cfg), node::runtime_options(cfg, 1e-3));
+                          node::Runtime rt(wbc::WbcComponent::kPorts, cl.name, node::lcm_url(cl, cfg), node::runtime_options(cfg, 1e-3));
                           wbc::WbcNode node(rt, robot, wbc, options);
                           return rt.run();
                         });

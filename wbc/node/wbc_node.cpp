@@ -4,7 +4,6 @@
 
 #include "hpr/common/log.hpp"
 #include "hpr/msg/channels.hpp"
-#include "hpr/msg/graph.hpp"
 
 namespace hpr::wbc {
 
@@ -40,7 +39,7 @@ WbcNode::WbcNode(node::Runtime& rt, const model::RobotSpec& robot, WbcComponent&
   if (options_.wait_for_wholebody) {
     // Optional: with the motion optimiser gone, the wbc runs its own posture reference (the ankle
     // strategy) at full rate.
-    const msg::Read& w = msg::read_of("wbc", msg::channels::kWholebodyCommand.name);
+    const Read& w = WbcComponent::kPorts.at(channel::kWholebodyCommand);
     sync.push_back({wholebody_in_, w.tick_offset, [this] { return wbc_.uses_wholebody(state_); }, w.optional});
   }
   rt.on_restart(*state_in_, [this] {

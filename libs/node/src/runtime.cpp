@@ -16,7 +16,6 @@
 
 #include <fmt/format.h>
 
-#include "hpr/msg/graph.hpp"
 #include "hpr/msg/lcm_section.hpp"
 #include "hpr/node/command_line.hpp"
 #include "hpr/node/lcm_url.hpp"
@@ -51,14 +50,15 @@ void install_signal_handlers() {
 }  // namespace
 
 void Runtime::check_declared(const std::string& ch, bool write) const {
-  const msg::ProcessPorts* p = msg::find_process(name_);
-  if (p == nullptr) return;  // a tool, a test, or a process run under another name
-  const bool declared = write ? std::find(p->writes.begin(), p->writes.end(), ch) != p->writes.end()
-                              : std::any_of(p->reads.begin(), p->reads.end(), [&](const msg::Read& r) { return r.channel == ch; });
-  if (!declared) {
-    throw std::logic_error(fmt::format("{} {} {}, which its declaration in the stack's data flow (hpr/msg/graph.hpp) does not list",
-                                       name_, write ? "publishes" : "reads", ch));
-  }
+  if (!declared_) return;  // a tool or a test
+  if (write ? declared_->writes_to(ch) : declared_->read(ch) != nullptr) return;
+  throw std::logic_error(fmt::format("{} {} {}, which its declared ports ({}) do not list", name_, write ? "publishes" : "reads", ch,
+                                     declared_->name));
+}
+
+Runtime::Runtime(const Ports& declared, std::string node_name, const std::string& lcm_url, RuntimeOptions options)
+    : Runtime(std::move(node_name), lcm_url, std::move(options)) {
+  declared_ = declared;
 }
 
 Runtime::Runtime(std::string node_name, const std::string& lcm_url, RuntimeOptions options)

@@ -9,7 +9,7 @@
 
 #include "hpr/common/config.hpp"
 #include "hpr/launch/groups.hpp"
-#include "hpr/msg/graph.hpp"
+#include "hpr/graph/data_flow.hpp"
 
 namespace {
 
@@ -47,7 +47,7 @@ TEST(Groups, EveryRobotGroupIsAClosedDataFlow) {
                         "hardware", "hardware-composed", "sim-view"}) {
     std::vector<std::string> commands;
     for (const auto& p : f.group(g).processes) commands.push_back(p.command);
-    EXPECT_EQ(hpr::msg::unmet_inputs(commands), std::vector<std::string>{}) << g;
+    EXPECT_EQ(hpr::graph::unmet_inputs(commands), std::vector<std::string>{}) << g;
   }
   // The composed groups run the controllers in one process, critical and watched as the wbc is.
   for (const char* g : {"sim-composed", "sim-composed-lockstep", "hardware-composed"}) {
@@ -56,9 +56,9 @@ TEST(Groups, EveryRobotGroupIsAClosedDataFlow) {
     EXPECT_TRUE(c->critical);
     EXPECT_EQ(f.group(g).find("wbc"), nullptr) << g;
   }
-  EXPECT_EQ(hpr::msg::unmet_inputs({"estimator", "wbc", "reference_gen", "motion_opt"}).size(), 1U);
+  EXPECT_EQ(hpr::graph::unmet_inputs({"estimator", "wbc", "reference_gen", "motion_opt"}).size(), 1U);
   // The true state needs a simulator: on the hal's sensors it lacks SIM_TRUTH.
-  EXPECT_EQ(hpr::msg::unmet_inputs({"hal", "truth_state", "wbc"}),
+  EXPECT_EQ(hpr::graph::unmet_inputs({"hal", "truth_state", "wbc"}),
             std::vector<std::string>{"truth_state reads SIM_TRUTH (the simulator's base, CoM and contacts of the same tick), which none "
                                      "of them writes"});
 }

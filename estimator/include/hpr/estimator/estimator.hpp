@@ -43,6 +43,7 @@
 #include <string>
 #include <string_view>
 
+#include "hpr/common/ports.hpp"
 #include "hpr/common/component.hpp"
 #include "hpr/common/config.hpp"
 #include "hpr/common/parameters.hpp"
@@ -130,6 +131,10 @@ class Estimator {
   /// "covariance" (position uncertainty too large) and "contact" (no foot in contact once
   /// initialised), not ready while it initialises.
   static constexpr std::array<std::string_view, 3> kFaultKeys{"implausible", "covariance", "contact"};
+  /// The estimator process's ports.
+  static constexpr Read kReads[] = {{channel::kRobotSensors, 0, true, false, "the sample it filters"}};
+  static constexpr std::string_view kWrites[] = {channel::kRobotState};
+  static constexpr Ports kPorts{"estimator", kReads, kWrites};
   struct Inputs {
     const SensorSample& sensors;  ///< ROBOT_SENSORS of tick k
   };
@@ -230,5 +235,13 @@ class Estimator {
 /// configuration section, with the ranges its loader accepts; the process that runs the component
 /// (its own node, or the composed controllers) answers OPERATOR sets with them.
 void add_parameters(ParameterSet& params, EstimatorConfig& c);
+
+/// The truth_state process, which stands in for the estimator in a simulation (a group chooses
+/// it): ROBOT_STATE from the simulator's truth of the same tick.
+inline constexpr Read kTruthStateReads[] = {
+    {channel::kRobotSensors, 0, true, false, "the joints and the tick"},
+    {channel::kSimTruth, 0, false, false, "the simulator's base, CoM and contacts of the same tick"}};
+inline constexpr std::string_view kTruthStateWrites[] = {channel::kRobotState};
+inline constexpr Ports kTruthStatePorts{"truth_state", kTruthStateReads, kTruthStateWrites};
 
 }  // namespace hpr::estimator

@@ -10,6 +10,7 @@
 
 #include "hpr/balance/ports.hpp"
 #include "hpr/balance/task_reference.hpp"
+#include "hpr/common/ports.hpp"
 #include "hpr/common/component.hpp"
 #include "hpr/common/robot_io.hpp"
 #include "hpr/motion_opt/optimizer.hpp"
@@ -23,6 +24,13 @@ class MotionOptComponent {
   /// limits); not ready, with nothing to publish, while no usable estimate has started the posture
   /// reference (the wbc damps meanwhile).
   static constexpr std::array<std::string_view, 2> kFaultKeys{"reference", "motion_qp"};
+  /// The motion_opt process's ports.
+  static constexpr Read kReads[] = {
+      {channel::kRobotState, 0, true, false, "the state it optimises from"},
+      {channel::kCamReference, 0, false, true, "l_c^ref (without it: the posture task only)"},
+      {channel::kOperator, 0, false, true, "support requests"}};
+  static constexpr std::string_view kWrites[] = {channel::kWholebodyCommand};
+  static constexpr Ports kPorts{"motion_opt", kReads, kWrites};
   struct Inputs {
     const EstimatedState& state;               ///< ROBOT_STATE of tick k
     OptionalRef<balance::CamReference> cam;    ///< CAM_REFERENCE of tick k; empty when missing or stale

@@ -28,6 +28,7 @@
 #include <string_view>
 
 #include "hpr/balance/ports.hpp"
+#include "hpr/common/ports.hpp"
 #include "hpr/common/component.hpp"
 #include "hpr/common/config.hpp"
 #include "hpr/common/parameters.hpp"
@@ -121,6 +122,13 @@ class ReferenceGenerator {
   /// WHOLEBODY_COMMAND. Fault "balance": BALANCE_STATUS stale (the reference held, then ramped to
   /// zero) after the first two ticks.
   static constexpr std::array<std::string_view, 1> kFaultKeys{"balance"};
+  /// The reference_gen process's ports.
+  static constexpr Read kReads[] = {
+      {channel::kRobotState, 0, true, false, "tick and time"},
+      {channel::kBalanceStatus, -1, false, true, "the ankle torque and its limits (the paper's one-period lag)"},
+      {channel::kWholebodyCommand, -1, false, true, "the posture error that ends phase 3"}};
+  static constexpr std::string_view kWrites[] = {channel::kCamReference};
+  static constexpr Ports kPorts{"reference_gen", kReads, kWrites};
   struct Inputs {
     std::int64_t tick = 0;
     double time = 0.0;                              ///< [s]

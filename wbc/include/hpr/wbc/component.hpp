@@ -13,6 +13,7 @@
 
 #include "hpr/balance/ports.hpp"
 #include "hpr/balance/task_reference.hpp"
+#include "hpr/common/ports.hpp"
 #include "hpr/common/component.hpp"
 #include "hpr/common/robot_io.hpp"
 #include "hpr/wbc/controller.hpp"
@@ -27,6 +28,13 @@ class WbcComponent {
   /// command, seen before, missing this tick: its own posture reference); not ready while no
   /// estimate has started the posture, damping while it damps.
   static constexpr std::array<std::string_view, 4> kFaultKeys{"damping", "contact_qp", "singular", "wholebody"};
+  /// The wbc process's ports.
+  static constexpr Read kReads[] = {
+      {channel::kRobotState, 0, true, false, "the state it controls"},
+      {channel::kWholebodyCommand, 0, false, true, "the task-space command (without it: its own posture reference)"},
+      {channel::kOperator, 0, false, true, "enable, damp, stop, support requests"}};
+  static constexpr std::string_view kWrites[] = {channel::kJointCommand, channel::kBalanceStatus};
+  static constexpr Ports kPorts{"wbc", kReads, kWrites};
   struct Inputs {
     const EstimatedState& state;                    ///< ROBOT_STATE of tick k
     OptionalRef<balance::TaskReference> wholebody;  ///< WHOLEBODY_COMMAND of tick k; empty: own posture

@@ -1,7 +1,7 @@
 #pragma once
 /// \file
-/// Every channel of the stack, each name spelled here once, with the message type it carries
-/// (contracts in lcmtypes/*.lcm; who reads and writes which: hpr/msg/graph.hpp).
+/// Every channel of the stack with the message type it carries (names: hpr/common/ports.hpp;
+/// contracts in lcmtypes/*.lcm; who reads and writes which: hpr/graph/data_flow.hpp).
 
 #include <humanoid/balance_status_t.hpp>
 #include <humanoid/cam_reference_t.hpp>
@@ -22,26 +22,27 @@
 #include <tuple>
 
 #include "hpr/common/channel.hpp"
+#include "hpr/common/ports.hpp"
 
 namespace hpr::msg::channels {
 
 // The control chain, one message per tick.
-inline constexpr Channel<humanoid::robot_sensors_t> kRobotSensors{"ROBOT_SENSORS"};
-inline constexpr Channel<humanoid::robot_state_t> kRobotState{"ROBOT_STATE"};
-inline constexpr Channel<humanoid::cam_reference_t> kCamReference{"CAM_REFERENCE"};
-inline constexpr Channel<humanoid::wholebody_command_t> kWholebodyCommand{"WHOLEBODY_COMMAND"};
-inline constexpr Channel<humanoid::joint_command_t> kJointCommand{"JOINT_COMMAND"};
-inline constexpr Channel<humanoid::balance_status_t> kBalanceStatus{"BALANCE_STATUS"};
+inline constexpr Channel<humanoid::robot_sensors_t> kRobotSensors{channel::kRobotSensors};
+inline constexpr Channel<humanoid::robot_state_t> kRobotState{channel::kRobotState};
+inline constexpr Channel<humanoid::cam_reference_t> kCamReference{channel::kCamReference};
+inline constexpr Channel<humanoid::wholebody_command_t> kWholebodyCommand{channel::kWholebodyCommand};
+inline constexpr Channel<humanoid::joint_command_t> kJointCommand{channel::kJointCommand};
+inline constexpr Channel<humanoid::balance_status_t> kBalanceStatus{channel::kBalanceStatus};
 // The backends' own.
-inline constexpr Channel<humanoid::sim_truth_t> kSimTruth{"SIM_TRUTH"};
-inline constexpr Channel<humanoid::hal_status_t> kHalStatus{"HAL_STATUS"};
-inline constexpr Channel<humanoid::push_t> kPush{"PUSH"};
+inline constexpr Channel<humanoid::sim_truth_t> kSimTruth{channel::kSimTruth};
+inline constexpr Channel<humanoid::hal_status_t> kHalStatus{channel::kHalStatus};
+inline constexpr Channel<humanoid::push_t> kPush{channel::kPush};
 // Commands and reports.
-inline constexpr Channel<humanoid::operator_t> kOperator{"OPERATOR"};
-inline constexpr Channel<humanoid::health_t> kHealth{"HEALTH"};
-inline constexpr Channel<humanoid::params_t> kParams{"PARAMS"};
-inline constexpr Channel<humanoid::supervisor_command_t> kSupervisorCommand{"SUPERVISOR_COMMAND"};
-inline constexpr Channel<humanoid::supervisor_status_t> kSupervisorStatus{"SUPERVISOR_STATUS"};
+inline constexpr Channel<humanoid::operator_t> kOperator{channel::kOperator};
+inline constexpr Channel<humanoid::health_t> kHealth{channel::kHealth};
+inline constexpr Channel<humanoid::params_t> kParams{channel::kParams};
+inline constexpr Channel<humanoid::supervisor_command_t> kSupervisorCommand{channel::kSupervisorCommand};
+inline constexpr Channel<humanoid::supervisor_status_t> kSupervisorStatus{channel::kSupervisorStatus};
 
 /// Every channel above.
 inline constexpr std::tuple kAll{kRobotSensors, kRobotState,     kCamReference,      kWholebodyCommand, kJointCommand,

@@ -1,6 +1,6 @@
 #pragma once
 /// \file The tick of an encoded message and the per-tick data flow of the stack's channels
-/// (README.md, "The processes"; hpr/msg/graph.hpp), for tools that read raw LCM traffic or logs without decoding.
+/// (README.md, "The processes"; hpr/graph/data_flow.hpp), for tools that read raw LCM traffic or logs without decoding.
 
 #include <cstdint>
 #include <map>

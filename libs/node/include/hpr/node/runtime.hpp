@@ -52,6 +52,7 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -65,6 +66,7 @@
 #include "hpr/common/stats.hpp"
 #include "hpr/common/time.hpp"
 #include "hpr/common/parameters.hpp"
+#include "hpr/common/ports.hpp"
 
 namespace hpr::node {
 
@@ -135,6 +137,10 @@ class Runtime {
 
   /// Opens LCM on `lcm_url` (throws LcmError with the fix when multicast is not routable).
   Runtime(std::string node_name, const std::string& lcm_url, RuntimeOptions options = {});
+  /// A process of the stack, which may read and write only what `declared` lists (its ports,
+  /// hpr/common/ports.hpp): another channel throws std::logic_error naming both, so a node that
+  /// drifts from its declaration fails at start.
+  Runtime(const Ports& declared, std::string node_name, const std::string& lcm_url, RuntimeOptions options = {});
   ~Runtime();
   Runtime(const Runtime&) = delete;
   Runtime& operator=(const Runtime&) = delete;
@@ -144,15 +150,13 @@ class Runtime {
   /// The full channel name with the configured prefix.
   [[nodiscard]] std::string channel(const std::string& name) const { return options_.channel_prefix + name; }
 
-  /// Subscribes to `ch` (hpr/msg/channels.hpp). A process of the stack's data flow (by its name,
-  /// hpr/msg/graph.hpp) may read only what its declaration lists: another channel throws
-  /// std::logic_error naming both, so a node that drifts from the declared graph fails at start.
+  /// Subscribes to `ch` (hpr/msg/channels.hpp); a process may read only what it declares.
   template <class Msg>
   Input<Msg>& subscribe(const Channel<Msg>& ch, typename Input<Msg>::Validator validate = {},
                         typename Input<Msg>::Callback on_message = {}) {
     return subscribe<Msg>(std::string(ch.name), std::move(validate), std::move(on_message));
   }
-  /// Publishes on `ch`; a process of the data flow may write only what its declaration lists.
+  /// Publishes on `ch`; a process may write only what it declares.
   template <class Msg>
   Output<Msg> advertise(const Channel<Msg>& ch) {
     return advertise<Msg>(std::string(ch.name));
@@ -250,8 +254,8 @@ class Runtime {
   [[nodiscard]] std::int64_t deadline_misses() const { return deadline_misses_; }
 
  private:
-  /// Throws std::logic_error when this runtime is a process of the data flow whose declaration
-  /// does not list `channel` among its reads (or, `write`, its writes).
+  /// Throws std::logic_error when this runtime is a process whose declaration does not list
+  /// `channel` among its reads (or, `write`, its writes).
   void check_declared(const std::string& channel, bool write) const;
   /// An input on `name`, declared or not (the runtime's own OPERATOR input for live parameters is
   /// not the process's).
@@ -292,6 +296,7 @@ class Runtime {
   double next_wakeup(double now) const;
 
   std::string name_;
+  std::optional<Ports> declared_;  ///< a process's ports (none: a tool or a test, unchecked)
   RuntimeOptions options_;
   std::unique_ptr<lcm::LCM> lcm_;
   std::vector<std::unique_ptr<InputBase>> inputs_;
