@@ -64,6 +64,9 @@ usage: replay_check LOG --nodes NAME[,NAME...] [options]
   --timeout S       wall seconds to wait for one output before calling it missing (default 5)
   --json FILE       the report as JSON
   --work-dir DIR    the re-run nodes' logs (default: a temporary folder)
+The re-run nodes are fed by this tool, whose pauses (a loaded machine) are not a sensor dropout:
+they run with estimator.sensor_timeout=60, so that a pause never makes them step on a stale state
+(a dropout in the recording itself shows as a difference).
 Exit status: 0 when every compared output matches and none is missing, 1 otherwise, 2 on bad use,
 3 when the log lacks ticks of a played input (the outputs before the first gap are compared).
 )";
@@ -255,7 +258,7 @@ std::optional<int> read_options(int argc, char** argv, ReplayOptions& o) {
 /// (having said which and where its log is) when one does not come up within 20 s.
 bool start_nodes(hpr::launch::ProcessGroup& group, lcm::LCM& lcm, const ReplayOptions& o) {
   HealthSeen health(lcm);
-  std::vector<std::string> node_args = {"--config", o.config};
+  std::vector<std::string> node_args = {"--config", o.config, "--set", "estimator.sensor_timeout=60"};
   for (const auto& s : o.sets) node_args.insert(node_args.end(), {"--set", s});
   for (const auto& n : o.nodes) group.start(n, node_args, {}, o.work + "/" + n + ".log");
   const double ready_by = hpr::monotonic_s() + 20.0;
