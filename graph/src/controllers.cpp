@@ -106,7 +106,7 @@ using estimator::Estimator;
 using motion_opt::MotionOptComponent;
 using reference_gen::ReferenceGenerator;
 using wbc::WbcComponent;
-static_assert(Estimator::kPorts.read(channel::kRobotSensors)->trigger);
+static_assert(Estimator::kPorts.steps_on(channel::kRobotSensors));
 static_assert(wired(Estimator::kPorts, channel::kRobotState, ReferenceGenerator::kPorts, 0));
 static_assert(wired(Estimator::kPorts, channel::kRobotState, MotionOptComponent::kPorts, 0));
 static_assert(wired(Estimator::kPorts, channel::kRobotState, WbcComponent::kPorts, 0));

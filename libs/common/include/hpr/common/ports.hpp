@@ -64,6 +64,21 @@ struct Ports {
     if (r == nullptr) throw std::invalid_argument(std::string(name) + " does not read " + std::string(channel));
     return *r;
   }
+  /// Whether the process reads `channel` at `tick_offset` (no pointers: a check that holds in
+  /// constant expressions under every compiler's instrumentation too).
+  [[nodiscard]] constexpr bool reads_at(std::string_view channel, int tick_offset) const {
+    for (const Read& r : reads) {
+      if (r.channel == channel) return r.tick_offset == tick_offset;
+    }
+    return false;
+  }
+  /// Whether the process steps on each tick of `channel`.
+  [[nodiscard]] constexpr bool steps_on(std::string_view channel) const {
+    for (const Read& r : reads) {
+      if (r.channel == channel) return r.trigger;
+    }
+    return false;
+  }
   [[nodiscard]] constexpr bool writes_to(std::string_view channel) const {
     for (std::string_view w : writes) {
       if (w == channel) return true;
@@ -75,8 +90,7 @@ struct Ports {
 /// Whether `to` reads what `from` writes on `channel`, at `tick_offset` (a composition's wiring,
 /// checked against both declarations at compile time).
 constexpr bool wired(const Ports& from, std::string_view ch, const Ports& to, int tick_offset) {
-  const Read* r = to.read(ch);
-  return from.writes_to(ch) && r != nullptr && r->tick_offset == tick_offset;
+  return from.writes_to(ch) && to.reads_at(ch, tick_offset);
 }
 
 }  // namespace hpr
