@@ -195,6 +195,7 @@ class HealthSeen {
 struct ChannelReport {
   std::int64_t compared = 0, equal = 0, different = 0, missing = 0;
   std::int64_t repeats = 0;  ///< recorded messages of a tick already compared (see below)
+  std::int64_t unrecorded = 0;  ///< re-run outputs on a channel the log has none of
   std::int64_t last_tick = -1, first_difference_tick = -1, first_missing_tick = -1;
   std::size_t first_difference_byte = 0;
 };
@@ -339,7 +340,7 @@ void compare(const Event& recorded, std::deque<Raw>& rerun, lcm::LCM& lcm, doubl
 /// The table on stdout, the JSON report; whether every output matched.
 bool report_on(const ReplayOptions& o, const std::vector<std::string>& outputs, std::map<std::string, ChannelReport>& report,
                std::int64_t played, const std::map<std::string, std::vector<std::int64_t>>& lacking, std::int64_t first_gap) {
-  bool ok = true;
+  bool ok = true, any_compared = false;
   nlohmann::ordered_json j;
   j["log"] = o.log_path;
   j["nodes"] = o.nodes;
@@ -348,16 +349,21 @@ bool report_on(const ReplayOptions& o, const std::vector<std::string>& outputs, 
                            "FIRST DIFFERENCE");
   for (const auto& c : outputs) {
     const ChannelReport r = report[c];
-    const bool channel_ok = r.compared > 0 && r.different == 0 && r.missing == 0;
+    // A channel neither recorded nor re-run (the ankle strategy's CAM_REFERENCE, say) agrees.
+    const bool absent = r.compared == 0 && r.missing == 0;
+    const bool channel_ok = r.different == 0 && r.missing == 0 && (absent ? r.unrecorded == 0 : r.compared > 0);
     ok = ok && channel_ok;
+    any_compared = any_compared || r.compared > 0;
     std::string first = "-";
     if (r.first_difference_tick >= 0) first = fmt::format("tick {} (byte {})", r.first_difference_tick, r.first_difference_byte);
     if (r.first_missing_tick >= 0) first += fmt::format("; first missing at tick {}", r.first_missing_tick);
-    if (r.compared == 0 && r.missing == 0) first = "not in the log";
+    if (absent) first = r.unrecorded == 0 ? "not in the log, nor re-run" : fmt::format("not in the log; the re-run published {}", r.unrecorded);
     std::cout << fmt::format("{:<20} {:>9} {:>9} {:>9} {:>8} {:>8}  {}\n", c, r.compared, r.equal, r.different, r.missing, r.repeats, first);
     j["channels"][c] = {{"compared", r.compared}, {"equal", r.equal},       {"different", r.different},
-                        {"missing", r.missing},   {"repeats", r.repeats}, {"first_difference_tick", r.first_difference_tick}, {"match", channel_ok}};
+                        {"missing", r.missing},   {"repeats", r.repeats}, {"first_difference_tick", r.first_difference_tick},
+                        {"unrecorded", r.unrecorded}, {"match", channel_ok}};
   }
+  ok = ok && any_compared;
   j["match"] = ok;
   j["complete"] = lacking.empty();
   for (const auto& [channel, ticks] : lacking) j["lacking"][channel] = ticks;
@@ -431,6 +437,13 @@ int main(int argc, char** argv) {
       std::cerr << fmt::format("  tick {}: {} events, {} played\n", ev.tick, events, played);
       next_progress = hpr::monotonic_s() + 2.0;
     }
+  }
+  // What the re-run published on a channel the log has nothing of.
+  const double settle = hpr::monotonic_s() + 0.2;
+  while (hpr::monotonic_s() < settle) lcm.handleTimeout(10);
+  for (const auto& c : outputs) {
+    ChannelReport& r = report[c];
+    if (r.compared == 0 && r.missing == 0) r.unrecorded = static_cast<std::int64_t>(out.queues[c].size());
   }
   group.stop_all();
   if (!report_on(o, outputs, report, played, lacking, first_gap)) return 1;

@@ -256,6 +256,50 @@ TEST(Replay, RecordedPushExperimentReproducesExactlyAndADifferentGainDoesNot) {
   EXPECT_TRUE(h["match"].get<bool>()) << h.dump(2);
   EXPECT_GT(h["channels"]["ROBOT_STATE"]["compared"].get<std::int64_t>(), hole - 5);
   EXPECT_NE(gap.out.find("the log lacks ROBOT_SENSORS of 1 tick (" + std::to_string(hole) + ")"), std::string::npos) << gap.out;
+
+  // A channel the log has none of agrees only when the re-run publishes none either: without
+  // CAM_REFERENCE in the log, re-run reference_gen's CAM_REFERENCE is counted against the match
+  // (motion_opt's WHOLEBODY_COMMAND, which it feeds, still matches).
+  const std::string no_cam = dir + "/no-cam.lcm";
+  {
+    lcm::LogFile in(log, "r"), out(no_cam, "w");
+    ASSERT_TRUE(in.good() && out.good());
+    for (const lcm::LogEvent* ev = in.readNextEvent(); ev != nullptr; ev = in.readNextEvent()) {
+      if (std::string(ev->channel) != "CAM_REFERENCE") out.writeEvent(const_cast<lcm::LogEvent*>(ev));
+    }
+  }
+  const auto extra = run_command({tool, no_cam, "--rerun", "reference_gen,motion_opt", "--set", "balance.support=double", "--json",
+                                  dir + "/no-cam.json", "--work-dir", dir + "/no-cam"});
+  EXPECT_EQ(extra.exit_code, 1) << extra.out;
+  const json x = json::parse(std::ifstream(dir + "/no-cam.json"));
+  EXPECT_FALSE(x["match"].get<bool>());
+  EXPECT_GT(x["channels"]["CAM_REFERENCE"]["unrecorded"].get<int>(), 2500) << x.dump(2);
+  EXPECT_GT(x["channels"]["WHOLEBODY_COMMAND"]["compared"].get<int>(), 2500);
+  EXPECT_EQ(x["channels"]["WHOLEBODY_COMMAND"]["different"].get<int>(), 0);
+}
+
+// The ankle strategy composed: the controllers process publishes neither CAM_REFERENCE nor
+// WHOLEBODY_COMMAND, as the recorded processes did not; everything else matches bit for bit.
+TEST(Replay, TheAnkleStrategyComposedAnswersAsItsProcessesDid) {
+  const std::string dir = hpr::test::temp_dir("replay-ankle");
+  const std::string log = dir + "/ankle.lcm";
+  const auto trial = run_command(
+      {hpr::test::bin_dir() + "/push_trial", "--strategy", "ankle", "--impulse", "12", "--after", "1", "--log", log, "--quiet"});
+  ASSERT_EQ(trial.exit_code, 3) << trial.out;
+  const auto composed = run_command({hpr::test::source_dir() + "/tools/replay", log, "--rerun", "controllers", "--set",
+                                     "balance.support=double", "--set", "wbc.wait_for_wholebody=false", "--json", dir + "/composed.json",
+                                     "--work-dir", dir + "/composed"});
+  EXPECT_EQ(composed.exit_code, 0) << composed.out;
+  const json c = json::parse(std::ifstream(dir + "/composed.json"));
+  EXPECT_TRUE(c["match"].get<bool>()) << c.dump(2);
+  for (const char* ch : {"ROBOT_STATE", "JOINT_COMMAND", "BALANCE_STATUS"}) {
+    EXPECT_GT(c["channels"][ch]["compared"].get<int>(), 2500) << ch;
+    EXPECT_EQ(c["channels"][ch]["different"].get<int>(), 0) << ch;
+  }
+  for (const char* ch : {"CAM_REFERENCE", "WHOLEBODY_COMMAND"}) {
+    EXPECT_EQ(c["channels"][ch]["compared"].get<int>(), 0) << ch;
+    EXPECT_EQ(c["channels"][ch]["unrecorded"].get<int>(), 0) << ch;
+  }
 }
 
 TEST(Supervisor, TwoHostsRunOneGroupWithOneStatusAndStand) {
