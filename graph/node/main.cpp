@@ -47,7 +47,7 @@ int main(int argc, char** argv) {
       argc, argv, "controllers", "estimator, reference_gen, motion_opt and wbc in one process",
       [](const node::CommandLine& cl, const Config& cfg) {
         const auto robot = model::RobotSpec::load(cfg.section("robot"));
-        // wbc.wait_for_wholebody false: the wbc holds its own posture (the ankle strategy, as the
+        // wbc.wait_for_wholebody false: the wbc follows the balance plan (the ankle strategy, as the
         // wbc process without motion_opt).
         const bool cam = cfg.section("wbc").boolean_or("wait_for_wholebody", true);
         const graph::ControllersOptions run{.cam = cam, .estimator = true, .messages = true};

@@ -33,7 +33,8 @@ using Clock = std::chrono::steady_clock;
 }  // namespace
 
 Controllers::Controllers(const Config& cfg, const model::RobotSpec& robot, ControllersOptions opts)
-    : wbc(robot, wbc::WbcConfig::load(cfg.section("wbc"), robot), balance::PostureReferenceConfig::load(cfg.section("balance")),
+    : planner(robot, balance::PostureReferenceConfig::load(cfg.section("balance"))),
+      wbc(robot, wbc::WbcConfig::load(cfg.section("wbc"), robot),
           static_cast<int>(cfg.section("wbc").integer_or("bad_state_ticks", 20, 1, 100000))),
       options_(opts) {
   names_.joints = robot.model.joint_name;
@@ -42,8 +43,7 @@ Controllers::Controllers(const Config& cfg, const model::RobotSpec& robot, Contr
   if (options_.estimator) estimator.emplace(robot, estimator::EstimatorConfig::load(cfg.section("estimator")));
   if (options_.cam) {
     generator.emplace(reference_gen::GeneratorConfig::load(cfg.section("reference_gen")));
-    optimizer.emplace(robot, motion_opt::MotionOptConfig::load(cfg.section("motion_opt"), robot),
-                      balance::PostureReferenceConfig::load(cfg.section("balance")));
+    optimizer.emplace(robot, motion_opt::MotionOptConfig::load(cfg.section("motion_opt"), robot));
   }
 }
 
@@ -117,6 +117,8 @@ static_assert(wired(MotionOptComponent::kPorts, channel::kWholebodyCommand, WbcC
 
 void Controllers::step_controllers() {
   have_wholebody_ = false;
+  run_component(Component::kPlanner, times_.planner_us, [&] { planner.step({state_}, plan_out_); });
+  const auto plan = OptionalRef<balance::TaskReference>::when(plan_out_.valid, plan_out_.plan);
   if (options_.cam) {
     run_component(Component::kReferenceGen, times_.reference_gen_us, [&] {
       generator->step({.tick = state_.tick,
@@ -127,7 +129,7 @@ void Controllers::step_controllers() {
     });
     reports_[n_reports_++] = &reference_out_.report;
     pass(msg::channels::kCamReference.name, reference_out_.reference, messages_.cam, cam_);
-    run_component(Component::kMotionOpt, times_.motion_opt_us, [&] { optimizer->step({.state = state_, .cam = cam_}, motion_out_); });
+    run_component(Component::kMotionOpt, times_.motion_opt_us, [&] { optimizer->step({.state = state_, .plan = plan, .cam = cam_}, motion_out_); });
     reports_[n_reports_++] = &motion_out_.report;
     have_wholebody_ = motion_out_.valid;
     if (have_wholebody_) {
@@ -135,7 +137,10 @@ void Controllers::step_controllers() {
     }
   }
   run_component(Component::kWbc, times_.wbc_us, [&] {
-    wbc.step({.state = state_, .wholebody = OptionalRef<balance::TaskReference>::when(have_wholebody_, wholebody_.command)}, wbc_out_);
+    wbc.step({.state = state_,
+              .plan = plan,
+              .wholebody = OptionalRef<balance::TaskReference>::when(have_wholebody_, wholebody_.command)},
+             wbc_out_);
   });
   reports_[n_reports_++] = &wbc_out_.report;
   if (options_.messages) msg::to_message(wbc_out_.command, names_, messages_.command);
@@ -144,12 +149,12 @@ void Controllers::step_controllers() {
 }
 
 void Controllers::request_support(balance::Support s, double t) {
-  wbc.request_support(s, t);
-  if (optimizer) optimizer->request_support(s, t);
+  planner.request_support(s, t);
 }
 
 void Controllers::reset() {
   if (estimator) estimator->reset();
+  planner.reset();
   if (generator) generator->reset();
   if (optimizer) optimizer->reset();
   wbc.reset();

@@ -1,7 +1,9 @@
 // motion_opt: the CAM-based whole-body motion optimisation process.
 //
 // Steps on every ROBOT_STATE (tick k) with the CAM_REFERENCE of the same tick, and publishes the
-// WHOLEBODY_COMMAND of tick k: the reference posture with the optimised adjusted DoF.
+// WHOLEBODY_COMMAND of tick k: the balance plan with the optimised adjusted DoF. The balance
+// planner steps inside the process, on the same state, before the optimiser (as it does inside the
+// wbc: both follow the same plan).
 #include <humanoid/cam_reference_t.hpp>
 #include <humanoid/operator_t.hpp>
 #include <humanoid/robot_state_t.hpp>
@@ -14,6 +16,7 @@
 #include "hpr/msg/state.hpp"
 #include "hpr/node/command_line.hpp"
 #include "hpr/node/runtime.hpp"
+#include "hpr/planner/component.hpp"
 
 int main(int argc, char** argv) {
   using namespace hpr;
@@ -22,8 +25,9 @@ int main(int argc, char** argv) {
       [](const node::CommandLine& cl, const Config& cfg) {
         const auto robot = model::RobotSpec::load(cfg.section("robot"));
         const Config section = cfg.section("motion_opt");
-        motion_opt::MotionOptComponent opt(robot, motion_opt::MotionOptConfig::load(section, robot),
-                                           balance::PostureReferenceConfig::load(cfg.section("balance")));
+        motion_opt::MotionOptComponent opt(robot, motion_opt::MotionOptConfig::load(section, robot));
+        planner::BalancePlanner planner(robot, balance::PostureReferenceConfig::load(cfg.section("balance")));
+        planner::BalancePlanner::Outputs plan;
         const bool wait = section.boolean_or("wait_for_reference", true);
         const double timeout = section.real_or("reference_timeout", 0.5, 0.0, 60.0);
         const long stale_ticks = section.integer_or("reference_stale_ticks", 20, 1, 100000);
@@ -40,7 +44,7 @@ int main(int argc, char** argv) {
             [&](const humanoid::cam_reference_t& m) { return msg::from_message(m, cam); });
         rt.subscribe(msg::channels::kOperator, msg::check_operator, [&](const humanoid::operator_t& m) {
           if (m.command == humanoid::operator_t::COMMAND_SET_SUPPORT && m.support >= 0 && m.support <= 2) {
-            opt.request_support(static_cast<balance::Support>(m.support), state.time);
+            planner.request_support(static_cast<balance::Support>(m.support), state.time);
           }
         });
         motion_opt::add_parameters(rt.parameters(), opt.optimizer().tunable_config());
@@ -51,10 +55,17 @@ int main(int argc, char** argv) {
         // CAM_REFERENCE of the same tick, optional: without it, the posture task only.
         const Read& r = motion_opt::MotionOptComponent::kPorts.at(channel::kCamReference);
         if (wait) sync.push_back({&cam_in, r.tick_offset, {}, r.optional});
-        rt.on_restart(state_in, [&] { opt.reset(); });
+        rt.on_restart(state_in, [&] {
+          planner.reset();
+          opt.reset();
+        });
         rt.on_tick(state_in, sync, timeout, [&](const node::TickInfo& info) {
           const bool fresh = cam_in.has_value() && cam_in.tick() >= info.tick - stale_ticks;
-          opt.step({.state = state, .cam = OptionalRef<balance::CamReference>::when(fresh, cam)}, command);
+          planner.step({state}, plan);
+          opt.step({.state = state,
+                    .plan = OptionalRef<balance::TaskReference>::when(plan.valid, plan.plan),
+                    .cam = OptionalRef<balance::CamReference>::when(fresh, cam)},
+                   command);
           rt.report(command.report);
           if (!command.valid) return;
           command.wholebody.tick = info.tick;

@@ -5,12 +5,10 @@
 
 namespace hpr::motion_opt {
 
-MotionOptComponent::MotionOptComponent(const model::RobotSpec& robot, MotionOptConfig config,
-                                       balance::PostureReferenceConfig posture)
-    : optimizer_(robot, std::move(config)), reference_(robot, posture), dt_(optimizer_.config().dt) {}
+MotionOptComponent::MotionOptComponent(const model::RobotSpec& robot, MotionOptConfig config)
+    : optimizer_(robot, std::move(config)), dt_(optimizer_.config().dt) {}
 
 void MotionOptComponent::reset() {
-  reference_.reset();
   optimizer_.reset();
 }
 
@@ -18,14 +16,11 @@ void MotionOptComponent::step(const Inputs& in, Outputs& out) {
   const EstimatedState& s = in.state;
   out.report.begin();
   out.valid = false;
-  if (!reference_.started()) {
-    if (!s.usable()) {
-      out.report.outcome = StepOutcome::kNotReady;
-      return;
-    }
-    reference_.start(s.q, s.time);
+  if (!in.plan) {
+    out.report.outcome = StepOutcome::kNotReady;
+    return;
   }
-  const balance::TaskReference& ref = reference_.update(s.time, s.usable() ? &s : nullptr);
+  const balance::TaskReference& ref = *in.plan;
   const bool fresh = in.cam.has_value();
   const Eigen::Vector3d l_ref = fresh ? in.cam->l_ref_W : Eigen::Vector3d::Zero();
   const bool generating = fresh && in.cam->generating();

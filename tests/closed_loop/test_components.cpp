@@ -31,7 +31,7 @@ TEST(Components, NoneAllocatesDuringAPush) {
   ClosedLoop loop("toro", {}, {.cam = true, .estimator_in_loop = true});
   loop.push_base(20.0, 65.0, Eigen::Vector3d::UnitX(), 2.0);
   loop.run(1.5);  // standing: every buffer has had its size
-  std::array<long, 4> allocations{}, steps{};
+  std::array<long, 5> allocations{}, steps{};
   long before = 0;
   loop.probe = [&](Component c, bool entering) {
     if (entering) {
@@ -45,8 +45,9 @@ TEST(Components, NoneAllocatesDuringAPush) {
   loop.run(3.0, [&] { generated = generated || loop.cam().generating(); });
   ASSERT_FALSE(loop.sim.truth().fallen);
   ASSERT_TRUE(generated) << "the push should start the CAM generation";
-  const std::array<const char*, 4> names{"estimator", "reference_gen", "motion_opt", "wbc"};
-  for (size_t c = 0; c < 4; ++c) {
+  const std::array<const char*, 5> names{"estimator", "planner", "reference_gen", "motion_opt", "wbc"};
+  static_assert(static_cast<size_t>(Component::kWbc) + 1 == names.size());
+  for (size_t c = 0; c < names.size(); ++c) {
     EXPECT_EQ(steps[c], 3000) << names[c];
     EXPECT_EQ(allocations[c], 0) << names[c] << " allocated in " << steps[c] << " steps";
   }

@@ -581,7 +581,7 @@ FAULTS_TEST(WithoutItsOptionalComponentsTheChainRunsOnAtFullRate) {
   ASSERT_EQ(::kill(g.pid("reference_gen"), SIGKILL), 0);
   std::int64_t from = w.command.tick;
   EXPECT_TRUE(chain_runs(w, from, 1000, 15s)) << "the chain crawls without reference_gen: tick " << w.command.tick;
-  // motion_opt dies too: the wbc runs its own posture reference (the ankle strategy).
+  // motion_opt dies too: the wbc follows the balance plan itself (the ankle strategy).
   ASSERT_EQ(::kill(g.pid("motion_opt"), SIGKILL), 0);
   from = w.command.tick;
   EXPECT_TRUE(chain_runs(w, from, 1000, 15s)) << "the chain crawls without motion_opt: tick " << w.command.tick;

@@ -16,8 +16,9 @@ WbcNodeOptions WbcNodeOptions::load(const Config& c) {
   return o;
 }
 
-WbcNode::WbcNode(node::Runtime& rt, const model::RobotSpec& robot, WbcComponent& wbc, WbcNodeOptions options)
-    : rt_(rt), wbc_(wbc), options_(options) {
+WbcNode::WbcNode(node::Runtime& rt, const model::RobotSpec& robot, WbcComponent& wbc, planner::BalancePlanner& planner,
+                 WbcNodeOptions options)
+    : rt_(rt), wbc_(wbc), planner_(planner), options_(options) {
   names_.joints = robot.model.joint_name;
   for (int j : robot.free_joints) free_names_.push_back(robot.model.joint_name[static_cast<size_t>(j)]);
   out_.command.resize(robot.model.nj);
@@ -27,7 +28,7 @@ WbcNode::WbcNode(node::Runtime& rt, const model::RobotSpec& robot, WbcComponent&
       [this](const humanoid::wholebody_command_t& m) { return msg::from_message(m, free_names_, wholebody_); },
       [this](const humanoid::wholebody_command_t&) { have_wholebody_ = true; });
   rt.subscribe(msg::channels::kOperator, msg::check_operator, [this](const humanoid::operator_t& m) {
-    if (const auto s = apply_operator(wbc_, m)) wbc_.request_support(*s, state_.time);
+    if (const auto s = apply_operator(wbc_, m)) planner_.request_support(*s, state_.time);
   });
   add_parameters(rt.parameters(), wbc_.controller());
   std::vector<node::Sync> sync;
@@ -37,12 +38,13 @@ WbcNode::WbcNode(node::Runtime& rt, const model::RobotSpec& robot, WbcComponent&
   // estimate yet to start from, or one unusable for bad_state_ticks): whenever the controller
   // balances it uses the command of this tick, as in the composed pipeline.
   if (options_.wait_for_wholebody) {
-    // Optional: with the motion optimiser gone, the wbc runs its own posture reference (the ankle
+    // Optional: with the motion optimiser gone, the wbc follows the balance plan (the ankle
     // strategy) at full rate.
     const Read& w = WbcComponent::kPorts.at(channel::kWholebodyCommand);
-    sync.push_back({wholebody_in_, w.tick_offset, [this] { return wbc_.uses_wholebody(state_); }, w.optional});
+    sync.push_back({wholebody_in_, w.tick_offset, [this] { return wbc_.uses_wholebody(state_, planner_.will_plan(state_)); }, w.optional});
   }
   rt.on_restart(*state_in_, [this] {
+    planner_.reset();
     wbc_.reset();
     have_wholebody_ = false;
   });
@@ -81,7 +83,10 @@ void WbcNode::publish() {
 }
 
 void WbcNode::step(const EstimatedState& state, bool wholebody_fresh) {
-  wbc_.step({.state = state, .wholebody = OptionalRef<balance::TaskReference>::when(wholebody_fresh, wholebody_.command)}, out_);
+  planner_.step({state}, plan_);
+  wbc_.step({.state = state,
+             .plan = OptionalRef<balance::TaskReference>::when(plan_.valid, plan_.plan),
+             .wholebody = OptionalRef<balance::TaskReference>::when(wholebody_fresh, wholebody_.command)}, out_);
   rt_.report(out_.report);
   publish();
 }

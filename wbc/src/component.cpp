@@ -3,9 +3,8 @@
 
 namespace hpr::wbc {
 
-WbcComponent::WbcComponent(const model::RobotSpec& robot, WbcConfig config, balance::PostureReferenceConfig posture,
-                           int bad_state_ticks)
-    : wbc_(robot, std::move(config)), reference_(robot, posture), bad_state_ticks_(bad_state_ticks) {
+WbcComponent::WbcComponent(const model::RobotSpec& robot, WbcConfig config, int bad_state_ticks)
+    : wbc_(robot, std::move(config)), bad_state_ticks_(bad_state_ticks) {
   damp_.resize(robot.model.nj);
   damp_.mode = JointCommand::Mode::kDamp;
   damp_.kd.setConstant(kDampGain);
@@ -14,7 +13,6 @@ WbcComponent::WbcComponent(const model::RobotSpec& robot, WbcConfig config, bala
 }
 
 void WbcComponent::reset() {
-  reference_.reset();
   bad_state_count_ = 0;
   had_wholebody_ = false;
 }
@@ -26,8 +24,8 @@ void WbcComponent::damp(const EstimatedState& s, Mode why, Outputs& out) const {
   out.mode = why;
 }
 
-WbcComponent::Mode WbcComponent::mode_for(const EstimatedState& s) const {
-  if (!reference_.started() && !s.usable()) return Mode::kDampNoState;
+WbcComponent::Mode WbcComponent::mode_for(const EstimatedState& s, bool planned) const {
+  if (!planned) return Mode::kDampNoState;
   if (damping_) return Mode::kDampOperator;
   if (!s.usable() && bad_state_count_ + 1 >= bad_state_ticks_) return Mode::kDampBadState;
   return Mode::kBalance;
@@ -36,10 +34,8 @@ WbcComponent::Mode WbcComponent::mode_for(const EstimatedState& s) const {
 void WbcComponent::step(const Inputs& in, Outputs& out) {
   const EstimatedState& s = in.state;
   out.report.begin();
-  const Mode mode = mode_for(s);
+  const Mode mode = mode_for(s, in.plan.has_value());
   if (mode != Mode::kDampNoState) {
-    if (!reference_.started()) reference_.start(s.q, s.time);
-    const balance::TaskReference& own = reference_.update(s.time, s.usable() ? &s : nullptr);
     if (mode != Mode::kDampOperator) bad_state_count_ = s.usable() ? 0 : bad_state_count_ + 1;
     if (mode == Mode::kBalance) {
       robot_state_.tick = s.tick;
@@ -47,7 +43,7 @@ void WbcComponent::step(const Inputs& in, Outputs& out) {
       robot_state_.q = s.q;
       robot_state_.v = s.v;
       const auto t0 = std::chrono::steady_clock::now();
-      out.command = wbc_.step(robot_state_, in.wholebody ? *in.wholebody : own);
+      out.command = wbc_.step(robot_state_, in.wholebody ? *in.wholebody : *in.plan);
       out.status = wbc_.status();
       out.status.compute_time_us = std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count();
       out.mode = Mode::kBalance;

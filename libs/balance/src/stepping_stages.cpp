@@ -23,9 +23,9 @@ void PostureReference::observe(double t, const EstimatedState& state) {
     // The external force counts until the first touchdown of a series of steps: after it, the
     // impacts of the landing feet and their sensors' transients are no push. How long it will
     // last is not known: it is taken to last push_duration_ratio times as long again as it has.
-    const double t_pushed = push_start_ < 0.0 ? 0.0 : t - push_start_;
+    const double t_pushed = observer_.push_start() < 0.0 ? 0.0 : t - observer_.push_start();
     xi_ = balance::capture_point(state.p_com.head<2>(), v, omega_);
-    if (!stepped_) xi_ += balance::push_shift(f_ext_, m, omega_, config_.step.push_duration_ratio * t_pushed);
+    if (!stepped_) xi_ += balance::push_shift(observer_.force(), m, omega_, config_.step.push_duration_ratio * t_pushed);
     // The base's lean from its standing orientation: the horizontal part of its z axis, from
     // q = (p, quat (x, y, z, w), ...), less that of the standing base's.
     const Eigen::Vector4d quat = state.q.segment<4>(3);
@@ -269,36 +269,26 @@ void PostureReference::update_swing(double t, const EstimatedState* state) {
     swing_v_(i) = s(1);
     swing_a_(i) = s(2);
   }
-  // Vertical: 64 τ³ (1 − τ)³ of the swing height, zero velocity and acceleration at lift-off and
-  // at the planned touchdown, aimed touchdown_depth below the ground (the impedance's lag would
-  // otherwise hold the sole above it); past the planned touchdown (the sole not yet loaded) the
-  // reference goes on down at kProbeSpeed until the foot's sensor reports the ground.
-  constexpr double kProbeSpeed = 0.3;  // [m/s]
-  const double h = config_.step.swing_height, T = swing_time_, depth = config_.step.touchdown_depth;
-  const double tc = std::clamp(tau_s, 0.0, 1.0), u = 1.0 - tc;
-  const Vector3d sink = quintic(tc);  // from the lift-off height to touchdown_depth below the ground
-  const double dz = swing_z0_ + depth;
-  swing_p_(2) = ground_soles_[mu].p.z() + 64 * h * tc * tc * tc * u * u * u + swing_z0_ - dz * sink(0);
-  swing_v_(2) = 64 * h * 3 * tc * tc * u * u * (u - tc) / T - dz * sink(1) / T;
-  swing_a_(2) = 64 * h * 6 * tc * u * (u * u - 3 * tc * u + tc * tc) / (T * T) - dz * sink(2) / (T * T);
-  if (tau_s > 1.0) {
-    swing_p_(2) = ground_soles_[mu].p.z() - depth - kProbeSpeed * (tau_s - 1.0) * T;
-    swing_v_(2) = -kProbeSpeed;
-    swing_a_(2) = 0.0;
-  }
-  // Orientation: from the sole's at lift-off to the ground's, a quintic blend on SO(3).
-  const Vector3d phi = model::log3(swing_R0_.transpose() * ground_soles_[mu].R);
-  const Vector3d so = quintic(std::min(tc, 1.0));
+  // Vertical: the swing height (swing_height), aimed touchdown_depth below the ground (the
+  // impedance's lag would otherwise hold the sole above it), going on down past the planned
+  // touchdown until the foot's sensor reports the ground.
+  const double T = swing_time_;
+  const Vector3d z = swing_height(tau_s, T, ground_soles_[mu].p.z(), swing_z0_, config_.step.swing_height, config_.step.touchdown_depth);
+  swing_p_(2) = z(0);
+  swing_v_(2) = z(1);
+  swing_a_(2) = z(2);
+  // Orientation: from the sole's at lift-off to the ground's.
+  const SwingOrientation o = swing_orientation(swing_R0_, ground_soles_[mu].R, tau_s, T);
   FootReference& f = ref_.feet[mu];
   f.contact = false;
-  f.X_WS.R = swing_R0_ * model::exp3(so(0) * phi);
+  f.X_WS.R = o.R;
   f.X_WS.p = swing_p_;
   f.twist.setZero();
   f.accel.setZero();
   f.twist.head<3>() = swing_v_;
   f.accel.head<3>() = swing_a_;
-  f.twist.tail<3>() = swing_R0_ * phi * (so(1) / T);
-  f.accel.tail<3>() = swing_R0_ * phi * (so(2) / (T * T));
+  f.twist.tail<3>() = o.omega;
+  f.accel.tail<3>() = o.omegadot;
 }
 
 void PostureReference::land(double t, const EstimatedState* state) {
@@ -326,41 +316,13 @@ void PostureReference::land(double t, const EstimatedState* state) {
 }
 
 void PostureReference::observe_external_force(double t, const EstimatedState& state) {
-  // The horizontal external force by a momentum observer (no differentiation):
-  // F̂ = K (m ċ − m ċ_0 − ∫ (Σ f_ground + F̂) dt), a first-order estimate of m c̈ − Σ f_ground
-  // with time constant 1/K.
-  const Eigen::Vector2d v = state.v_com.head<2>();
-  const double m = robot_->model.mass;
   // The ground's force on the feet in contact only: the sensor of a foot in the air reads that
   // foot's own inertia (tens of newtons while it swings), which is no ground force.
   Eigen::Vector2d f_ground = Eigen::Vector2d::Zero();
   for (size_t k = 0; k < 2; ++k) {
     if (state.contact[k]) f_ground += state.foot_wrench_W[k].head<2>();
   }
-  const double dt = t - t_prev_state_;
-  const bool running = t_prev_state_ >= 0.0 && dt > 0.0 && dt < 0.1;
-  if (running) {
-    momentum_integral_ += (f_ground + f_ext_) * dt;
-    f_ext_ = (m * (v - v_prev_) - momentum_integral_) / config_.step.force_filter;
-  }
-  // The observer's start, and its restart after a sensor's NaN (the compensation with it).
-  if (!running || !f_ext_.allFinite()) {
-    if (!f_ext_.allFinite()) f_comp_.setZero();
-    v_prev_ = v;
-    momentum_integral_.setZero();
-    f_ext_.setZero();
-  } else if (config_.push_compensation.enabled) {
-    f_comp_ += std::min(1.0, dt / config_.push_compensation.filter) * (f_ext_ - f_comp_);
-    const double n = f_comp_.norm(), f_max = config_.push_compensation.max_force;
-    if (n > f_max) f_comp_ *= f_max / n;
-  }
-  // When the push began: |F̂| last rose above push_onset (a restart above sets F̂ to zero).
-  if (f_ext_.norm() < config_.step.push_onset) {
-    push_start_ = -1.0;
-  } else if (push_start_ < 0.0) {
-    push_start_ = t;
-  }
-  t_prev_state_ = t;
+  observer_.update(t, state.v_com.head<2>(), f_ground);
 }
 
 }  // namespace hpr::balance

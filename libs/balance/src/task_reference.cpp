@@ -25,13 +25,6 @@ Support support_from_string(const std::string& s) {
   return Support::kDouble;
 }
 
-Eigen::Vector3d quintic(double tau) {
-  if (tau <= 0) return Vector3d::Zero();
-  if (tau >= 1) return Vector3d(1, 0, 0);
-  const double t2 = tau * tau, t3 = t2 * tau;
-  return {t3 * (10 - 15 * tau + 6 * t2), 30 * t2 * (1 - 2 * tau + t2), 60 * tau * (1 - 3 * tau + 2 * t2)};
-}
-
 PostureReferenceConfig PostureReferenceConfig::load(const Config& c) {
   PostureReferenceConfig p;
   if (c.has("com_offset")) {
@@ -86,19 +79,17 @@ PostureReferenceConfig PostureReferenceConfig::load(const Config& c) {
   return p;
 }
 
-Eigen::Vector3d quintic_to_rest(double p0, double v0, double a0, double p1, double T, double t) {
-  if (T <= 0.0 || t >= T) return {p1, 0.0, 0.0};
-  const double d = p1 - p0, T2 = T * T, T3 = T2 * T;
-  const double c3 = (20 * d - 12 * v0 * T - 3 * a0 * T2) / (2 * T3);
-  const double c4 = (-30 * d + 16 * v0 * T + 3 * a0 * T2) / (2 * T3 * T);
-  const double c5 = (12 * d - 6 * v0 * T - a0 * T2) / (2 * T3 * T2);
-  const double t2 = t * t, t3 = t2 * t;
-  return {p0 + v0 * t + 0.5 * a0 * t2 + c3 * t3 + c4 * t3 * t + c5 * t3 * t2,
-          v0 + a0 * t + 3 * c3 * t2 + 4 * c4 * t3 + 5 * c5 * t3 * t, a0 + 6 * c3 * t + 12 * c4 * t2 + 20 * c5 * t3};
-}
-
 PostureReference::PostureReference(const model::RobotSpec& robot, PostureReferenceConfig config)
-    : robot_(&robot), config_(config), planner_(config.stepping), fk_(std::in_place, robot.model) {
+    : robot_(&robot),
+      config_(config),
+      planner_(config.stepping),
+      observer_({.mass = robot.model.mass,
+                 .time_constant = config.step.force_filter,
+                 .push_onset = config.step.push_onset,
+                 .compensate = config.push_compensation.enabled,
+                 .compensation_filter = config.push_compensation.filter,
+                 .max_force = config.push_compensation.max_force}),
+      fk_(std::in_place, robot.model) {
   const int nf = static_cast<int>(robot.free_joints.size());
   ref_.q_free = ref_.qd_free = ref_.qdd_free = Eigen::VectorXd::Zero(nf);
   qf0_ = qf1_ = Eigen::VectorXd::Zero(nf);
@@ -170,10 +161,7 @@ void PostureReference::start(const Eigen::VectorXd& q, double t) {
   drop_ = 0.0;
   follow_steps_ = 0;
   last_t_ = t;
-  t_prev_state_ = -1.0;
-  f_ext_.setZero();
-  push_start_ = -1.0;
-  momentum_integral_.setZero();
+  observer_.restart();
   last_swing_ = -1;
   stepped_ = false;
   begin_stage(Stage::kInit, t);
@@ -187,6 +175,22 @@ void PostureReference::request_support(Support s, double t) {
     begin_stage(current_ == Support::kDouble ? Stage::kShift : Stage::kLower, t);
   }
   (void)t;
+}
+
+const char* PostureReference::stage_name() const {
+  switch (stage_) {
+    case Stage::kInit: return "init";
+    case Stage::kHold: return "hold";
+    case Stage::kShift: return "shift";
+    case Stage::kLift: return "lift";
+    case Stage::kLower: return "lower";
+    case Stage::kShiftBack: return "shift back";
+    case Stage::kStepUnload: return "step unload";
+    case Stage::kStepSwing: return "step swing";
+    case Stage::kStepSettle: return "step settle";
+    case Stage::kStepRecover: return "step recover";
+  }
+  return "?";
 }
 
 void PostureReference::begin_stage(Stage s, double t) {
@@ -265,7 +269,7 @@ void PostureReference::stage_hold(const EstimatedState* state) {
   ref_.a_com.setZero();
   // The push's feedforward (push_compensation): none without an estimate to observe it in, nor
   // after a step until the robot is at rest (the landings' impacts are no push).
-  if (config_.push_compensation.enabled && state != nullptr && !stepped_) ref_.a_com.head<2>() = -f_comp_ / robot_->model.mass;
+  if (config_.push_compensation.enabled && state != nullptr && !stepped_) ref_.a_com.head<2>() = -observer_.compensated() / robot_->model.mass;
   ref_.qd_free.setZero();
   ref_.qdd_free.setZero();
   ref_.settled = true;

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "hpr/model/centroidal.hpp"
+#include "hpr/planner/component.hpp"
 #include "hpr/wbc/component.hpp"
 #include "hpr/wbc/controller.hpp"
 #include "model_fixture.hpp"
@@ -421,7 +422,9 @@ TEST(WbcComponent, UsesTheMotionOptimisersCommandExactlyWhenItBalances) {
   const auto robot = test::load_robot("toro");
   const Config cfg = Config::load(test::source_dir() + "/config/toro.yaml");
   constexpr int kBadStateTicks = 3;
-  wbc::WbcComponent wbc(robot, wbc::WbcConfig::load(cfg.section("wbc"), robot), balance::PostureReferenceConfig{}, kBadStateTicks);
+  wbc::WbcComponent wbc(robot, wbc::WbcConfig::load(cfg.section("wbc"), robot), kBadStateTicks);
+  planner::BalancePlanner planner(robot, balance::PostureReferenceConfig{});
+  planner::BalancePlanner::Outputs plan;
   balance::PostureReference pref(robot, {});
   pref.start(robot.standing_configuration(), 0.0);
   const balance::TaskReference wholebody = pref.update(0.0);
@@ -448,8 +451,13 @@ TEST(WbcComponent, UsesTheMotionOptimisersCommandExactlyWhenItBalances) {
     s.time = 0.001 * static_cast<double>(k);
     s.status = status;
     wbc.set_damping(damp);
-    const bool uses = wbc.uses_wholebody(s);
-    wbc.step({.state = s, .wholebody = OptionalRef<balance::TaskReference>::when(uses, wholebody)}, out);
+    const bool uses = wbc.uses_wholebody(s, planner.will_plan(s));
+    planner.step({s}, plan);
+    EXPECT_EQ(plan.valid, k > 0) << "tick " << k << ": the first usable estimate starts the plan";
+    wbc.step({.state = s,
+              .plan = OptionalRef<balance::TaskReference>::when(plan.valid, plan.plan),
+              .wholebody = OptionalRef<balance::TaskReference>::when(uses, wholebody)},
+             out);
     EXPECT_EQ(out.mode == wbc::WbcComponent::Mode::kBalance, balances) << "tick " << k;
     EXPECT_EQ(uses, balances) << "tick " << k;
     // The report says the same: the damping fault while it damps (not ready before the posture

@@ -1,6 +1,6 @@
 #pragma once
 /// \file
-/// The stack's controllers as one: estimator → reference_gen → motion_opt → wbc, stepping tick by
+/// The stack's controllers as one: estimator → planner → reference_gen → motion_opt → wbc, stepping tick by
 /// tick with the data flow of the processes (README.md, "The processes"), for the in-process loop and the
 /// composed process. Every channel between the components passes through its hpr::msg conversion,
 /// as the processes exchange them, and the messages of the last tick are kept for a composed
@@ -8,9 +8,12 @@
 ///
 /// Per tick k:
 ///   estimate(ROBOT_SENSORS k)                                  → ROBOT_STATE k
+///   planner(ROBOT_STATE k)                                     → the balance plan k
 ///   reference_gen(ROBOT_STATE k, BALANCE_STATUS k−1, WHOLEBODY_COMMAND k−1) → CAM_REFERENCE k
-///   motion_opt(ROBOT_STATE k, CAM_REFERENCE k)                 → WHOLEBODY_COMMAND k
-///   wbc(ROBOT_STATE k, WHOLEBODY_COMMAND k)                     → JOINT_COMMAND k, BALANCE_STATUS k
+///   motion_opt(ROBOT_STATE k, plan k, CAM_REFERENCE k)         → WHOLEBODY_COMMAND k
+///   wbc(ROBOT_STATE k, plan k, WHOLEBODY_COMMAND k)             → JOINT_COMMAND k, BALANCE_STATUS k
+/// The plan is stepped once and handed to both (each of their processes steps a planner of its own
+/// on the same state: the same plan).
 
 #include <humanoid/balance_status_t.hpp>
 #include <humanoid/cam_reference_t.hpp>
@@ -34,24 +37,26 @@
 #include "hpr/model/robot.hpp"
 #include "hpr/motion_opt/component.hpp"
 #include "hpr/msg/robot_io.hpp"
+#include "hpr/planner/component.hpp"
 #include "hpr/reference_gen/generator.hpp"
 #include "hpr/wbc/component.hpp"
 
 namespace hpr::graph {
 
 /// The components, for a probe around each one's step.
-enum class Component { kEstimator, kReferenceGen, kMotionOpt, kWbc };
+enum class Component { kEstimator, kPlanner, kReferenceGen, kMotionOpt, kWbc };
 
 /// Compute time of each component in the last tick [us] (0 for a component not in the loop).
 struct StepTimes {
   double estimator_us = 0;
+  double planner_us = 0;
   double reference_gen_us = 0;
   double motion_opt_us = 0;
   double wbc_us = 0;
 };
 
 struct ControllersOptions {
-  bool cam = true;        ///< reference_gen + motion_opt (else the wbc's own posture: the ankle strategy)
+  bool cam = true;        ///< reference_gen + motion_opt (else the wbc follows the plan: the ankle strategy)
   bool estimator = true;  ///< run the estimator
   bool messages = true;   ///< pass every channel through its message (else hand the values over)
 };
@@ -76,7 +81,7 @@ class Controllers {
   /// One control tick on `state` (the simulator's truth, say; no ROBOT_STATE message).
   void control(const EstimatedState& state);
 
-  /// A support mode requested from time t on, as an OPERATOR message asks the wbc and motion_opt.
+  /// A support mode requested from time t on, as an OPERATOR message asks the planner.
   void request_support(balance::Support s, double t);
   /// Forgets the estimate, the references and the held posture (a clock that restarted).
   void reset();
@@ -87,6 +92,7 @@ class Controllers {
   [[nodiscard]] const ControllersOptions& options() const { return options_; }
 
   // What each component made in the last tick.
+  [[nodiscard]] const planner::BalancePlanner::Outputs& plan() const { return plan_out_; }  ///< the balance plan
   [[nodiscard]] const balance::CamReference& cam() const { return reference_out_.reference; }  ///< CAM_REFERENCE
   [[nodiscard]] const balance::WholebodyCommand& wholebody() const { return motion_out_.wholebody; }  ///< WHOLEBODY_COMMAND
   /// motion_opt made a WHOLEBODY_COMMAND this tick.
@@ -111,6 +117,7 @@ class Controllers {
 
   // The components (a test reads their state; a composed process adds their live parameters).
   std::optional<estimator::Estimator> estimator;
+  planner::BalancePlanner planner;
   std::optional<reference_gen::ReferenceGenerator> generator;
   std::optional<motion_opt::MotionOptComponent> optimizer;
   wbc::WbcComponent wbc;
@@ -126,7 +133,7 @@ class Controllers {
   /// Times `f` (a component's step) into `us`, with the probe around it.
   template <class F>
   void run_component(Component c, double& us, F&& f);
-  /// reference_gen, motion_opt and wbc on state_.
+  /// planner, reference_gen, motion_opt and wbc on state_.
   void step_controllers();
 
   ControllersOptions options_;
@@ -134,6 +141,7 @@ class Controllers {
   std::vector<std::string> free_names_;
   // Each component's outputs.
   estimator::Estimator::Outputs estimate_out_;
+  planner::BalancePlanner::Outputs plan_out_;
   reference_gen::ReferenceGenerator::Outputs reference_out_;
   motion_opt::MotionOptComponent::Outputs motion_out_;
   wbc::WbcComponent::Outputs wbc_out_;

@@ -1,9 +1,9 @@
 #pragma once
 /// \file
 /// The motion optimiser's tick as the stack runs it, whatever carries the data (a process behind
-/// LCM, or the in-process pipeline): the posture reference (the paper's high-level planner, holding
-/// a posture) started from the first usable estimate, and the optimisation (13) towards the CAM
-/// reference of the same tick. No LCM, no allocation per tick once the adjusted set has been seen.
+/// LCM, or the in-process pipeline): the optimisation (13) around the balance planner's plan of the
+/// tick (the paper's high-level planner, holding a posture) towards the CAM reference of the same
+/// tick. No LCM, no allocation per tick once the adjusted set has been seen.
 
 #include <array>
 #include <string_view>
@@ -21,8 +21,7 @@ class MotionOptComponent {
  public:
   /// The component's tick (hpr/common/component.hpp). Faults: "reference" (no CAM_REFERENCE for
   /// the tick: the posture task only) and "motion_qp" (the QP failed: the posture task within the
-  /// limits); not ready, with nothing to publish, while no usable estimate has started the posture
-  /// reference (the wbc damps meanwhile).
+  /// limits); not ready, with nothing to publish, while there is no plan (the wbc damps meanwhile).
   static constexpr std::array<std::string_view, 2> kFaultKeys{"reference", "motion_qp"};
   /// The motion_opt process's ports.
   static constexpr Read kReads[] = {
@@ -33,6 +32,7 @@ class MotionOptComponent {
   static constexpr Ports kPorts{"motion_opt", kReads, kWrites};
   struct Inputs {
     const EstimatedState& state;               ///< ROBOT_STATE of tick k
+    OptionalRef<balance::TaskReference> plan;  ///< the balance plan of tick k; empty: none yet
     OptionalRef<balance::CamReference> cam;    ///< CAM_REFERENCE of tick k; empty when missing or stale
   };
   struct Outputs {
@@ -41,22 +41,18 @@ class MotionOptComponent {
     StepReport report{kFaultKeys};
   };
 
-  MotionOptComponent(const model::RobotSpec& robot, MotionOptConfig config, balance::PostureReferenceConfig posture);
+  MotionOptComponent(const model::RobotSpec& robot, MotionOptConfig config);
 
   void step(const Inputs& in, Outputs& out);
 
-  /// A support mode requested by the operator, from time t on.
-  void request_support(balance::Support s, double t) { reference_.request_support(s, t); }
   /// Back to the state after construction (keeping the parameters): for a clock that restarted.
   void reset();
 
   [[nodiscard]] MotionOptimizer& optimizer() { return optimizer_; }
   [[nodiscard]] const MotionOptimizer& optimizer() const { return optimizer_; }
-  [[nodiscard]] const balance::PostureReference& posture_reference() const { return reference_; }
 
  private:
   MotionOptimizer optimizer_;
-  balance::PostureReference reference_;
   double dt_;
 };
 

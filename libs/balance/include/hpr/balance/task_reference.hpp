@@ -11,7 +11,9 @@
 #include <cstdint>
 #include <optional>
 
+#include "hpr/balance/force_observer.hpp"
 #include "hpr/balance/stepping.hpp"
+#include "hpr/balance/trajectories.hpp"
 #include "hpr/common/config.hpp"
 #include "hpr/common/robot_io.hpp"
 #include "hpr/model/robot.hpp"
@@ -138,7 +140,10 @@ class PostureReference {
   /// The horizontal external force F̂ the robot is resisting (a momentum observer, stepping or
   /// push compensation enabled only); the capture point, the step under way and the steps taken
   /// are the reference's `stepping` (StepStatus).
-  [[nodiscard]] const Eigen::Vector2d& external_force() const { return f_ext_; }
+  [[nodiscard]] const Eigen::Vector2d& external_force() const { return observer_.force(); }
+  /// What the reference is doing: "init", "hold", "shift", "lift", "lower", "shift back",
+  /// "step unload", "step swing", "step settle", "step recover" (a static string).
+  [[nodiscard]] const char* stage_name() const;
 
  private:
   enum class Stage { kInit, kHold, kShift, kLift, kLower, kShiftBack, kStepUnload, kStepSwing, kStepSettle, kStepRecover };
@@ -197,13 +202,10 @@ class PostureReference {
   // Stepping.
   StepPlanner planner_;
   StepPlan step_;
-  Eigen::Vector2d xi_ = Eigen::Vector2d::Zero(), f_ext_ = Eigen::Vector2d::Zero();
+  ExternalForceObserver observer_;  ///< F̂ (stepping or push_compensation enabled)
+  Eigen::Vector2d xi_ = Eigen::Vector2d::Zero();
   Eigen::Vector2d lean_ = Eigen::Vector2d::Zero();  ///< horizontal part of the base's z axis less the standing one's (world)
-  Eigen::Vector2d f_comp_ = Eigen::Vector2d::Zero();  ///< F̂ low-passed and clamped (push_compensation) [N]
-  Eigen::Vector2d v_prev_ = Eigen::Vector2d::Zero();  ///< the observer's initial CoM velocity
-  Eigen::Vector2d momentum_integral_ = Eigen::Vector2d::Zero();  ///< ∫ (Σ f_ground + F̂) dt [N s]
-  double t_prev_state_ = -1.0, excess_ = -1.0;
-  double push_start_ = -1.0;  ///< [s] when |F̂| rose above step.push_onset; < 0 while below
+  double excess_ = -1.0;
   Eigen::Vector2d p_hold_ = Eigen::Vector2d::Zero();  ///< the CMP the CoM reference last followed
   int last_swing_ = -1;     ///< the foot that stepped last (the next step is the other's)
   bool stepped_ = false;    ///< a step landed and the robot has not come to rest since
@@ -219,13 +221,5 @@ class PostureReference {
   std::optional<model::Data> fk_;  ///< kinematics workspace (the sole at lift-off)
   int steps_taken_ = 0, follow_steps_ = 0;
 };
-
-/// One axis of a quintic from (p0, v0, a0) to (p1, 0, 0) over T, at time t ∈ [0, T]; returns
-/// (p, v, a) at t.
-Eigen::Vector3d quintic_to_rest(double p0, double v0, double a0, double p1, double T, double t);
-
-/// Quintic blend s(τ) from 0 to 1 over [0, 1] with zero velocity and acceleration at both ends;
-/// returns (s, ds/dτ, d²s/dτ²).
-Eigen::Vector3d quintic(double tau);
 
 }  // namespace hpr::balance

@@ -4,7 +4,9 @@
 ///
 /// Steps on every ROBOT_STATE (from the estimator, or in a simulated group from truth_state), towards the
 /// WHOLEBODY_COMMAND of the same tick when motion_opt runs (waiting for it up to a timeout), else
-/// towards its own reference posture. Publishes JOINT_COMMAND and BALANCE_STATUS every tick.
+/// towards the balance plan. Publishes JOINT_COMMAND and BALANCE_STATUS every tick. The balance
+/// planner steps inside the process, on the same state, before the wbc (as it does inside
+/// motion_opt: both follow the same plan).
 
 #include <humanoid/balance_status_t.hpp>
 #include <humanoid/joint_command_t.hpp>
@@ -16,6 +18,7 @@
 #include "hpr/msg/state.hpp"
 #include "hpr/node/runtime.hpp"
 #include "hpr/msg/balance.hpp"
+#include "hpr/planner/component.hpp"
 #include "hpr/wbc/component.hpp"
 
 #include <optional>
@@ -25,7 +28,7 @@ namespace hpr::wbc {
 struct WbcNodeOptions {
   bool wait_for_wholebody = true;    ///< step only with the WHOLEBODY_COMMAND of the same tick
   double wholebody_timeout = 0.5;    ///< [s] wall time to wait for it
-  int wholebody_stale_ticks = 50;    ///< older commands are ignored (own reference posture)
+  int wholebody_stale_ticks = 50;    ///< older commands are ignored (the balance plan)
   int bad_state_ticks = 20;          ///< damp after this many ticks of a state flagged stale, implausible or diverged
   static WbcNodeOptions load(const Config& wbc_section);
 };
@@ -37,7 +40,8 @@ std::optional<balance::Support> apply_operator(WbcComponent& wbc, const humanoid
 
 class WbcNode {
  public:
-  WbcNode(node::Runtime& rt, const model::RobotSpec& robot, WbcComponent& wbc, WbcNodeOptions options);
+  WbcNode(node::Runtime& rt, const model::RobotSpec& robot, WbcComponent& wbc, planner::BalancePlanner& planner,
+          WbcNodeOptions options);
 
  private:
   void step(const EstimatedState& state, bool wholebody_fresh);
@@ -45,6 +49,8 @@ class WbcNode {
 
   node::Runtime& rt_;
   WbcComponent& wbc_;
+  planner::BalancePlanner& planner_;
+  planner::BalancePlanner::Outputs plan_;
   WbcComponent::Outputs out_;
   WbcNodeOptions options_;
   msg::RobotNames names_;

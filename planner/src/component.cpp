@@ -1,0 +1,26 @@
+#include "hpr/planner/component.hpp"
+
+namespace hpr::planner {
+
+BalancePlanner::BalancePlanner(const model::RobotSpec& robot, balance::PostureReferenceConfig config)
+    : reference_(robot, std::move(config)) {}
+
+void BalancePlanner::step(const Inputs& in, Outputs& out) {
+  const EstimatedState& s = in.state;
+  out.report.begin();
+  if (!reference_.started()) {
+    if (!s.usable()) {
+      out.valid = false;
+      out.stage = "waiting for a usable estimate";
+      out.report.outcome = StepOutcome::kNotReady;
+      return;
+    }
+    reference_.start(s.q, s.time);
+  }
+  out.plan = reference_.update(s.time, s.usable() ? &s : nullptr);
+  out.valid = true;
+  out.f_ext_W = reference_.external_force();
+  out.stage = reference_.stage_name();
+}
+
+}  // namespace hpr::planner
