@@ -34,6 +34,7 @@ void ExternalForceObserver::update(double t, const Eigen::Vector2d& v_com, const
 void ExternalForceObserver::restart() {
   t_prev_ = -1.0;
   f_ext_.setZero();
+  f_comp_.setZero();
   push_start_ = -1.0;
   momentum_integral_.setZero();
 }

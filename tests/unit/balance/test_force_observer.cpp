@@ -66,6 +66,22 @@ TEST(ExternalForceObserver, RestartsOnAGapAndOnANonFiniteVelocity) {
   EXPECT_EQ(obs.force(), Vector2d::Zero()) << "the first finite sample after the NaN only starts the integration";
   obs.update(t + 3 * kDt, Vector2d(1.0, 0.0) + F / kMass * kDt, Vector2d::Zero());
   EXPECT_NEAR(obs.force().x(), 50.0 * kDt / kTau, 1e-9);
+  // restart() (a clock that restarted) forgets everything, the compensation too: the next
+  // updates give what a new observer gives.
+  run(100, 2.0);
+  ASSERT_GT(obs.compensated().norm(), 1.0);
+  obs.restart();
+  EXPECT_EQ(obs.force(), Vector2d::Zero());
+  EXPECT_EQ(obs.compensated(), Vector2d::Zero());
+  EXPECT_LT(obs.push_start(), 0.0);
+  ExternalForceObserver fresh({.mass = kMass, .time_constant = kTau, .compensate = true});
+  for (int i = 0; i <= 50; ++i) {
+    const Vector2d v = F / kMass * (i * kDt);
+    obs.update(3.0 + i * kDt, v, Vector2d::Zero());
+    fresh.update(3.0 + i * kDt, v, Vector2d::Zero());
+    ASSERT_EQ(obs.force(), fresh.force()) << i;
+    ASSERT_EQ(obs.compensated(), fresh.compensated()) << i;
+  }
 }
 
 // The compensated force: a first-order low-pass of F̂ with its own time constant (discrete:

@@ -33,8 +33,9 @@ class ExternalForceObserver {
   /// horizontal ground forces on the feet in contact [N]. The first update after a start, a gap
   /// or a non-finite estimate only starts the integration (F̂ = 0).
   void update(double t, const Eigen::Vector2d& v_com, const Eigen::Vector2d& f_ground);
-  /// Starts again at the next update: F̂ and the push's start forgotten. The compensated force
-  /// is kept (it decays through its low-pass from the next estimates on).
+  /// Starts again at the next update, as new: F̂, the compensated force and the push's start
+  /// forgotten (a clock that restarted). A gap in the updates restarts the estimate only: the
+  /// compensated force then decays through its low-pass.
   void restart();
 
   /// F̂ [N], world.
