@@ -52,6 +52,15 @@ TEST(Supervisor, UpStatusCriticalDeathRecordAndDownLeaveNothingBehind) {
 
   const auto up = run_command({supervisor(), "up", "sim-lockstep", "--groups", groups_file(), "--lcm-url", url, "--run-root", runs});
   ASSERT_EQ(up.exit_code, 0) << up.out;
+  // Whatever fails below, the group does not outlive the test: a lockstep chain left running
+  // would load the machine under every later test.
+  struct GroupDown {
+    std::string url;
+    bool done = false;
+    ~GroupDown() {
+      if (!done) (void)run_command({supervisor(), "down", "--lcm-url", url});
+    }
+  } group_down{url};
   EXPECT_NE(up.out.find("is up"), std::string::npos) << up.out;
   std::this_thread::sleep_for(2s);  // HEALTH rates cover a whole report period
 
@@ -84,13 +93,23 @@ TEST(Supervisor, UpStatusCriticalDeathRecordAndDownLeaveNothingBehind) {
   // tools/record: a log named by date and group in the run folder.
   hpr::test::ProcessGroup rec(url);
   const pid_t recorder = rec.start(hpr::test::source_dir() + "/tools/record", {"--run-root", runs, "--lcm-url", url});
+  auto logs_in_run_dir = [&] {
+    std::vector<std::filesystem::path> found;
+    for (const auto& e : std::filesystem::directory_iterator(run_dir)) {
+      if (e.path().extension() == ".lcm") found.push_back(e.path());
+    }
+    return found;
+  };
+  // Recording for at least 1.5 s once its log exists (a loaded machine may take seconds to start
+  // the recorder), up to 20 s.
+  const auto record_deadline = std::chrono::steady_clock::now() + 20s;
+  while (logs_in_run_dir().empty() && rec.running(recorder) && std::chrono::steady_clock::now() < record_deadline) {
+    std::this_thread::sleep_for(50ms);
+  }
   std::this_thread::sleep_for(1500ms);
   rec.signal(recorder, SIGINT);
   rec.wait(recorder, 5000ms);
-  std::vector<std::filesystem::path> logs;
-  for (const auto& e : std::filesystem::directory_iterator(run_dir)) {
-    if (e.path().extension() == ".lcm") logs.push_back(e.path());
-  }
+  const std::vector<std::filesystem::path> logs = logs_in_run_dir();
   ASSERT_EQ(logs.size(), 1U) << "tools/record wrote no log into " << run_dir;
   EXPECT_NE(logs[0].filename().string().find("-sim-lockstep.lcm"), std::string::npos) << logs[0];
   EXPECT_GT(std::filesystem::file_size(logs[0]), 100000U) << "1.5 s of a 1 kHz stack is more than 100 kB";
@@ -172,6 +191,7 @@ TEST(Supervisor, UpStatusCriticalDeathRecordAndDownLeaveNothingBehind) {
 
   const int supervisor_pid = st["supervisors"][0]["pid"];
   const auto down = run_command({supervisor(), "down", "--lcm-url", url});
+  group_down.done = true;
   EXPECT_EQ(down.exit_code, 0) << down.out;
   EXPECT_NE(down.out.find("stopped"), std::string::npos) << down.out;
   // down returns once the supervisor's pid is gone (or 10 s after its goodbye); a loaded machine
