@@ -12,6 +12,7 @@
 #include <humanoid/robot_state_t.hpp>
 #include <humanoid/sim_truth_t.hpp>
 #include <humanoid/wholebody_command_t.hpp>
+#include <humanoid/balance_plan_t.hpp>
 
 #include <algorithm>
 #include <charconv>
@@ -170,6 +171,28 @@ void fill(Row& r, const humanoid::wholebody_command_t& m) {
   r.add("qp_status", m.qp_status);
   r.add("qp_iterations", m.qp_iterations);
   r.add("status", m.status);
+}
+
+void fill(Row& r, const humanoid::balance_plan_t& m) {
+  r.add("tick", static_cast<double>(m.tick));
+  r.add("t", static_cast<double>(m.utime) * 1e-6);
+  r.add("support", m.support);
+  r.add("stage", m.stage);
+  r.add("settled", m.settled ? 1.0 : 0.0);
+  r.arr("p_WCom", m.p_WCom);
+  r.arr("v_WCom", m.v_WCom);
+  r.arr("a_WCom", m.a_WCom);
+  r.mat("p_WF", m.p_WF, m.foot_name);
+  r.vec("foot_load_limit", m.foot_load_limit, m.foot_name);
+  r.arr("f_ext_W", m.f_ext_W);
+  r.add("stepping", m.stepping ? 1.0 : 0.0);
+  r.arr("xi_W", m.xi_W);
+  r.add("xi_excess", m.xi_excess);
+  r.add("step_foot", m.step_foot);
+  r.arr("step_target_W", m.step_target_W);
+  r.add("step_time_left", m.step_time_left);
+  r.add("steps_taken", m.steps_taken);
+  r.add("follow_steps", m.follow_steps);
 }
 
 void fill(Row& r, const humanoid::robot_sensors_t& m) {
@@ -347,6 +370,8 @@ int main(int argc, char** argv) {
       go.template operator()<humanoid::cam_reference_t>();
     } else if (channels::names(ch, channels::kWholebodyCommand.name)) {
       go.template operator()<humanoid::wholebody_command_t>();
+    } else if (channels::names(ch, channels::kBalancePlan.name)) {
+      go.template operator()<humanoid::balance_plan_t>();
     } else if (channels::names(ch, channels::kRobotSensors.name)) {
       go.template operator()<humanoid::robot_sensors_t>();
     } else if (channels::names(ch, channels::kJointCommand.name)) {

@@ -37,8 +37,9 @@ namespace channels = hpr::msg::channels;
 void usage(std::FILE* out) {
   std::fputs("usage: lcm_latency LOG [--json FILE]\n\n"
              "The delay from ROBOT_SENSORS(k) to JOINT_COMMAND(k) per tick in a recording, and each hop's share\n"
-             "(estimator, reference_gen, motion_opt, wbc): median, p99, max [us]. Record above the chain's\n"
-             "real-time priority (chrt -f 95 tools/record), so that each message is stamped as it arrives.\n",
+             "(estimator, reference_gen, motion_opt, wbc; for the ankle strategy estimator, planner, wbc):\n"
+             "median, p99, max [us]. Record above the chain's real-time priority (chrt -f 95 tools/record),\n"
+             "so that each message is stamped as it arrives.\n",
              out);
 }
 
@@ -84,9 +85,16 @@ int main(int argc, char** argv) {
   }
   const bool cam = !seen[channels::kCamReference.name].empty() && !seen[channels::kWholebodyCommand.name].empty();
   std::vector<std::string> path = {channels::kRobotSensors.name, channels::kRobotState.name};
-  if (cam) path.insert(path.end(), {channels::kCamReference.name, channels::kWholebodyCommand.name});
+  // The planner runs beside reference_gen: on the path of the ankle strategy only (with the CAM
+  // strategy, motion_opt's hop starts at CAM_REFERENCE and waits for whichever comes last).
+  if (cam) {
+    path.insert(path.end(), {channels::kCamReference.name, channels::kWholebodyCommand.name});
+  } else if (!seen[channels::kBalancePlan.name].empty()) {
+    path.push_back(channels::kBalancePlan.name);
+  }
   path.push_back(channels::kJointCommand.name);
   const std::map<std::string, std::string> hop_name = {{channels::kRobotState.name, "estimator"},
+                                                       {channels::kBalancePlan.name, "planner"},
                                                        {channels::kCamReference.name, "reference_gen"},
                                                        {channels::kWholebodyCommand.name, "motion_opt"},
                                                        {channels::kJointCommand.name, "wbc"}};

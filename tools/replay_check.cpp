@@ -57,8 +57,8 @@ namespace {
 constexpr const char* kUsage = R"(replay_check: re-run nodes on a log's recorded inputs and compare their outputs
 
 usage: replay_check LOG --nodes NAME[,NAME...] [options]
-  --nodes LIST      nodes to re-run: estimator, wbc, reference_gen, motion_opt, or controllers (the
-                    four composed in one process, compared on all their channels)
+  --nodes LIST      nodes to re-run: estimator, planner, wbc, reference_gen, motion_opt, or
+                    controllers (the five composed in one process, compared on all their channels)
   --config FILE     the configuration the log was recorded with (default: config/toro.yaml)
   --set key=value   an override the log was recorded with (repeatable; e.g. balance.support=double)
   --timeout S       wall seconds to wait for one output before calling it missing (default 5)
@@ -73,10 +73,10 @@ Exit status: 0 when every compared output matches and none is missing, 1 otherwi
 
 /// What a node publishes (the channels compared), from the stack's declared data flow.
 std::vector<std::string> outputs_of(const std::string& node) {
-  static const std::set<std::string> kRerunnable = {"estimator", "wbc", "reference_gen", "motion_opt", "controllers"};
+  static const std::set<std::string> kRerunnable = {"estimator", "planner", "wbc", "reference_gen", "motion_opt", "controllers"};
   const hpr::Ports* p = hpr::graph::find_process(node);
   if (p == nullptr || kRerunnable.count(node) == 0) {
-    throw std::invalid_argument("unknown node '" + node + "' (estimator, wbc, reference_gen, motion_opt, controllers)");
+    throw std::invalid_argument("unknown node '" + node + "' (estimator, planner, wbc, reference_gen, motion_opt, controllers)");
   }
   return {p->writes.begin(), p->writes.end()};
 }
@@ -112,6 +112,7 @@ const std::map<std::string, Canonical>& canonicals() {
          m.qp_solve_time_us = 0;
          m.compute_time_us = 0;
        })},
+      {hpr::msg::channels::kBalancePlan.name, canonical<humanoid::balance_plan_t>([](auto&) {})},  // utime: the state's robot clock
       {hpr::msg::channels::kCamReference.name, canonical<humanoid::cam_reference_t>([](auto& m) { m.utime = 0; })},
       {hpr::msg::channels::kWholebodyCommand.name, canonical<humanoid::wholebody_command_t>([](auto& m) {
          m.utime = 0;

@@ -1,10 +1,10 @@
-// controllers: the estimator, reference_gen, motion_opt and wbc composed in one process.
+// controllers: the estimator, planner, reference_gen, motion_opt and wbc composed in one process.
 //
 // Steps on every ROBOT_SENSORS (tick k) through hpr::graph::Controllers, the same components and
-// conversions the four processes run, and publishes every channel they publish: JOINT_COMMAND of
-// tick k first (the robot waits for it), then ROBOT_STATE, CAM_REFERENCE, WHOLEBODY_COMMAND and
-// BALANCE_STATUS of tick k. lcm-spy, recording and replay see the same messages as from the four
-// processes, with the same contents.
+// conversions the five processes run, and publishes every channel they publish: JOINT_COMMAND of
+// tick k first (the robot waits for it), then ROBOT_STATE, BALANCE_PLAN, CAM_REFERENCE,
+// WHOLEBODY_COMMAND and BALANCE_STATUS of tick k. lcm-spy, recording and replay see the same
+// messages as from the five processes, with the same contents.
 // When the samples stop for longer than `estimator.sensor_timeout`, the last state goes on flagged
 // stale at that period, and the wbc damps after `wbc.bad_state_ticks` of them, as with the processes.
 #include <humanoid/operator_t.hpp>
@@ -24,7 +24,7 @@ namespace {
 
 using namespace hpr;
 
-/// HEALTH of the tick: each component's report, as the four processes apply theirs (with the
+/// HEALTH of the tick: each component's report, as the five processes apply theirs (with the
 /// estimator's log of refused samples).
 void report(node::Runtime& rt, const graph::Controllers& c, estimator::TickReport& estimator_report) {
   estimator_report(rt, *c.estimator, *c.reports().front(), c.state().tick);
@@ -32,7 +32,7 @@ void report(node::Runtime& rt, const graph::Controllers& c, estimator::TickRepor
 }
 
 /// Each component's live parameters, answered under its process's name ("wbc.com.stiffness.z"), as
-/// the four processes answer them.
+/// the five processes answer them.
 void add_parameters(node::Runtime& rt, graph::Controllers& c) {
   estimator::add_parameters(rt.parameters("estimator"), c.estimator->tunable_config());
   if (c.generator) reference_gen::add_parameters(rt.parameters("reference_gen"), *c.generator);
@@ -44,7 +44,7 @@ void add_parameters(node::Runtime& rt, graph::Controllers& c) {
 
 int main(int argc, char** argv) {
   return node::run_main(
-      argc, argv, "controllers", "estimator, reference_gen, motion_opt and wbc in one process",
+      argc, argv, "controllers", "estimator, planner, reference_gen, motion_opt and wbc in one process",
       [](const node::CommandLine& cl, const Config& cfg) {
         const auto robot = model::RobotSpec::load(cfg.section("robot"));
         // wbc.wait_for_wholebody false: the wbc follows the balance plan (the ankle strategy, as the
@@ -65,16 +65,18 @@ int main(int argc, char** argv) {
         add_parameters(rt, c);
         estimator::TickReport estimator_report;
         auto state_out = rt.advertise(msg::channels::kRobotState);
+        auto plan_out = rt.advertise(msg::channels::kBalancePlan);
         auto cam_out = rt.advertise(msg::channels::kCamReference);
         auto wholebody_out = rt.advertise(msg::channels::kWholebodyCommand);
         auto command_out = rt.advertise(msg::channels::kJointCommand);
         auto balance_out = rt.advertise(msg::channels::kBalanceStatus);
-        // The joint command first (the drives wait for it), then what the four processes publish
+        // The joint command first (the drives wait for it), then what the five processes publish
         // on the way to it, in their order.
         auto publish = [&] {
           const graph::Controllers::Messages& m = c.messages();
           command_out.publish(m.command);
           state_out.publish(m.state);
+          if (c.have_plan()) plan_out.publish(m.plan);
           if (c.options().cam) cam_out.publish(m.cam);
           if (c.have_wholebody()) wholebody_out.publish(m.wholebody);
           if (c.wbc_out().mode == wbc::WbcComponent::Mode::kBalance) balance_out.publish(m.balance);

@@ -7,6 +7,7 @@
 #include "hpr/msg/balance.hpp"
 #include "hpr/msg/channels.hpp"
 #include "hpr/msg/lcm_section.hpp"
+#include "hpr/msg/plan.hpp"
 #include "hpr/msg/state.hpp"
 
 namespace hpr::graph {
@@ -19,8 +20,10 @@ void check_exchange_options(const Config& cfg, const ControllersOptions& run) {
     (void)mo.boolean_or("wait_for_reference", true);
     (void)mo.real_or("reference_timeout", 0.5, 0.0, 60.0);
     (void)mo.integer_or("reference_stale_ticks", 20, 1, 100000);
+    (void)mo.integer_or("plan_stale_ticks", 20, 1, 100000);
   }
   const Config wb = cfg.section("wbc");
+  (void)wb.integer_or("plan_stale_ticks", 20, 1, 100000);
   (void)wb.boolean_or("wait_for_wholebody", true);
   (void)wb.real_or("wholebody_timeout", 0.5, 0.0, 60.0);
   (void)wb.integer_or("wholebody_stale_ticks", 50, 1, 100000);
@@ -57,7 +60,7 @@ void Controllers::pass(const char* channel, const Value& sent, Message& m, Value
   std::string why;
   if constexpr (std::is_same_v<Message, humanoid::robot_state_t>) {
     why = msg::from_message(m, names_, value);
-  } else if constexpr (std::is_same_v<Message, humanoid::wholebody_command_t>) {
+  } else if constexpr (std::is_same_v<Message, humanoid::wholebody_command_t> || std::is_same_v<Message, humanoid::balance_plan_t>) {
     why = msg::from_message(m, free_names_, value);
   } else {
     why = msg::from_message(m, value);
@@ -104,21 +107,27 @@ void Controllers::control(const EstimatedState& state) {
 // (another channel, another tick) stops the composition from compiling.
 using estimator::Estimator;
 using motion_opt::MotionOptComponent;
+using planner::BalancePlanner;
 using reference_gen::ReferenceGenerator;
 using wbc::WbcComponent;
 static_assert(Estimator::kPorts.steps_on(channel::kRobotSensors));
+static_assert(wired(Estimator::kPorts, channel::kRobotState, BalancePlanner::kPorts, 0));
 static_assert(wired(Estimator::kPorts, channel::kRobotState, ReferenceGenerator::kPorts, 0));
 static_assert(wired(Estimator::kPorts, channel::kRobotState, MotionOptComponent::kPorts, 0));
 static_assert(wired(Estimator::kPorts, channel::kRobotState, WbcComponent::kPorts, 0));
 static_assert(wired(WbcComponent::kPorts, channel::kBalanceStatus, ReferenceGenerator::kPorts, -1));    // balance_ of the last tick
 static_assert(wired(MotionOptComponent::kPorts, channel::kWholebodyCommand, ReferenceGenerator::kPorts, -1));  // the last command's
+static_assert(wired(BalancePlanner::kPorts, channel::kBalancePlan, MotionOptComponent::kPorts, 0));
+static_assert(wired(BalancePlanner::kPorts, channel::kBalancePlan, WbcComponent::kPorts, 0));
 static_assert(wired(ReferenceGenerator::kPorts, channel::kCamReference, MotionOptComponent::kPorts, 0));
 static_assert(wired(MotionOptComponent::kPorts, channel::kWholebodyCommand, WbcComponent::kPorts, 0));
 
 void Controllers::step_controllers() {
   have_wholebody_ = false;
   run_component(Component::kPlanner, times_.planner_us, [&] { planner.step({state_}, plan_out_); });
-  const auto plan = OptionalRef<balance::TaskReference>::when(plan_out_.valid, plan_out_.plan);
+  reports_[n_reports_++] = &plan_out_.report;
+  if (plan_out_.valid) pass(msg::channels::kBalancePlan.name, plan_out_.plan, messages_.plan, plan_, free_names_, names_);
+  const auto plan = OptionalRef<balance::TaskReference>::when(plan_out_.valid, plan_.reference);
   if (options_.cam) {
     run_component(Component::kReferenceGen, times_.reference_gen_us, [&] {
       generator->step({.tick = state_.tick,

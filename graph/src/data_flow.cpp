@@ -8,6 +8,7 @@
 #include "hpr/estimator/estimator.hpp"
 #include "hpr/hal/ports.hpp"
 #include "hpr/motion_opt/component.hpp"
+#include "hpr/planner/component.hpp"
 #include "hpr/reference_gen/generator.hpp"
 #include "hpr/sim/ports.hpp"
 #include "hpr/wbc/component.hpp"
@@ -66,7 +67,7 @@ Ports composed(std::string_view name, std::span<const Ports> parts) {
 
 const Ports& controllers_ports() {
   static const Ports p = [] {
-    const std::array parts = {estimator::Estimator::kPorts, reference_gen::ReferenceGenerator::kPorts,
+    const std::array parts = {estimator::Estimator::kPorts, planner::BalancePlanner::kPorts, reference_gen::ReferenceGenerator::kPorts,
                               motion_opt::MotionOptComponent::kPorts, wbc::WbcComponent::kPorts};
     return composed("controllers", parts);
   }();
@@ -79,6 +80,7 @@ std::span<const Ports> data_flow() {
                                    hal::kEmulatorPorts,
                                    estimator::Estimator::kPorts,
                                    estimator::kTruthStatePorts,
+                                   planner::BalancePlanner::kPorts,
                                    reference_gen::ReferenceGenerator::kPorts,
                                    motion_opt::MotionOptComponent::kPorts,
                                    wbc::WbcComponent::kPorts,

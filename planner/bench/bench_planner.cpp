@@ -20,7 +20,7 @@ void measure(const std::string& robot, double seconds, const char* what, double 
   std::vector<double> us;
   loop.run(seconds, [&] { us.push_back(loop.times().planner_us); });
   std::printf("planner step, %s (%s, %zu ticks, a %.0f N s push at t = 3 s, steps %d, fallen %d): median %.2f us, p99 %.2f us, max %.1f us\n",
-              what, robot.c_str(), us.size(), impulse, loop.plan().plan.stepping.steps_taken, loop.sim.truth().fallen ? 1 : 0,
+              what, robot.c_str(), us.size(), impulse, loop.plan().reference.stepping.steps_taken, loop.sim.truth().fallen ? 1 : 0,
               hpr::percentile(us, 0.5), hpr::percentile(us, 0.99), hpr::percentile(us, 1.0));
 }
 

@@ -11,16 +11,16 @@ void BalancePlanner::step(const Inputs& in, Outputs& out) {
   if (!reference_.started()) {
     if (!s.usable()) {
       out.valid = false;
-      out.stage = "waiting for a usable estimate";
       out.report.outcome = StepOutcome::kNotReady;
       return;
     }
     reference_.start(s.q, s.time);
   }
-  out.plan = reference_.update(s.time, s.usable() ? &s : nullptr);
+  out.plan.tick = s.tick;
+  out.plan.reference = reference_.update(s.time, s.usable() ? &s : nullptr);
+  out.plan.stage = reference_.stage();
+  out.plan.f_ext_W = reference_.external_force();
   out.valid = true;
-  out.f_ext_W = reference_.external_force();
-  out.stage = reference_.stage_name();
 }
 
 }  // namespace hpr::planner

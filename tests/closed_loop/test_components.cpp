@@ -94,7 +94,7 @@ static_assert(hpr::Component<hpr::reference_gen::ReferenceGenerator>);
 static_assert(hpr::Component<hpr::motion_opt::MotionOptComponent>);
 static_assert(hpr::Component<hpr::wbc::WbcComponent>);
 
-// Composed, the four report in one process's HEALTH: their fault keys must not collide, and the
+// Composed, the five report in one process's HEALTH: their fault keys must not collide, and the
 // composed controllers hand on each one's report as it made it. A sensor dropout (the estimate
 // republished flagged stale) ends, after wbc.bad_state_ticks ticks, in the wbc's damping fault with
 // the text the wbc process reports.
@@ -106,6 +106,7 @@ TEST(Components, ComposedTheyReportUnderTheirOwnKeysAndADropoutEndsInTheWbcsDamp
     keys.insert(k.begin(), k.end());
   };
   add(hpr::estimator::Estimator::kFaultKeys);
+  add(hpr::planner::BalancePlanner::kFaultKeys);
   add(hpr::reference_gen::ReferenceGenerator::kFaultKeys);
   add(hpr::motion_opt::MotionOptComponent::kFaultKeys);
   add(hpr::wbc::WbcComponent::kFaultKeys);
@@ -113,7 +114,7 @@ TEST(Components, ComposedTheyReportUnderTheirOwnKeysAndADropoutEndsInTheWbcsDamp
 
   ClosedLoop loop("toro", {}, {.cam = true, .estimator_in_loop = true});
   loop.run(0.5);
-  ASSERT_EQ(loop.reports().size(), 4u);
+  ASSERT_EQ(loop.reports().size(), 5u);  // estimator, planner, reference_gen, motion_opt, wbc
   for (const hpr::StepReport* r : loop.reports()) {
     EXPECT_EQ(r->outcome, hpr::StepOutcome::kRunning);
     for (const auto& f : r->faults()) EXPECT_NE(f.change, hpr::StepReport::Change::kRaised) << f.key << ": " << f.message();
@@ -175,6 +176,7 @@ TEST(Components, TheReadmesTableSaysWhatTheDeclarationsSay) {
   ASSERT_TRUE(readme) << "README.md";
   const std::map<std::string, std::pair<std::string, std::set<std::string>>> components{
       {"`estimator::Estimator`", {"estimator", {hpr::estimator::Estimator::kFaultKeys.begin(), hpr::estimator::Estimator::kFaultKeys.end()}}},
+      {"`planner::BalancePlanner`", {"planner", {hpr::planner::BalancePlanner::kFaultKeys.begin(), hpr::planner::BalancePlanner::kFaultKeys.end()}}},
       {"`reference_gen::ReferenceGenerator`",
        {"reference_gen",
         {hpr::reference_gen::ReferenceGenerator::kFaultKeys.begin(), hpr::reference_gen::ReferenceGenerator::kFaultKeys.end()}}},

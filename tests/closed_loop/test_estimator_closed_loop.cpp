@@ -195,7 +195,7 @@ LoopResult stand_and_push(const std::string& robot, bool with_estimator) {
   LoopResult r;
   loop.run(t_push + 5.0, [&] {
     const auto& t = loop.sim.truth();
-    const double dev = (t.p_WCom - loop.plan().plan.p_com).norm();
+    const double dev = (t.p_WCom - loop.plan().reference.p_com).norm();
     if (t.time > 1.5 && t.time < t_push) r.com_err_standing = std::max(r.com_err_standing, dev);
     if (t.time >= t_push) r.peak_dev = std::max(r.peak_dev, dev);
     r.final_dev = dev;

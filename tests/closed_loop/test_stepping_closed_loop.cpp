@@ -79,8 +79,8 @@ Outcome push_from_behind(double impulse, const std::vector<std::string>& overrid
     }
   });
   o.fallen = loop.sim.truth().fallen;
-  o.steps = loop.plan().plan.stepping.steps_taken;
-  o.follow_steps = loop.plan().plan.stepping.follow_steps;
+  o.steps = loop.plan().reference.stepping.steps_taken;
+  o.follow_steps = loop.plan().reference.stepping.follow_steps;
   o.final_speed = loop.sim.truth().v_WCom.norm();
   return o;
 }
@@ -339,8 +339,8 @@ TEST(SteppingClosedLoop, WhileNoStepIsDueTheStackComputesWhatItComputesWithoutSt
     ASSERT_EQ(off.wbc_out().command.tau_ff, on.wbc_out().command.tau_ff) << "tick " << k;
   }
   EXPECT_FALSE(on.sim.truth().fallen);
-  EXPECT_EQ(on.plan().plan.stepping.steps_taken, 0);
-  EXPECT_LT(on.plan().plan.stepping.excess, 0.0) << "the capture point stayed inside";
+  EXPECT_EQ(on.plan().reference.stepping.steps_taken, 0);
+  EXPECT_LT(on.plan().reference.stepping.excess, 0.0) << "the capture point stayed inside";
 }
 
 }  // namespace

@@ -18,7 +18,7 @@ TEST_P(WbcClosedLoop, StandsInDoubleSupportFor30s) {
   double com_err = 0, slip = 0, tilt = 0;
   loop.run(30.0, [&] {
     const auto& t = loop.sim.truth();
-    if (t.time > 1.5) com_err = std::max(com_err, (t.p_WCom - loop.plan().plan.p_com).norm());
+    if (t.time > 1.5) com_err = std::max(com_err, (t.p_WCom - loop.plan().reference.p_com).norm());
     for (size_t f = 0; f < 2; ++f) {
       slip = std::max(slip, (t.p_WF[f].head<2>() - soles0[f].head<2>()).norm());
       tilt = std::max(tilt, t.foot_tilt[f]);
@@ -40,12 +40,12 @@ TEST_P(WbcClosedLoop, StandsOnEitherFootFor20s) {
       const auto& t = loop.sim.truth();
       slip = std::max(slip, (t.p_WF[static_cast<size_t>(stance)].head<2>() - sole0.head<2>()).norm());
       if (t.time > 5.0) {
-        com_err = std::max(com_err, (t.p_WCom - loop.plan().plan.p_com).norm());
+        com_err = std::max(com_err, (t.p_WCom - loop.plan().reference.p_com).norm());
         swing_height = std::min(swing_height, t.p_WF[static_cast<size_t>(1 - stance)].z());
       }
     });
     EXPECT_FALSE(loop.sim.truth().fallen) << foot;
-    EXPECT_EQ(loop.plan().plan.support, stance == 0 ? hpr::balance::Support::kRight : hpr::balance::Support::kLeft);
+    EXPECT_EQ(loop.plan().reference.support, stance == 0 ? hpr::balance::Support::kRight : hpr::balance::Support::kLeft);
     EXPECT_LT(com_err, 5e-3) << foot << ": CoM error [m]";
     EXPECT_LT(slip, 1e-3) << foot << ": stance sole slip [m]";
     EXPECT_GT(swing_height, 0.03) << foot << ": the swing foot must stay lifted";
@@ -59,13 +59,13 @@ TEST_P(WbcClosedLoop, AnkleStrategyRecoversA5NsPushFromBehind) {
   loop.run(7.0, [&] {
     const auto& t = loop.sim.truth();
     for (size_t f = 0; f < 2; ++f) tilt = std::max(tilt, t.foot_tilt[f]);
-    peak_dev = std::max(peak_dev, (t.p_WCom - loop.plan().plan.p_com).norm());
+    peak_dev = std::max(peak_dev, (t.p_WCom - loop.plan().reference.p_com).norm());
   });
   const auto& t = loop.sim.truth();
   EXPECT_FALSE(t.fallen);
   EXPECT_NEAR(t.push_impulse_W.x(), 5.0, 0.05);
   EXPECT_GT(peak_dev, 2e-3) << "the push must move the CoM";
-  EXPECT_LT((t.p_WCom - loop.plan().plan.p_com).norm(), 0.01) << "back to the reference";
+  EXPECT_LT((t.p_WCom - loop.plan().reference.p_com).norm(), 0.01) << "back to the reference";
   EXPECT_LT(tilt, 2.0 * M_PI / 180) << "soles flat";
 }
 

@@ -28,7 +28,8 @@ void check(const std::uint8_t* data, std::size_t size) {
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   if (size < 1) return 0;
   int index = 0;
-  const int wanted = data[0] % 14;
+  static const int types = hpr::test::type_count();
+  const int wanted = data[0] % types;
   hpr::test::for_each_type([&]<class Msg>(const char*) {
     if (index++ == wanted) check<Msg>(data + 1, size - 1);
   });

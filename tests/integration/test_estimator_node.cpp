@@ -1,4 +1,4 @@
-// The estimator as a process: in lockstep with sim_bullet (sensor noise on) and wbc using its
+// The estimator as a process: in lockstep with sim_bullet (sensor noise on), the planner and wbc using its
 // state, ROBOT_STATE for every tick close to SIM_TRUTH; a sensor dropout flagged in ROBOT_STATE
 // and HEALTH; malformed ROBOT_SENSORS rejected and counted.
 #include <gtest/gtest.h>
@@ -23,6 +23,7 @@ TEST(EstimatorNode, EstimatesInLockstepAndFlagsADropout) {
   auto health = lcm.collect<humanoid::health_t>("HEALTH");
   const std::string cfg = hpr::test::source_dir() + "/config/toro.yaml";
   const pid_t est = group.start("estimator", {"--config", cfg});
+  group.start("planner", {"--config", cfg});
   group.start("wbc", {"--config", cfg, "--set", "wbc.wait_for_wholebody=false"});
   const pid_t sim = group.start("sim_bullet", {"--config", cfg, "--set", "sim.duration=3.0", "--set", "sim.noise.enabled=true"});
   ASSERT_TRUE(lcm.wait_for([&] { return !group.running(sim); }, 120s));

@@ -54,7 +54,7 @@ class Watch {
     l.subscribe("SIM_TRUTH", &Watch::keep<humanoid::sim_truth_t>, this)->setQueueCapacity(hpr::node::kCountingQueueCapacity);
     l.subscribe("HEALTH", &Watch::keep<humanoid::health_t>, this)->setQueueCapacity(hpr::node::kCountingQueueCapacity);
     l.subscribe("OPERATOR", &Watch::keep<humanoid::operator_t>, this)->setQueueCapacity(hpr::node::kCountingQueueCapacity);
-    for (const char* c : {"BALANCE_STATUS", "CAM_REFERENCE", "WHOLEBODY_COMMAND"}) {
+    for (const char* c : {"BALANCE_PLAN", "BALANCE_STATUS", "CAM_REFERENCE", "WHOLEBODY_COMMAND"}) {
       l.subscribe(c, &Watch::keep_bytes, this)->setQueueCapacity(hpr::node::kCountingQueueCapacity);
     }
   }
@@ -236,7 +236,7 @@ FAULTS_TEST(ForgedFutureTicksAreHeldAndARestartedSimulatorIsFollowed) {
   }, 60s)) << "after the restart: SIM_TRUTH tick " << w.truth.tick << ", JOINT_COMMAND tick " << w.command.tick << " mode "
            << int{w.command.mode};
   EXPECT_FALSE(w.truth.fallen) << "the robot fell after the simulator restarted";
-  for (const char* n : {"estimator", "wbc", "reference_gen", "motion_opt"}) {
+  for (const char* n : {"estimator", "planner", "wbc", "reference_gen", "motion_opt"}) {
     EXPECT_NE(g.log(n).find("following tick"), std::string::npos) << n << " did not log that it followed the new clock";
   }
 }
@@ -392,11 +392,11 @@ FAULTS_TEST(BitFlipsInEveryClockedChannelForASecondAreRefusedAndTheRobotStands) 
   Watch& w = r.w;
   Group& g = r.g;
   std::mt19937_64 random(17);
-  const std::vector<std::string> channels = {"ROBOT_SENSORS", "ROBOT_STATE", "BALANCE_STATUS", "CAM_REFERENCE", "WHOLEBODY_COMMAND",
-                                             "JOINT_COMMAND"};
+  const std::vector<std::string> channels = {"ROBOT_SENSORS", "ROBOT_STATE", "BALANCE_PLAN", "BALANCE_STATUS", "CAM_REFERENCE",
+                                             "WHOLEBODY_COMMAND", "JOINT_COMMAND"};
   for (const auto& c : channels) ASSERT_TRUE(w.wait_for([&] { return w.bytes.count(c) != 0; }, 10s)) << "no " << c;
   // What each process of the group reads of these channels, from the stack's declared data flow.
-  const std::vector<std::string> readers = {"estimator", "reference_gen", "motion_opt", "wbc", "sim_bullet"};
+  const std::vector<std::string> readers = {"estimator", "planner", "reference_gen", "motion_opt", "wbc", "sim_bullet"};
   std::map<std::string, std::int64_t> before;
   for (const auto& n : readers) before[n] = w.health[n].unauthenticated;
   std::map<std::string, int> sent;
@@ -569,6 +569,25 @@ FAULTS_TEST(AStoppedWbcIsHungAndTheSupervisorDampsWithinTwiceItsHangTime) {
   EXPECT_TRUE(w.wait_for([&] { return w.health["wbc"].lifecycle == humanoid::health_t::LIFECYCLE_DAMPING; }, 5s))
       << "wbc lifecycle " << static_cast<int>(w.health["wbc"].lifecycle);
   EXPECT_EQ(static_cast<int>(w.health["estimator"].lifecycle), int{humanoid::health_t::LIFECYCLE_RUNNING});
+}
+
+// The planner is critical (config/groups.yaml): the wbc has no plan to follow without it. Killed,
+// the supervisor damps the robot at once, and the wbc's commands damp.
+FAULTS_TEST(AKilledPlannerDampsTheRobot) {
+  const std::string url = hpr::test::unique_lcm_url();
+  Watch w(url);
+  Group g(url);
+  ASSERT_TRUE(g.up()) << g.up_text();
+  ASSERT_TRUE(chain_runs(w, 0, 500, 30s)) << "the chain did not start: " << chain_said(w);
+  ASSERT_FALSE(w.first_damp.has_value()) << chain_said(w);
+  const int planner = g.pid("planner");
+  ASSERT_GT(planner, 0);
+  ASSERT_EQ(::kill(planner, SIGKILL), 0);
+  ASSERT_TRUE(w.wait_for([&] { return w.first_damp.has_value(); }, 5s)) << "no OPERATOR damp after the planner died: " << chain_said(w);
+  EXPECT_NE(w.damp_reason.find("planner (critical)"), std::string::npos) << w.damp_reason;
+  EXPECT_TRUE(w.wait_for([&] { return w.command.mode == humanoid::joint_command_t::MODE_DAMP; }, 20s)) << chain_said(w);
+  EXPECT_TRUE(w.wait_for([&] { return w.health["wbc"].lifecycle == humanoid::health_t::LIFECYCLE_DAMPING; }, 5s))
+      << "wbc lifecycle " << static_cast<int>(w.health["wbc"].lifecycle);
 }
 
 FAULTS_TEST(WithoutItsOptionalComponentsTheChainRunsOnAtFullRate) {

@@ -64,6 +64,7 @@ struct Hil {
     emulator = group.start("drive_emulator", emu_args, rt(85));
     hal = group.start("hal", {"--config", cfg, "--set", port, "--set", clock}, rt(80));
     group.start("estimator", {"--config", cfg}, rt(70));
+    group.start("planner", {"--config", cfg}, rt(70));
     wbc = group.start("wbc", {"--config", cfg}, rt(70));
     group.start("reference_gen", {"--config", cfg}, rt(65));
     group.start("motion_opt", {"--config", cfg}, rt(65));
@@ -273,6 +274,7 @@ TEST(HardwareInTheLoop, RealTimeSimGroupIsUpAndStandsTenSeconds) {
   auto truth = lcm.collect<humanoid::sim_truth_t>("SIM_TRUTH");
   auto balance = lcm.collect<humanoid::balance_status_t>("BALANCE_STATUS");
   auto supervisor = lcm.collect<humanoid::supervisor_status_t>("SUPERVISOR_STATUS");
+  hpr::test::GroupDown group_down(sup, url);  // whatever fails below
   const auto up = hpr::test::run_command({sup, "up", "sim", "--groups", hpr::test::source_dir() + "/config/groups.yaml", "--lcm-url", url, "--run-root", dir});
   ASSERT_EQ(up.exit_code, 0) << up.out;
   lcm.wait_for([&] { return !truth->empty() && (truth->back().sim_time >= 10.0 || truth->back().fallen); }, 30s);
@@ -286,13 +288,14 @@ TEST(HardwareInTheLoop, RealTimeSimGroupIsUpAndStandsTenSeconds) {
   for (int i = 0; i < st.num_processes; ++i) details += st.name[i] + ": " + st.detail[i] + "\n";
   EXPECT_EQ(int{st.state}, int{humanoid::supervisor_status_t::STATE_UP}) << details;
   // lcm-spy decodes every live message of the running group, every channel of the stack present.
-  const std::string channels = "ROBOT_SENSORS,ROBOT_STATE,BALANCE_STATUS,CAM_REFERENCE,WHOLEBODY_COMMAND,JOINT_COMMAND,SIM_TRUTH,HEALTH";
+  const std::string channels = "ROBOT_SENSORS,ROBOT_STATE,BALANCE_PLAN,BALANCE_STATUS,CAM_REFERENCE,WHOLEBODY_COMMAND,JOINT_COMMAND,SIM_TRUTH,HEALTH";
   const auto spy = hpr::test::run_command({hpr::test::source_dir() + "/tools/lcm-spy", "--check", "3", "--lcm-url", url, "--expect", channels});
   EXPECT_EQ(spy.exit_code, 0) << spy.out;
-  for (const char* c : {"ROBOT_SENSORS", "ROBOT_STATE", "BALANCE_STATUS", "CAM_REFERENCE", "WHOLEBODY_COMMAND", "JOINT_COMMAND", "SIM_TRUTH", "HEALTH"}) {
+  for (const char* c : {"ROBOT_SENSORS", "ROBOT_STATE", "BALANCE_PLAN", "BALANCE_STATUS", "CAM_REFERENCE", "WHOLEBODY_COMMAND", "JOINT_COMMAND", "SIM_TRUTH", "HEALTH"}) {
     EXPECT_NE(spy.out.find(std::string("\n") + c + " "), std::string::npos) << c << " not seen by lcm-spy:\n" << spy.out;
   }
   const auto down = hpr::test::run_command({sup, "down", "--lcm-url", url});
+  group_down.dismiss();
   EXPECT_EQ(down.exit_code, 0) << down.out;
 }
 
@@ -318,6 +321,7 @@ TEST(HardwareInTheLoop, SplitOverTwoHostsStandsTenSeconds) {
   auto status = lcm.collect<humanoid::hal_status_t>("HAL_STATUS");
   auto commands = lcm.collect<humanoid::joint_command_t>("JOINT_COMMAND");
   const std::string sup = hpr::test::bin_dir() + "/supervisor";
+  hpr::test::GroupDown group_down(sup, url, hosts.exec(hosts.b));  // both hosts, whatever fails below
   const auto robot = hpr::test::run_command({sup, "up", "hil-split", "--groups", file, "--host", "robot", "--lcm-url", url, "--run-root", dir + "/robot"}, hosts.exec(hosts.a));
   ASSERT_EQ(robot.exit_code, 0) << robot.out;
   const auto pc = hpr::test::run_command({sup, "up", "hil-split", "--groups", file, "--host", "pc", "--lcm-url", url, "--run-root", dir + "/pc"}, hosts.exec(hosts.b));
@@ -331,6 +335,7 @@ TEST(HardwareInTheLoop, SplitOverTwoHostsStandsTenSeconds) {
   EXPECT_GE(truth->back().sim_time, t0 + 10.0);
   EXPECT_EQ(state(), int{humanoid::hal_status_t::STATE_ENABLED}) << status->back().state_reason;
   const auto down = hpr::test::run_command({sup, "down", "--lcm-url", url}, hosts.exec(hosts.b));
+  group_down.dismiss();
   EXPECT_EQ(down.exit_code, 0) << down.out;
 }
 

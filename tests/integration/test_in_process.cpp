@@ -1,9 +1,10 @@
 // The in-process pipeline against the processes: the same push through push_trial's processes in
 // lockstep (recorded) and through hpr::graph::ClosedLoop must give the same messages, tick by
-// tick and bit for bit: ROBOT_STATE, CAM_REFERENCE, WHOLEBODY_COMMAND and JOINT_COMMAND. And the
+// tick and bit for bit: ROBOT_STATE, BALANCE_PLAN, CAM_REFERENCE, WHOLEBODY_COMMAND and JOINT_COMMAND. And the
 // two ways of running a trial (run_trial with and without in_process) must judge alike.
 #include <gtest/gtest.h>
 
+#include <humanoid/balance_plan_t.hpp>
 #include <humanoid/cam_reference_t.hpp>
 #include <humanoid/joint_command_t.hpp>
 #include <humanoid/robot_state_t.hpp>
@@ -131,6 +132,7 @@ void expect_same_messages(TrialSpec spec, const std::string& name, int min_steps
   ASSERT_FALSE(recorded.fallen) << recorded.failure;
   ASSERT_GE(recorded.steps, min_steps) << "the push should make the robot step";
   const auto states = read_channel<humanoid::robot_state_t>(spec.log_file, "ROBOT_STATE");
+  const auto plans = read_channel<humanoid::balance_plan_t>(spec.log_file, "BALANCE_PLAN");
   const auto cams = read_channel<humanoid::cam_reference_t>(spec.log_file, "CAM_REFERENCE");
   const auto wholebodies = read_channel<humanoid::wholebody_command_t>(spec.log_file, "WHOLEBODY_COMMAND");
   const auto commands = read_channel<humanoid::joint_command_t>(spec.log_file, "JOINT_COMMAND");
@@ -144,7 +146,7 @@ void expect_same_messages(TrialSpec spec, const std::string& name, int min_steps
   loop.sim.add_push(plan.push);
   hpr::msg::RobotNames names;
   names.joints = loop.spec.model.joint_name;
-  Comparison state_cmp("ROBOT_STATE"), cam_cmp("CAM_REFERENCE"), wholebody_cmp("WHOLEBODY_COMMAND"), command_cmp("JOINT_COMMAND");
+  Comparison state_cmp("ROBOT_STATE"), plan_cmp("BALANCE_PLAN"), cam_cmp("CAM_REFERENCE"), wholebody_cmp("WHOLEBODY_COMMAND"), command_cmp("JOINT_COMMAND");
   humanoid::robot_state_t state{};
   humanoid::joint_command_t command{};
   humanoid::wholebody_command_t wholebody{};
@@ -168,6 +170,23 @@ void expect_same_messages(TrialSpec spec, const std::string& name, int min_steps
                                  differ("status", rec.status, state.status), differ("utime", rec.utime, state.utime)}));
     }
     loop.step();
+    if (const auto p = plans.find(k); p != plans.end()) {
+      const auto& rec = p->second;
+      const auto& in = loop.messages().plan;  // the in-process plan as its message
+      plan_cmp.add(k, loop.have_plan() ? first_of({differ("utime", rec.utime, in.utime), differ("stage", rec.stage, in.stage),
+                                                   differ("support", rec.support, in.support), differ("settled", rec.settled, in.settled),
+                                                   differ("p_WCom", rec.p_WCom, in.p_WCom, 3), differ("v_WCom", rec.v_WCom, in.v_WCom, 3),
+                                                   differ("a_WCom", rec.a_WCom, in.a_WCom, 3), differ("R_WB", &rec.R_WB[0][0], &in.R_WB[0][0], 9),
+                                                   differ("omega_WB", rec.omega_WB, in.omega_WB, 3), differ("p_WF", rec.p_WF, in.p_WF),
+                                                   differ("R_WF", rec.R_WF, in.R_WF), differ("v_WF", rec.v_WF, in.v_WF),
+                                                   differ("a_WF", rec.a_WF, in.a_WF), differ("foot_contact", rec.foot_contact, in.foot_contact),
+                                                   differ("foot_load_limit", rec.foot_load_limit, in.foot_load_limit),
+                                                   differ("q_free", rec.q_free, in.q_free), differ("f_ext_W", rec.f_ext_W, in.f_ext_W, 2),
+                                                   differ("xi_W", rec.xi_W, in.xi_W, 2), differ("step_foot", rec.step_foot, in.step_foot),
+                                                   differ("step_target_W", rec.step_target_W, in.step_target_W, 3),
+                                                   differ("steps_taken", rec.steps_taken, in.steps_taken)})
+                                     : std::string("no plan in process"));
+    }
     if (loop.generator) {
       if (const auto r = cams.find(k); r != cams.end()) {
         const auto& o = loop.generator->output();
@@ -203,8 +222,8 @@ void expect_same_messages(TrialSpec spec, const std::string& name, int min_steps
                                  differ("qd_des", rec.qd_des, command.qd_des), differ("kp", rec.kp, command.kp),
                                  differ("kd", rec.kd, command.kd), differ("mode", rec.mode, command.mode)}));
   }
-  for (const Comparison* cmp : {&state_cmp, &cam_cmp, &wholebody_cmp, &command_cmp}) {
-    if (cmp->channel != "JOINT_COMMAND" && cmp->channel != "ROBOT_STATE" && strategy == Strategy::kAnkle) continue;
+  for (const Comparison* cmp : {&state_cmp, &plan_cmp, &cam_cmp, &wholebody_cmp, &command_cmp}) {
+    if ((cmp->channel == "CAM_REFERENCE" || cmp->channel == "WHOLEBODY_COMMAND") && strategy == Strategy::kAnkle) continue;
     std::printf("%-18s %5ld ticks compared, %5ld differ%s%s\n", cmp->channel.c_str(), cmp->compared, cmp->differing,
                 cmp->first >= 0 ? ", first at tick " : "", cmp->first >= 0 ? (std::to_string(cmp->first) + ": " + cmp->first_what).c_str() : "");
     EXPECT_GT(cmp->compared, 3000) << cmp->channel;

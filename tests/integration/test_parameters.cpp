@@ -165,7 +165,7 @@ TEST(LiveParametersOfEveryNode, AnnouncedWithTheConfiguredValuesAndSettable) {
   announce_and_set({"estimator", "wbc", "motion_opt", "reference_gen"});
 }
 
-// Composed in one process, the components answer under their own names, as the four processes do.
+// Composed in one process, the components answer under their own names, as the processes do.
 TEST(LiveParametersOfEveryNode, TheComposedControllersAnswerForEachComponent) { announce_and_set({"controllers"}); }
 
 }  // namespace

@@ -252,7 +252,7 @@ TEST(SlurmExecutor, ATaskOfAnotherBuildRefusesToRunNamingBothCommits) {
 TEST(SlurmExecutor, NoProcessOfTheControlPathCarriesIt) {
   const std::string marker = "sbatch";
   EXPECT_NE(read_file(bin_dir() + "/push_sweep").find(marker), std::string::npos) << "the marker is in the tool that submits";
-  for (const char* exe : {"estimator", "wbc", "reference_gen", "motion_opt", "controllers", "hal", "sim_bullet", "drive_emulator"}) {
+  for (const char* exe : {"estimator", "planner", "wbc", "reference_gen", "motion_opt", "controllers", "hal", "sim_bullet", "drive_emulator"}) {
     const std::string binary = read_file(bin_dir() + "/" + exe);
     ASSERT_FALSE(binary.empty()) << exe;
     EXPECT_EQ(binary.find(marker), std::string::npos) << exe << " links the Slurm executor";

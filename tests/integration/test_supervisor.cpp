@@ -54,13 +54,7 @@ TEST(Supervisor, UpStatusCriticalDeathRecordAndDownLeaveNothingBehind) {
   ASSERT_EQ(up.exit_code, 0) << up.out;
   // Whatever fails below, the group does not outlive the test: a lockstep chain left running
   // would load the machine under every later test.
-  struct GroupDown {
-    std::string url;
-    bool done = false;
-    ~GroupDown() {
-      if (!done) (void)run_command({supervisor(), "down", "--lcm-url", url});
-    }
-  } group_down{url};
+  hpr::test::GroupDown group_down(supervisor(), url);
   EXPECT_NE(up.out.find("is up"), std::string::npos) << up.out;
   std::this_thread::sleep_for(2s);  // HEALTH rates cover a whole report period
 
@@ -86,7 +80,7 @@ TEST(Supervisor, UpStatusCriticalDeathRecordAndDownLeaveNothingBehind) {
     for (const auto& p : s["processes"]) rate[p["name"]] = std::max(rate[p["name"]], p["rate_hz"].get<double>());
   }
   for (const auto& [name, hz] : rate) EXPECT_GT(hz, 100.0) << name << " is not ticking";
-  for (const char* n : {"sim_bullet", "estimator", "wbc", "reference_gen", "motion_opt"}) EXPECT_EQ(pids.count(n), 1U) << n;
+  for (const char* n : {"sim_bullet", "estimator", "planner", "wbc", "reference_gen", "motion_opt"}) EXPECT_EQ(pids.count(n), 1U) << n;
   const std::string run_dir = sup["run_dir"];
   for (const char* n : {"sim_bullet", "wbc", "supervisor"}) EXPECT_TRUE(std::filesystem::exists(run_dir + "/" + n + ".log")) << n;
 
@@ -137,12 +131,12 @@ TEST(Supervisor, UpStatusCriticalDeathRecordAndDownLeaveNothingBehind) {
   }
   // Listens 5 s, then on until every channel below has been seen (a loaded machine's JVM may deliver
   // the first seconds late); a channel that never comes fails the check.
-  const std::string channels = "ROBOT_SENSORS,ROBOT_STATE,BALANCE_STATUS,CAM_REFERENCE,WHOLEBODY_COMMAND,JOINT_COMMAND,SIM_TRUTH,HEALTH,SUPERVISOR_STATUS";
+  const std::string channels = "ROBOT_SENSORS,ROBOT_STATE,BALANCE_PLAN,BALANCE_STATUS,CAM_REFERENCE,WHOLEBODY_COMMAND,JOINT_COMMAND,SIM_TRUTH,HEALTH,SUPERVISOR_STATUS";
   const auto spy = run_command({hpr::test::source_dir() + "/tools/lcm-spy", "--check", "5", "--lcm-url", url, "--expect", channels});
   EXPECT_EQ(spy.exit_code, 0) << spy.out;
   EXPECT_NE(spy.out.find("every message decoded"), std::string::npos) << spy.out;
-  for (const char* c : {"ROBOT_SENSORS", "ROBOT_STATE", "BALANCE_STATUS", "CAM_REFERENCE", "WHOLEBODY_COMMAND", "JOINT_COMMAND",
-                        "SIM_TRUTH", "HEALTH", "SUPERVISOR_STATUS"}) {
+  for (const char* c : {"ROBOT_SENSORS", "ROBOT_STATE", "BALANCE_PLAN", "BALANCE_STATUS", "CAM_REFERENCE", "WHOLEBODY_COMMAND",
+                        "JOINT_COMMAND", "SIM_TRUTH", "HEALTH", "SUPERVISOR_STATUS"}) {
     EXPECT_NE(spy.out.find(std::string("\n") + c + " "), std::string::npos) << c << " not seen by lcm-spy:\n" << spy.out;
   }
 
@@ -191,7 +185,7 @@ TEST(Supervisor, UpStatusCriticalDeathRecordAndDownLeaveNothingBehind) {
 
   const int supervisor_pid = st["supervisors"][0]["pid"];
   const auto down = run_command({supervisor(), "down", "--lcm-url", url});
-  group_down.done = true;
+  group_down.dismiss();
   EXPECT_EQ(down.exit_code, 0) << down.out;
   EXPECT_NE(down.out.find("stopped"), std::string::npos) << down.out;
   // down returns once the supervisor's pid is gone (or 10 s after its goodbye); a loaded machine
@@ -220,18 +214,18 @@ TEST(Replay, RecordedPushExperimentReproducesExactlyAndADifferentGainDoesNot) {
   ASSERT_EQ(trial.exit_code, 3) << trial.out;  // inconclusive: 1 s after the push is too short to judge
   ASSERT_TRUE(std::filesystem::exists(log));
   const std::string tool = hpr::test::source_dir() + "/tools/replay";
-  const auto same = run_command({tool, log, "--rerun", "estimator,wbc,reference_gen,motion_opt", "--set", "balance.support=double",
+  const auto same = run_command({tool, log, "--rerun", "estimator,planner,wbc,reference_gen,motion_opt", "--set", "balance.support=double",
                                  "--json", dir + "/same.json", "--work-dir", dir + "/same"});
   EXPECT_EQ(same.exit_code, 0) << same.out;
   const json s = json::parse(std::ifstream(dir + "/same.json"));
   EXPECT_TRUE(s["complete"].get<bool>()) << "the recorder lost messages: " << s["lacking"].dump();
   EXPECT_TRUE(s["match"].get<bool>()) << s.dump(2);
-  for (const char* c : {"ROBOT_STATE", "JOINT_COMMAND", "BALANCE_STATUS", "CAM_REFERENCE", "WHOLEBODY_COMMAND"}) {
+  for (const char* c : {"ROBOT_STATE", "BALANCE_PLAN", "JOINT_COMMAND", "BALANCE_STATUS", "CAM_REFERENCE", "WHOLEBODY_COMMAND"}) {
     EXPECT_GT(s["channels"][c]["compared"].get<int>(), 2500) << c;  // 3.3 s at 1 kHz
     EXPECT_EQ(s["channels"][c]["different"].get<int>(), 0) << c;
   }
-  // The four controllers composed in one process answer the same inputs with the same messages,
-  // bit for bit, on every channel the four processes published; re-run on another machine (another
+  // The five controllers composed in one process answer the same inputs with the same messages,
+  // bit for bit, on every channel the five processes published; re-run on another machine (another
   // deployment key, which the re-run nodes check: replay_check signs the played inputs with it).
   const std::string another_key = dir + "/another-machine/lcm.key";
   const auto composed = run_command({tool, log, "--rerun", "controllers", "--set", "balance.support=double", "--json",
@@ -241,7 +235,7 @@ TEST(Replay, RecordedPushExperimentReproducesExactlyAndADifferentGainDoesNot) {
   EXPECT_EQ(composed.exit_code, 0) << composed.out;
   const json c = json::parse(std::ifstream(dir + "/composed.json"));
   EXPECT_TRUE(c["match"].get<bool>()) << c.dump(2);
-  for (const char* ch : {"ROBOT_STATE", "JOINT_COMMAND", "BALANCE_STATUS", "CAM_REFERENCE", "WHOLEBODY_COMMAND"}) {
+  for (const char* ch : {"ROBOT_STATE", "BALANCE_PLAN", "JOINT_COMMAND", "BALANCE_STATUS", "CAM_REFERENCE", "WHOLEBODY_COMMAND"}) {
     EXPECT_GT(c["channels"][ch]["compared"].get<int>(), 2500) << ch;
     EXPECT_EQ(c["channels"][ch]["different"].get<int>(), 0) << ch;
   }
@@ -346,6 +340,7 @@ TEST(Supervisor, TwoHostsRunOneGroupWithOneStatusAndStand) {
   auto commands = lcm.collect<humanoid::joint_command_t>("JOINT_COMMAND");
   auto hal_status = lcm.collect<humanoid::hal_status_t>("HAL_STATUS");
 
+  hpr::test::GroupDown group_down(supervisor(), url, hosts.exec(hosts.b));  // both hosts, whatever fails below
   const auto brain = run_command({supervisor(), "up", "split", "--groups", file, "--host", "brain", "--lcm-url", url, "--run-root", dir + "/brain"}, hosts.exec(hosts.b));
   ASSERT_EQ(brain.exit_code, 0) << brain.out;
   const auto plant = run_command({supervisor(), "up", "split", "--groups", file, "--host", "plant", "--lcm-url", url, "--run-root", dir + "/plant"}, hosts.exec(hosts.a));
@@ -359,7 +354,7 @@ TEST(Supervisor, TwoHostsRunOneGroupWithOneStatusAndStand) {
   }
   EXPECT_EQ(where["drive_emulator"], "plant") << st.dump(2);
   EXPECT_EQ(where["hal"], "plant") << st.dump(2);
-  for (const char* n : {"estimator", "wbc", "reference_gen", "motion_opt"}) EXPECT_EQ(where[n], "brain") << n << "\n" << st.dump(2);
+  for (const char* n : {"estimator", "planner", "wbc", "reference_gen", "motion_opt"}) EXPECT_EQ(where[n], "brain") << n << "\n" << st.dump(2);
 
   // Commands come from the other host; the operator enables the drives; the robot stands 10 s
   // (simulated) with its controllers on the other host.
@@ -373,6 +368,7 @@ TEST(Supervisor, TwoHostsRunOneGroupWithOneStatusAndStand) {
 
   // down from one host stops both.
   const auto down = run_command({supervisor(), "down", "--lcm-url", url}, hosts.exec(hosts.b));
+  group_down.dismiss();
   EXPECT_EQ(down.exit_code, 0) << down.out;
   EXPECT_NE(down.out.find("'plant': stopped"), std::string::npos) << down.out;
   EXPECT_NE(down.out.find("'brain': stopped"), std::string::npos) << down.out;

@@ -260,7 +260,7 @@ TEST(Transport, ForgedArrayCountsOnEveryChannelLeaveEveryNodesMemoryUnchanged) {
   std::map<std::string, int> pids;
   // sim_bullet in lockstep waits for its first command: it only listens, as the control nodes do.
   pids["sim_bullet"] = group.start("sim_bullet", {"--config", cfg, "--set", "sim.mode=lockstep"});
-  for (const char* n : {"estimator", "wbc", "reference_gen", "motion_opt"}) pids[n] = group.start(n, {"--config", cfg});
+  for (const char* n : {"estimator", "planner", "wbc", "reference_gen", "motion_opt"}) pids[n] = group.start(n, {"--config", cfg});
   hpr::test::LcmListener lcm(group.lcm_url());
   auto health = lcm.collect<humanoid::health_t>("HEALTH");
   auto seen_all = [&] {

@@ -7,7 +7,7 @@
 
 #include <humanoid/robot_state_t.hpp>
 #include <humanoid/sim_truth_t.hpp>
-#include <humanoid/wholebody_command_t.hpp>
+#include <humanoid/balance_plan_t.hpp>
 
 #include <cmath>
 #include <filesystem>
@@ -67,9 +67,9 @@ TEST(ViewerBrowser, PageShowsTheLoggedPostureTheRobotAndThePush) {
       tr.push_point_W[0] = q0(0) - 0.12;
       tr.push_point_W[2] = q0(2) + 0.05;
       log.write("SIM_TRUTH", tr, 1000 * k);
-      // The stepping strategy: the capture point runs ahead with the push, and the left foot
-      // (index 1) steps 0.35 m ahead while it acts.
-      humanoid::wholebody_command_t wb{};
+      // The stepping strategy (the planner's BALANCE_PLAN): the capture point runs ahead with the
+      // push, and the left foot (index 1) steps 0.35 m ahead while it acts.
+      humanoid::balance_plan_t wb{};
       wb.tick = k;
       wb.utime = 1000 * k;
       wb.stepping = true;
@@ -79,7 +79,8 @@ TEST(ViewerBrowser, PageShowsTheLoggedPostureTheRobotAndThePush) {
       wb.step_target_W[0] = q0(0) + kStepAhead;
       wb.step_target_W[1] = 0.1;  // [m] the left sole's side
       wb.step_time_left = tr.push_active ? kPushEnd - t : 0.0;
-      log.write("WHOLEBODY_COMMAND", wb, 1000 * k);
+      wb.stage = tr.push_active ? humanoid::balance_plan_t::STAGE_STEP_SWING : humanoid::balance_plan_t::STAGE_HOLD;
+      log.write("BALANCE_PLAN", wb, 1000 * k);
     }
   }
   hpr::test::ProcessGroup group;

@@ -1,4 +1,4 @@
-// sim_bullet, truth_state and wbc as processes in lockstep (the simulator's state, in the
+// sim_bullet, truth_state, planner and wbc as processes in lockstep (the simulator's state, in the
 // estimator's place; the estimator's tests cover the estimated state): standing, a push recovered,
 // BALANCE_STATUS every tick, SIGTERM; truth_state's ROBOT_STATE is SIM_TRUTH's state tick for tick.
 #include <gtest/gtest.h>
@@ -32,6 +32,7 @@ TEST(WbcNode, StandsAndRecoversAPushInLockstep) {
     f << "pushes:\n  - {link: pelvis, force: [65, 0, 0], start: 2.0, duration: 0.121, profile: half_sine}\n";
   }
   const pid_t truth_state = group.start("truth_state", {"--config", cfg});
+  const pid_t planner = group.start("planner", {"--config", cfg});
   const pid_t wbc = group.start("wbc", {"--config", cfg, "--set", "wbc.wait_for_wholebody=false"});
   const pid_t sim = group.start("sim_bullet", {"--config", cfg, "--set", "sim.duration=6.0", "--set",
                                                "sim.scenario=" + scenario});
@@ -65,7 +66,7 @@ TEST(WbcNode, StandsAndRecoversAPushInLockstep) {
     ++compared;
   }
   EXPECT_EQ(compared, states->size());
-  for (const pid_t p : {wbc, truth_state}) {
+  for (const pid_t p : {wbc, planner, truth_state}) {
     group.signal(p, SIGTERM);
     const auto w = group.wait(p, 1000ms);
     EXPECT_TRUE(w.exited);
@@ -75,8 +76,8 @@ TEST(WbcNode, StandsAndRecoversAPushInLockstep) {
 
 // In lockstep the wbc steps with the motion optimiser's command of the same tick, except when the
 // tick only damps: an estimate flagged unusable before any usable one started the posture
-// (motion_opt then publishes nothing) is answered at once, not after the wholebody timeout, so the
-// chain runs on at full rate while the robot goes limp.
+// (the planner and motion_opt then publish nothing) is answered at once, not after the timeout, so
+// the chain runs on at full rate while the robot goes limp.
 TEST(WbcNode, AnUnusableEstimateIsAnsweredWithoutWaitingForTheMotionOptimiser) {
   ProcessGroup group;
   LcmListener lcm(group.lcm_url());

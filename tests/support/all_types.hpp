@@ -2,6 +2,7 @@
 /// \file Every LCM type of the stack, and a filler that gives each field random content, for the
 /// round-trip tests and the transport benchmark.
 
+#include <humanoid/balance_plan_t.hpp>
 #include <humanoid/balance_status_t.hpp>
 #include <humanoid/cam_reference_t.hpp>
 #include <humanoid/hal_status_t.hpp>
@@ -22,7 +23,7 @@
 
 namespace hpr::test {
 
-/// Calls f.template operator()<Msg>(name) for every type.
+/// Calls f.template operator()<Msg>(name) for every type, always in this order.
 template <class F>
 void for_each_type(F&& f) {
   f.template operator()<humanoid::robot_sensors_t>("ROBOT_SENSORS");
@@ -39,6 +40,14 @@ void for_each_type(F&& f) {
   f.template operator()<humanoid::params_t>("PARAMS");
   f.template operator()<humanoid::supervisor_status_t>("SUPERVISOR_STATUS");
   f.template operator()<humanoid::supervisor_command_t>("SUPERVISOR_COMMAND");
+  f.template operator()<humanoid::balance_plan_t>("BALANCE_PLAN");  // last: a fuzz input's first byte picks a type by its place
+}
+
+/// How many types for_each_type visits.
+inline int type_count() {
+  int n = 0;
+  for_each_type([&]<class Msg>(const char*) { ++n; });
+  return n;
 }
 
 class Filler {
@@ -122,6 +131,18 @@ class Filler {
     m.xa_min = vec(12); m.xa_max = vec(12); m.xad_min = vec(12); m.xad_max = vec(12);
     m.num_segments = 5; m.segment_name = names(5); m.segment_l_W = mat(5, 3);
     m.posture_error = r(); m.qp_status = i32(); m.qp_iterations = i32(); m.qp_solve_time_us = r(); m.status = i32();
+    bytes(m.mac);
+  }
+  void fill(humanoid::balance_plan_t& m) {
+    m.tick = i64(); m.utime = i64(); m.source = i64(); m.support = i8(); m.stage = i8(); m.settled = b();
+    arr(m.p_WCom); arr(m.v_WCom); arr(m.a_WCom); for (auto& row : m.R_WB) arr(row); arr(m.omega_WB); arr(m.omegadot_WB);
+    m.num_feet = 2; m.foot_name = names(2); m.p_WF = mat(2, 3); m.R_WF = mat(2, 9); m.v_WF = mat(2, 6); m.a_WF = mat(2, 6);
+    m.foot_contact = gen<int8_t>(2, [&] { return static_cast<int8_t>(b()); }); m.foot_load_limit = vec(2);
+    const int nf = joints_ - 12;
+    m.num_free = nf; m.free_joint = names(nf); m.q_free = vec(nf); m.qd_free = vec(nf); m.qdd_free = vec(nf);
+    arr(m.f_ext_W);
+    m.stepping = b(); arr(m.xi_W); m.xi_excess = r(); m.step_foot = i32(); arr(m.step_target_W); m.step_time_left = r();
+    m.steps_taken = i32(); m.follow_steps = i32();
     bytes(m.mac);
   }
   void fill(humanoid::joint_command_t& m) {

@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace hpr::test {
@@ -54,6 +55,26 @@ inline CommandResult run_command(const std::vector<std::string>& argv, const std
 }
 
 /// The whole content of a text file ("" when it cannot be read).
+/// Brings the supervised groups on `lcm_url` down when it goes out of scope, unless dismissed:
+/// whatever assertion fails in a test, its group does not outlive it (a chain left running loads
+/// the machine under every later test). `prefix` runs the command elsewhere (a host's namespace).
+class GroupDown {
+ public:
+  GroupDown(std::string supervisor, std::string lcm_url, std::string prefix = "")
+      : supervisor_(std::move(supervisor)), url_(std::move(lcm_url)), prefix_(std::move(prefix)) {}
+  GroupDown(const GroupDown&) = delete;
+  GroupDown& operator=(const GroupDown&) = delete;
+  ~GroupDown() {
+    if (armed_) (void)run_command({supervisor_, "down", "--lcm-url", url_}, prefix_);
+  }
+  /// The test brought the group down itself.
+  void dismiss() { armed_ = false; }
+
+ private:
+  std::string supervisor_, url_, prefix_;
+  bool armed_ = true;
+};
+
 inline std::string read_file(const std::string& path) {
   std::string out;
   if (FILE* f = std::fopen(path.c_str(), "r")) {
@@ -130,12 +151,13 @@ class NetnsPair {
   int home_ = -1;
 };
 
-/// The control processes (estimator and wbc critical) as lines of a groups file's `processes:`,
+/// The control processes (estimator, planner and wbc critical) as lines of a groups file's `processes:`,
 /// placed on `host`, each with `--config ${cfg}`.
 inline std::string control_processes_yaml(const std::string& host) {
   const std::string on = "host: " + host + ", args: [--config, '${cfg}']";
   return "      estimator: {command: estimator, " + on + ", critical: true}\n" +
-         "      wbc: {command: wbc, " + on + ", critical: true, depends_on: [estimator]}\n" +
+         "      planner: {command: planner, " + on + ", critical: true, depends_on: [estimator]}\n" +
+         "      wbc: {command: wbc, " + on + ", critical: true, depends_on: [planner]}\n" +
          "      reference_gen: {command: reference_gen, " + on + "}\n" +
          "      motion_opt: {command: motion_opt, " + on + "}\n";
 }

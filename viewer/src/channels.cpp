@@ -111,6 +111,14 @@ json to_json(const humanoid::wholebody_command_t& m) {
           {"step_time_left", num(m.step_time_left)}, {"steps_taken", m.steps_taken}, {"follow_steps", m.follow_steps}};
 }
 
+json to_json(const humanoid::balance_plan_t& m) {
+  return {{"tick", m.tick},     {"utime", m.utime},         {"support", static_cast<int>(m.support)},
+          {"stage", static_cast<int>(m.stage)}, {"settled", m.settled != 0}, {"p_WCom", arr(m.p_WCom)},
+          {"f_ext_W", arr(m.f_ext_W)}, {"stepping", m.stepping != 0}, {"xi_W", arr(m.xi_W)},
+          {"xi_excess", num(m.xi_excess)}, {"step_foot", m.step_foot}, {"step_target_W", arr(m.step_target_W)},
+          {"step_time_left", num(m.step_time_left)}, {"steps_taken", m.steps_taken}, {"follow_steps", m.follow_steps}};
+}
+
 json to_json(const humanoid::health_t& m) {
   return {{"tick", m.tick},
           {"utime", m.utime},
@@ -196,9 +204,9 @@ Codec codec(const Channel<Msg>& ch, bool robot_clock = true) {
 
 const std::vector<Codec>& codecs() {
   static const std::vector<Codec> all{
-      codec(msg::channels::kRobotState),    codec(msg::channels::kSimTruth),          codec(msg::channels::kPush),
-      codec(msg::channels::kBalanceStatus), codec(msg::channels::kCamReference),      codec(msg::channels::kWholebodyCommand),
-      codec(msg::channels::kHealth, false)};
+      codec(msg::channels::kRobotState),    codec(msg::channels::kSimTruth),     codec(msg::channels::kPush),
+      codec(msg::channels::kBalancePlan),   codec(msg::channels::kBalanceStatus), codec(msg::channels::kCamReference),
+      codec(msg::channels::kWholebodyCommand), codec(msg::channels::kHealth, false)};
   return all;
 }
 

@@ -10,9 +10,8 @@ int main(int argc, char** argv) {
                           const Config wc = cfg.section("wbc");
                           const auto options = wbc::WbcNodeOptions::load(wc);
                           wbc::WbcComponent wbc(robot, wbc::WbcConfig::load(wc, robot), options.bad_state_ticks);
-                          planner::BalancePlanner planner(robot, balance::PostureReferenceConfig::load(cfg.section("balance")));
                           node::Runtime rt(wbc::WbcComponent::kPorts, cl.name, node::lcm_url(cl, cfg), node::runtime_options(cfg, 1e-3));
-                          wbc::WbcNode node(rt, robot, wbc, planner, options);
+                          wbc::WbcNode node(rt, robot, wbc, options);
                           return rt.run();
                         });
 }

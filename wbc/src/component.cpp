@@ -15,6 +15,7 @@ WbcComponent::WbcComponent(const model::RobotSpec& robot, WbcConfig config, int 
 void WbcComponent::reset() {
   bad_state_count_ = 0;
   had_wholebody_ = false;
+  had_plan_ = false;
 }
 
 void WbcComponent::damp(const EstimatedState& s, Mode why, Outputs& out) const {
@@ -52,14 +53,20 @@ void WbcComponent::step(const Inputs& in, Outputs& out) {
   if (mode != Mode::kBalance) damp(s, mode, out);
   report(s, in, out);
   had_wholebody_ = had_wholebody_ || in.wholebody.has_value();
+  had_plan_ = had_plan_ || in.plan.has_value();
 }
 
 void WbcComponent::report(const EstimatedState& s, const Inputs& in, Outputs& out) const {
   StepReport& r = out.report;
   switch (out.mode) {
     case Mode::kDampNoState:
-      r.outcome = StepOutcome::kNotReady;
-      r.raise("damping", "no usable ROBOT_STATE yet (status {})", s.status);
+      if (had_plan_) {  // lost: the planner stopped
+        r.outcome = StepOutcome::kDamping;
+        r.raise("damping", "BALANCE_PLAN stale: no plan to follow");
+      } else {
+        r.outcome = StepOutcome::kNotReady;
+        r.raise("damping", "no balance plan yet (ROBOT_STATE status {})", s.status);
+      }
       return;
     case Mode::kDampOperator:
       r.outcome = StepOutcome::kDamping;

@@ -177,8 +177,9 @@ void PostureReference::request_support(Support s, double t) {
   (void)t;
 }
 
-const char* PostureReference::stage_name() const {
-  switch (stage_) {
+const char* to_string(PlanStage s) {
+  using Stage = PlanStage;
+  switch (s) {
     case Stage::kInit: return "init";
     case Stage::kHold: return "hold";
     case Stage::kShift: return "shift";

@@ -5,17 +5,12 @@
 #include <cmath>
 
 #include "arrays.hpp"
+#include "task_fields.hpp"
 
 namespace hpr::msg {
 
 namespace {
-template <class T>
-bool finite_all(const T& v) {
-  for (double x : v) {
-    if (!std::isfinite(x)) return false;
-  }
-  return true;
-}
+using detail::finite_all;
 Eigen::Quaterniond quat_wxyz(const double* a) { return Eigen::Quaterniond(a[0], a[1], a[2], a[3]); }
 void put_quat(const Eigen::Quaterniond& q, double* a) {
   a[0] = q.w();
@@ -107,39 +102,13 @@ void to_message(const balance::WholebodyCommand& c, const std::vector<std::strin
   const balance::TaskReference& r = c.command;
   m.tick = c.tick;
   m.utime = static_cast<int64_t>(std::llround(r.time * 1e6));
-  m.support = static_cast<int8_t>(r.support);
-  for (int k = 0; k < 3; ++k) {
-    m.p_WCom[k] = r.p_com(k);
-    m.v_WCom[k] = r.v_com(k);
-    m.a_WCom[k] = r.a_com(k);
-    m.omega_WB[k] = r.omega_base(k);
-    m.omegadot_WB[k] = r.omegadot_base(k);
-  }
+  detail::put_task(r, free_names, names, m);
   put_quat(Eigen::Quaterniond(r.R_base), m.quat_WB);
-  m.num_feet = 2;
-  m.foot_name.assign(names.feet.begin(), names.feet.end());
-  m.p_WF.resize(2);
   m.quat_WF.resize(2);
-  m.v_WF.resize(2);
-  m.a_WF.resize(2);
-  m.foot_contact.resize(2);
-  m.foot_load_limit.resize(2);
   for (size_t f = 0; f < 2; ++f) {
-    const auto& ft = r.feet[f];
-    m.p_WF[f].assign(ft.X_WS.p.data(), ft.X_WS.p.data() + 3);
     m.quat_WF[f].resize(4);
-    put_quat(Eigen::Quaterniond(ft.X_WS.R), m.quat_WF[f].data());
-    m.v_WF[f].assign(ft.twist.data(), ft.twist.data() + 6);
-    m.a_WF[f].assign(ft.accel.data(), ft.accel.data() + 6);
-    m.foot_contact[f] = ft.contact ? 1 : 0;
-    m.foot_load_limit[f] = ft.load_limit;
+    put_quat(Eigen::Quaterniond(r.feet[f].X_WS.R), m.quat_WF[f].data());
   }
-  const int nf = static_cast<int>(free_names.size());
-  m.num_free = nf;
-  m.free_joint = free_names;
-  m.q_free.assign(r.q_free.data(), r.q_free.data() + nf);
-  m.qd_free.assign(r.qd_free.data(), r.qd_free.data() + nf);
-  m.qdd_free.assign(r.qdd_free.data(), r.qdd_free.data() + nf);
   for (int k = 0; k < 3; ++k) {
     m.l_cmd_W[k] = c.l_cmd(k);
     m.ldot_cmd_W[k] = c.ldot_cmd(k);
@@ -167,18 +136,6 @@ void to_message(const balance::WholebodyCommand& c, const std::vector<std::strin
   for (size_t s = 0; s < c.segment_names.size(); ++s) {
     m.segment_l_W[s].assign(c.segment_l[s].data(), c.segment_l[s].data() + 3);
   }
-  const balance::StepStatus& st = r.stepping;
-  m.stepping = st.enabled;
-  m.xi_W[0] = st.xi_W.x();
-  m.xi_W[1] = st.xi_W.y();
-  m.xi_excess = st.excess;
-  m.step_foot = st.swing;
-  m.step_target_W[0] = st.target_W.x();
-  m.step_target_W[1] = st.target_W.y();
-  m.step_target_W[2] = st.target_yaw;
-  m.step_time_left = st.time_left;
-  m.steps_taken = st.steps_taken;
-  m.follow_steps = st.follow_steps;
   m.posture_error = c.posture_error;
   m.qp_status = c.qp_status;
   m.qp_iterations = c.qp_iterations;
@@ -191,24 +148,8 @@ void to_message(const balance::WholebodyCommand& c, const std::vector<std::strin
 std::string from_message(const humanoid::wholebody_command_t& m, const std::vector<std::string>& free_names,
                          balance::WholebodyCommand& c) {
   balance::TaskReference& r = c.command;
-  const int nf = free_names.empty() ? m.num_free : static_cast<int>(free_names.size());
-  if (m.num_free != nf) return fmt::format("num_free {} != {} free joints", m.num_free, nf);
-  if (!free_names.empty() && !m.free_joint.empty() && m.free_joint != free_names) {
-    return "free joint names differ from the configured robot";
-  }
-  if (m.num_feet != 2) return fmt::format("num_feet {} != 2", m.num_feet);
-  if (m.support < 0 || m.support > 2) return fmt::format("unknown support {}", static_cast<int>(m.support));
-  if (!detail::finite(m.p_WCom, 3) || !detail::finite(m.v_WCom, 3) || !detail::finite(m.a_WCom, 3) ||
-      !detail::finite(m.quat_WB, 4) || !detail::finite(m.omega_WB, 3) || !detail::finite(m.omegadot_WB, 3) ||
-      !finite_all(m.q_free) || !finite_all(m.qd_free) || !finite_all(m.qdd_free)) {
-    return "non-finite value";
-  }
-  for (size_t f = 0; f < 2; ++f) {
-    if (!finite_all(m.p_WF[f]) || !finite_all(m.quat_WF[f]) || !finite_all(m.v_WF[f]) || !finite_all(m.a_WF[f]) ||
-        !std::isfinite(m.foot_load_limit[f])) {
-      return "non-finite foot value";
-    }
-  }
+  if (std::string why = detail::check_task(m, free_names); !why.empty()) return why;
+  if (!detail::finite(m.quat_WB, 4) || !finite_all(m.quat_WF[0]) || !finite_all(m.quat_WF[1])) return "non-finite orientation";
   if (!detail::finite(m.l_cmd_W, 3) || !detail::finite(m.ldot_cmd_W, 3) || !detail::finite(m.l_ref_W, 3) ||
       !std::isfinite(m.posture_error) || !finite_all(m.xa_opt) || !finite_all(m.xad_opt) || !finite_all(m.xa_min) ||
       !finite_all(m.xa_max) || !finite_all(m.xad_min) || !finite_all(m.xad_max)) {
@@ -217,34 +158,12 @@ std::string from_message(const humanoid::wholebody_command_t& m, const std::vect
   for (const auto& l : m.segment_l_W) {
     if (!finite_all(l)) return "non-finite segment CAM";
   }
-  if (!detail::finite(m.xi_W, 2) || !std::isfinite(m.xi_excess) || !detail::finite(m.step_target_W, 3) ||
-      !std::isfinite(m.step_time_left)) {
-    return "non-finite capture point or step";
-  }
-  if (m.step_foot < -1 || m.step_foot > 1) return fmt::format("step_foot {} is no foot (-1, 0 or 1)", m.step_foot);
   const Eigen::Quaterniond qb = quat_wxyz(m.quat_WB);
   if (std::abs(qb.norm() - 1.0) > 1e-3) return "base quaternion not normalised";
   c.tick = m.tick;
-  r.time = static_cast<double>(m.utime) * 1e-6;
-  r.support = static_cast<balance::Support>(m.support);
-  r.p_com = Eigen::Vector3d(m.p_WCom[0], m.p_WCom[1], m.p_WCom[2]);
-  r.v_com = Eigen::Vector3d(m.v_WCom[0], m.v_WCom[1], m.v_WCom[2]);
-  r.a_com = Eigen::Vector3d(m.a_WCom[0], m.a_WCom[1], m.a_WCom[2]);
+  detail::get_task(m, r);
   r.R_base = qb.normalized().toRotationMatrix();
-  r.omega_base = Eigen::Vector3d(m.omega_WB[0], m.omega_WB[1], m.omega_WB[2]);
-  r.omegadot_base = Eigen::Vector3d(m.omegadot_WB[0], m.omegadot_WB[1], m.omegadot_WB[2]);
-  for (size_t f = 0; f < 2; ++f) {
-    auto& ft = r.feet[f];
-    ft.X_WS.p = Eigen::Map<const Eigen::Vector3d>(m.p_WF[f].data());
-    ft.X_WS.R = quat_wxyz(m.quat_WF[f].data()).normalized().toRotationMatrix();
-    ft.twist = Eigen::Map<const Eigen::Matrix<double, 6, 1>>(m.v_WF[f].data());
-    ft.accel = Eigen::Map<const Eigen::Matrix<double, 6, 1>>(m.a_WF[f].data());
-    ft.contact = m.foot_contact[f] != 0;
-    ft.load_limit = m.foot_load_limit[f];
-  }
-  r.q_free = Eigen::Map<const Eigen::VectorXd>(m.q_free.data(), nf);
-  r.qd_free = Eigen::Map<const Eigen::VectorXd>(m.qd_free.data(), nf);
-  r.qdd_free = Eigen::Map<const Eigen::VectorXd>(m.qdd_free.data(), nf);
+  for (size_t f = 0; f < 2; ++f) r.feet[f].X_WS.R = quat_wxyz(m.quat_WF[f].data()).normalized().toRotationMatrix();
   c.l_cmd = Eigen::Map<const Eigen::Vector3d>(m.l_cmd_W);
   c.ldot_cmd = Eigen::Map<const Eigen::Vector3d>(m.ldot_cmd_W);
   c.l_ref = Eigen::Map<const Eigen::Vector3d>(m.l_ref_W);
@@ -260,16 +179,6 @@ std::string from_message(const humanoid::wholebody_command_t& m, const std::vect
   c.segment_names = m.segment_name;
   c.segment_l.resize(m.segment_l_W.size());
   for (size_t s = 0; s < m.segment_l_W.size(); ++s) c.segment_l[s] = Eigen::Map<const Eigen::Vector3d>(m.segment_l_W[s].data());
-  balance::StepStatus& st = r.stepping;
-  st.enabled = m.stepping != 0;
-  st.xi_W = Eigen::Vector2d(m.xi_W[0], m.xi_W[1]);
-  st.excess = m.xi_excess;
-  st.swing = m.step_foot;
-  st.target_W = Eigen::Vector2d(m.step_target_W[0], m.step_target_W[1]);
-  st.target_yaw = m.step_target_W[2];
-  st.time_left = m.step_time_left;
-  st.steps_taken = m.steps_taken;
-  st.follow_steps = m.follow_steps;
   c.posture_error = m.posture_error;
   c.qp_status = m.qp_status;
   c.qp_iterations = m.qp_iterations;

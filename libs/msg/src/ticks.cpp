@@ -16,9 +16,9 @@ std::int64_t tick_of(const void* data, int size) {
 
 int flow_rank(const std::string& channel) {
   static const std::map<std::string, int> k = {
-      {channels::kRobotSensors.name, 0},  {channels::kRobotState.name, 1},    {channels::kCamReference.name, 2},
-      {channels::kWholebodyCommand.name, 3}, {channels::kJointCommand.name, 4}, {channels::kBalanceStatus.name, 5},
-      {channels::kSimTruth.name, 6}};
+      {channels::kRobotSensors.name, 0},     {channels::kRobotState.name, 1},   {channels::kBalancePlan.name, 2},
+      {channels::kCamReference.name, 3},     {channels::kWholebodyCommand.name, 4}, {channels::kJointCommand.name, 5},
+      {channels::kBalanceStatus.name, 6},    {channels::kSimTruth.name, 7}};
   const auto it = k.find(channel);
   return it == k.end() ? kNotInFlow : it->second;
 }

@@ -1,7 +1,7 @@
 // The data flow gathered from the processes' declared ports is consistent with the channels of the
 // stack and with itself: every channel named is one of the stack's, each process steps on one
 // channel, every required input of a control process is written by another process, and the
-// composed controllers' ports are what their four components read from outside and write.
+// composed controllers' ports are what their five components read from outside and write.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -48,38 +48,46 @@ TEST(DataFlow, EveryChannelAProcessReadsCarriesACodeButTheTestPush) {
 
 TEST(DataFlow, TheControlProcessesGetEveryRequiredInputFromTheChain) {
   // With a backend (the simulator or the hal), nothing required is missing, either way composed.
-  EXPECT_TRUE(unmet_inputs({"sim_bullet", "estimator", "reference_gen", "motion_opt", "wbc"}).empty());
+  EXPECT_TRUE(unmet_inputs({"sim_bullet", "estimator", "planner", "reference_gen", "motion_opt", "wbc"}).empty());
   EXPECT_TRUE(unmet_inputs({"hal", "controllers"}).empty());
   // Without one, the sensors are missing, and only they.
-  const auto unmet = unmet_inputs({"estimator", "reference_gen", "motion_opt", "wbc"});
+  const auto unmet = unmet_inputs({"estimator", "planner", "reference_gen", "motion_opt", "wbc"});
   ASSERT_EQ(unmet.size(), 1U);
   EXPECT_NE(unmet[0].find("estimator reads ROBOT_SENSORS"), std::string::npos) << unmet[0];
-  // The wbc alone lacks its state; its optional inputs are not demanded.
+  // The wbc alone lacks its state and its plan; its optional inputs are not demanded.
   const auto wbc = unmet_inputs({"wbc"});
-  ASSERT_EQ(wbc.size(), 1U);
+  ASSERT_EQ(wbc.size(), 2U);
   EXPECT_NE(wbc[0].find("ROBOT_STATE"), std::string::npos);
+  EXPECT_NE(wbc[1].find("wbc reads BALANCE_PLAN"), std::string::npos) << wbc[1];
 }
 
 TEST(DataFlow, TheComposedControllersReadWhatTheirComponentsReadFromOutsideAndWriteWhatTheyWrite) {
-  std::set<std::string_view> four;
-  for (const char* n : {"estimator", "reference_gen", "motion_opt", "wbc"}) {
+  std::set<std::string_view> five;
+  for (const char* n : {"estimator", "planner", "reference_gen", "motion_opt", "wbc"}) {
     const Ports* p = find_process(n);
     ASSERT_NE(p, nullptr) << n;
-    four.insert(p->writes.begin(), p->writes.end());
+    five.insert(p->writes.begin(), p->writes.end());
   }
   const Ports* c = find_process("controllers");
   ASSERT_NE(c, nullptr);
-  EXPECT_EQ(std::set<std::string_view>(c->writes.begin(), c->writes.end()), four);
-  // From outside: the sensors it steps on, and the operator's requests (the wbc's and motion_opt's).
+  EXPECT_EQ(std::set<std::string_view>(c->writes.begin(), c->writes.end()), five);
+  EXPECT_EQ(five.count("BALANCE_PLAN"), 1U);
+  // From outside: the sensors it steps on, and the operator's requests (the planner's and the wbc's).
   ASSERT_EQ(c->reads.size(), 2U);
   EXPECT_EQ(c->reads[0].channel, "ROBOT_SENSORS");
   EXPECT_TRUE(c->reads[0].trigger);
   EXPECT_FALSE(c->reads[0].optional);
   EXPECT_EQ(c->reads[1].channel, "OPERATOR");
   EXPECT_TRUE(c->reads[1].optional);
-  EXPECT_NE(c->reads[1].use.find("motion_opt: support requests"), std::string_view::npos) << c->reads[1].use;
+  EXPECT_NE(c->reads[1].use.find("planner: support requests"), std::string_view::npos) << c->reads[1].use;
   EXPECT_NE(c->reads[1].use.find("wbc: enable, damp, stop"), std::string_view::npos) << c->reads[1].use;
   EXPECT_EQ(read_of("reference_gen", "BALANCE_STATUS").tick_offset, -1);  // the paper's one-period lag
+  // motion_opt and the wbc follow the plan of their own tick, and need it.
+  for (const char* n : {"motion_opt", "wbc"}) {
+    EXPECT_EQ(read_of(n, "BALANCE_PLAN").tick_offset, 0) << n;
+    EXPECT_FALSE(read_of(n, "BALANCE_PLAN").optional) << n;
+  }
+  EXPECT_THROW((void)read_of("motion_opt", "OPERATOR"), std::invalid_argument) << "support requests are the planner's";
   EXPECT_THROW((void)read_of("wbc", "CAM_REFERENCE"), std::invalid_argument);
   EXPECT_EQ(find_process("lcm_recorder"), nullptr);
 }
@@ -109,7 +117,8 @@ TEST(DataFlow, ComposingPassesWhatThePartsWriteAndMergesWhatTheyReadAlike) {
 // Every declared channel of every process is one of the stack's channels.
 TEST(DataFlow, TheDeclaredGraphNamesOnlyTheStacksChannels) {
   namespace channels = hpr::msg::channels;
-  const std::vector<std::string_view> known = {channels::kRobotSensors.name, channels::kRobotState.name,  channels::kCamReference.name,
+  const std::vector<std::string_view> known = {channels::kRobotSensors.name, channels::kRobotState.name,  channels::kBalancePlan.name,
+                                               channels::kCamReference.name,
                                                channels::kWholebodyCommand.name, channels::kJointCommand.name, channels::kBalanceStatus.name,
                                                channels::kSimTruth.name,      channels::kHalStatus.name,   channels::kPush.name,
                                                channels::kOperator.name};

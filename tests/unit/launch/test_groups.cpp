@@ -56,9 +56,11 @@ TEST(Groups, EveryRobotGroupIsAClosedDataFlow) {
     EXPECT_TRUE(c->critical);
     EXPECT_EQ(f.group(g).find("wbc"), nullptr) << g;
   }
-  EXPECT_EQ(hpr::graph::unmet_inputs({"estimator", "wbc", "reference_gen", "motion_opt"}).size(), 1U);
+  EXPECT_EQ(hpr::graph::unmet_inputs({"estimator", "planner", "wbc", "reference_gen", "motion_opt"}).size(), 1U);
+  // Without the planner, motion_opt and the wbc have no plan to follow.
+  EXPECT_EQ(hpr::graph::unmet_inputs({"sim_bullet", "estimator", "wbc", "reference_gen", "motion_opt"}).size(), 2U);
   // The true state needs a simulator: on the hal's sensors it lacks SIM_TRUTH.
-  EXPECT_EQ(hpr::graph::unmet_inputs({"hal", "truth_state", "wbc"}),
+  EXPECT_EQ(hpr::graph::unmet_inputs({"hal", "truth_state", "planner", "wbc"}),
             std::vector<std::string>{"truth_state reads SIM_TRUTH (the simulator's base, CoM and contacts of the same tick), which none "
                                      "of them writes"});
 }
@@ -67,7 +69,7 @@ TEST(Groups, ShippedFileHasEveryBackendWithTheSameControlProcesses) {
   const GroupsFile f = GroupsFile::load(std::string(HPR_SOURCE_DIR) + "/config/groups.yaml");
   for (const char* g : {"sim", "hil", "hardware"}) {
     const auto& group = f.group(g);
-    for (const char* c : {"estimator", "wbc", "reference_gen", "motion_opt"}) {
+    for (const char* c : {"estimator", "planner", "wbc", "reference_gen", "motion_opt"}) {
       const auto* p = group.find(c);
       ASSERT_NE(p, nullptr) << g << " lacks " << c;
       // Swapping the backend never changes the control processes' command line.
@@ -75,8 +77,9 @@ TEST(Groups, ShippedFileHasEveryBackendWithTheSameControlProcesses) {
       EXPECT_EQ(p->args.back(), std::string(HPR_SOURCE_DIR) + "/config/toro.yaml");
     }
     EXPECT_TRUE(group.find("wbc")->critical);
+    EXPECT_TRUE(group.find("planner")->critical);
     // The critical nodes are watched for hangs closely enough to damp within 100 ms.
-    for (const char* c : {"estimator", "wbc"}) {
+    for (const char* c : {"estimator", "planner", "wbc"}) {
       EXPECT_GT(group.find(c)->hung_after_s, 0.0) << g << "/" << c;
       EXPECT_LE(group.find(c)->hung_after_s, 0.05) << g << "/" << c;
     }
@@ -90,7 +93,7 @@ TEST(Groups, ShippedFileHasEveryBackendWithTheSameControlProcesses) {
   EXPECT_NE(f.group("hil").find("drive_emulator"), nullptr);
   EXPECT_NE(f.group("hardware").find("hal"), nullptr);
   // The backend starts first; each process after what it depends on.
-  EXPECT_EQ(names(f.group("hil")), (std::vector<std::string>{"drive_emulator", "hal", "estimator", "wbc", "reference_gen", "motion_opt"}));
+  EXPECT_EQ(names(f.group("hil")), (std::vector<std::string>{"drive_emulator", "hal", "estimator", "planner", "wbc", "reference_gen", "motion_opt"}));
   EXPECT_THROW((void)f.group("nonexistent"), std::invalid_argument);
 }
 

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "hpr/msg/balance.hpp"
+#include "hpr/msg/plan.hpp"
 #include "hpr/msg/robot_io.hpp"
 #include "hpr/msg/sim_truth.hpp"
 #include "hpr/msg/state.hpp"
@@ -42,6 +43,76 @@ class Channels : public ::testing::Test {
   Eigen::Quaterniond unit_quaternion() { return Eigen::Quaterniond(Eigen::Vector4d(r(), r(), r(), r()).normalized()); }
   /// Microseconds, as the messages carry times.
   double time() { return static_cast<double>(std::uniform_int_distribution<long>(0, 100'000'000)(rng)) * 1e-6; }
+  /// A task reference with every field set (one free joint, `still` the foot out of contact, a step under way).
+  balance::TaskReference task_reference(balance::Support support, int still, double load_limit) {
+    balance::TaskReference t;
+    t.time = time();
+    t.support = support;
+    fill(t.p_com);
+    fill(t.v_com);
+    fill(t.a_com);
+    t.R_base = unit_quaternion().toRotationMatrix();
+    fill(t.omega_base);
+    fill(t.omegadot_base);
+    for (auto& f : t.feet) {
+      fill(f.X_WS.p);
+      f.X_WS.R = unit_quaternion().toRotationMatrix();
+      fill(f.twist);
+      fill(f.accel);
+      f.load_limit = load_limit;
+    }
+    t.feet[static_cast<size_t>(still)].contact = false;
+    t.q_free = t.qd_free = t.qdd_free = Eigen::VectorXd::Zero(1);
+    fill(t.q_free);
+    fill(t.qd_free);
+    fill(t.qdd_free);
+    balance::StepStatus& st = t.stepping;
+    st.enabled = true;
+    fill(st.xi_W);
+    st.excess = r();
+    st.swing = still;
+    fill(st.target_W);
+    st.target_yaw = r();
+    st.time_left = 0.21;
+    st.steps_taken = 3;
+    st.follow_steps = 1;
+    return t;
+  }
+  /// `g` is `t` to the bit, but its orientations, which agree to `rotation_tolerance` (0: to the bit).
+  static void expect_same_task(const balance::TaskReference& g, const balance::TaskReference& t, double rotation_tolerance) {
+    const auto same_rotation = [&](const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
+      return rotation_tolerance == 0.0 ? a == b : a.isApprox(b, rotation_tolerance);
+    };
+    EXPECT_EQ(g.time, t.time);
+    EXPECT_EQ(g.support, t.support);
+    EXPECT_EQ(g.p_com, t.p_com);
+    EXPECT_EQ(g.v_com, t.v_com);
+    EXPECT_EQ(g.a_com, t.a_com);
+    EXPECT_TRUE(same_rotation(g.R_base, t.R_base));
+    EXPECT_EQ(g.omega_base, t.omega_base);
+    EXPECT_EQ(g.omegadot_base, t.omegadot_base);
+    for (size_t f = 0; f < 2; ++f) {
+      EXPECT_EQ(g.feet[f].X_WS.p, t.feet[f].X_WS.p);
+      EXPECT_TRUE(same_rotation(g.feet[f].X_WS.R, t.feet[f].X_WS.R)) << "foot " << f;
+      EXPECT_EQ(g.feet[f].twist, t.feet[f].twist);
+      EXPECT_EQ(g.feet[f].accel, t.feet[f].accel);
+      EXPECT_EQ(g.feet[f].contact, t.feet[f].contact);
+      EXPECT_EQ(g.feet[f].load_limit, t.feet[f].load_limit);
+    }
+    EXPECT_EQ(g.q_free, t.q_free);
+    EXPECT_EQ(g.qd_free, t.qd_free);
+    EXPECT_EQ(g.qdd_free, t.qdd_free);
+    const balance::StepStatus &gs = g.stepping, &ts = t.stepping;
+    EXPECT_EQ(gs.enabled, ts.enabled);
+    EXPECT_EQ(gs.xi_W, ts.xi_W);
+    EXPECT_EQ(gs.excess, ts.excess);
+    EXPECT_EQ(gs.swing, ts.swing);
+    EXPECT_EQ(gs.target_W, ts.target_W);
+    EXPECT_EQ(gs.target_yaw, ts.target_yaw);
+    EXPECT_EQ(gs.time_left, ts.time_left);
+    EXPECT_EQ(gs.steps_taken, ts.steps_taken);
+    EXPECT_EQ(gs.follow_steps, ts.follow_steps);
+  }
 
   std::mt19937 rng{42};
   std::uniform_real_distribution<double> dist{-3.0, 3.0};
@@ -159,27 +230,7 @@ TEST_F(Channels, RobotStateArrivesUnchanged) {
 TEST_F(Channels, WholebodyCommandArrivesUnchanged) {
   balance::WholebodyCommand c;
   c.tick = 99;
-  balance::TaskReference& t = c.command;
-  t.time = time();
-  t.support = balance::Support::kLeft;
-  fill(t.p_com);
-  fill(t.v_com);
-  fill(t.a_com);
-  t.R_base = unit_quaternion().toRotationMatrix();
-  fill(t.omega_base);
-  fill(t.omegadot_base);
-  for (auto& f : t.feet) {
-    fill(f.X_WS.p);
-    f.X_WS.R = unit_quaternion().toRotationMatrix();
-    fill(f.twist);
-    fill(f.accel);
-    f.load_limit = 0.3;
-  }
-  t.feet[1].contact = false;
-  t.q_free = t.qd_free = t.qdd_free = Eigen::VectorXd::Zero(1);
-  fill(t.q_free);
-  fill(t.qd_free);
-  fill(t.qdd_free);
+  c.command = task_reference(balance::Support::kLeft, 1, 0.3);
   fill(c.l_cmd);
   fill(c.ldot_cmd);
   fill(c.l_ref);
@@ -190,16 +241,6 @@ TEST_F(Channels, WholebodyCommandArrivesUnchanged) {
   }
   c.segment_names = {"trunk", "right_arm"};
   c.segment_l = {Eigen::Vector3d(r(), r(), r()), Eigen::Vector3d(r(), r(), r())};
-  balance::StepStatus& st = t.stepping;
-  st.enabled = true;
-  fill(st.xi_W);
-  st.excess = 0.012;
-  st.swing = 1;
-  fill(st.target_W);
-  st.target_yaw = 0.3;
-  st.time_left = 0.21;
-  st.steps_taken = 2;
-  st.follow_steps = 1;
   c.posture_error = 0.25;
   c.qp_status = 3;
   c.qp_iterations = 4;
@@ -210,27 +251,8 @@ TEST_F(Channels, WholebodyCommandArrivesUnchanged) {
   msg::to_message(c, free_names, names, m);
   balance::WholebodyCommand got;
   ASSERT_EQ(msg::from_message(through_bytes(m), free_names, got), "");
-  const balance::TaskReference& g = got.command;
   EXPECT_EQ(got.tick, c.tick);
-  EXPECT_EQ(g.time, t.time);
-  EXPECT_EQ(g.support, t.support);
-  EXPECT_EQ(g.p_com, t.p_com);
-  EXPECT_EQ(g.v_com, t.v_com);
-  EXPECT_EQ(g.a_com, t.a_com);
-  EXPECT_TRUE(g.R_base.isApprox(t.R_base, 1e-15));  // travels as a quaternion
-  EXPECT_EQ(g.omega_base, t.omega_base);
-  EXPECT_EQ(g.omegadot_base, t.omegadot_base);
-  for (size_t f = 0; f < 2; ++f) {
-    EXPECT_EQ(g.feet[f].X_WS.p, t.feet[f].X_WS.p);
-    EXPECT_TRUE(g.feet[f].X_WS.R.isApprox(t.feet[f].X_WS.R, 1e-15));
-    EXPECT_EQ(g.feet[f].twist, t.feet[f].twist);
-    EXPECT_EQ(g.feet[f].accel, t.feet[f].accel);
-    EXPECT_EQ(g.feet[f].contact, t.feet[f].contact);
-    EXPECT_EQ(g.feet[f].load_limit, t.feet[f].load_limit);
-  }
-  EXPECT_EQ(g.q_free, t.q_free);
-  EXPECT_EQ(g.qd_free, t.qd_free);
-  EXPECT_EQ(g.qdd_free, t.qdd_free);
+  expect_same_task(got.command, c.command, 1e-15);  // orientations travel as quaternions
   EXPECT_EQ(got.l_cmd, c.l_cmd);
   EXPECT_EQ(got.ldot_cmd, c.ldot_cmd);
   EXPECT_EQ(got.l_ref, c.l_ref);
@@ -244,15 +266,6 @@ TEST_F(Channels, WholebodyCommandArrivesUnchanged) {
   EXPECT_EQ(got.segment_names, c.segment_names);
   ASSERT_EQ(got.segment_l.size(), 2U);
   EXPECT_EQ(got.segment_l[1], c.segment_l[1]);
-  EXPECT_TRUE(g.stepping.enabled);
-  EXPECT_EQ(g.stepping.xi_W, st.xi_W);
-  EXPECT_EQ(g.stepping.excess, st.excess);
-  EXPECT_EQ(g.stepping.swing, st.swing);
-  EXPECT_EQ(g.stepping.target_W, st.target_W);
-  EXPECT_EQ(g.stepping.target_yaw, st.target_yaw);
-  EXPECT_EQ(g.stepping.time_left, st.time_left);
-  EXPECT_EQ(g.stepping.steps_taken, st.steps_taken);
-  EXPECT_EQ(g.stepping.follow_steps, st.follow_steps);
   EXPECT_EQ(got.posture_error, c.posture_error);
   EXPECT_EQ(got.qp_status, c.qp_status);
   EXPECT_EQ(got.qp_iterations, c.qp_iterations);
@@ -272,6 +285,58 @@ TEST_F(Channels, WholebodyCommandArrivesUnchanged) {
   EXPECT_EQ(msg::from_message(m, free_names, got), "step_foot 2 is no foot (-1, 0 or 1)");
   m.step_foot = -1;
   EXPECT_EQ(msg::from_message(m, free_names, got), "");
+}
+
+// BALANCE_PLAN carries every number of the plan bit for bit (its rotations as matrices: a
+// quaternion's round trip is not exact), so that motion_opt and the wbc of separate processes
+// follow the very plan the planner made, as composed; a rotation that is not one is refused.
+TEST_F(Channels, BalancePlanArrivesBitForBit) {
+  balance::BalancePlan p;
+  p.tick = 321;
+  p.stage = balance::PlanStage::kStepSwing;
+  fill(p.f_ext_W);
+  p.reference = task_reference(balance::Support::kRight, 0, 0.7);
+  p.reference.settled = true;
+  const balance::TaskReference& t = p.reference;
+  humanoid::balance_plan_t m{};
+  msg::to_message(p, free_names, names, m);
+  balance::BalancePlan got;
+  ASSERT_EQ(msg::from_message(through_bytes(m), free_names, got), "");
+  EXPECT_EQ(got.tick, p.tick);
+  EXPECT_EQ(got.stage, p.stage);
+  EXPECT_EQ(got.f_ext_W, p.f_ext_W);
+  EXPECT_TRUE(got.reference.settled);
+  expect_same_task(got.reference, t, 0.0);  // bit for bit, the orientations too
+  // Through a WHOLEBODY_COMMAND's quaternion the same base orientation is only equal to rounding:
+  // what the plan's own channel avoids.
+  balance::WholebodyCommand wc;
+  wc.command = t;
+  humanoid::wholebody_command_t wm{};
+  msg::to_message(wc, free_names, names, wm);
+  balance::WholebodyCommand wgot;
+  ASSERT_EQ(msg::from_message(wm, free_names, wgot), "");
+  EXPECT_LT((wgot.command.R_base - t.R_base).norm(), 1e-14);
+
+  // Refused whole, with the reason.
+  const auto refused = [&](auto&& spoil) {
+    humanoid::balance_plan_t bad = m;
+    spoil(bad);
+    return msg::from_message(bad, free_names, got);
+  };
+  EXPECT_EQ(refused([](auto& b) { b.R_WB[0][0] += 1e-6; }).rfind("base orientation is not a rotation", 0), 0U);
+  EXPECT_EQ(refused([](auto& b) {
+              for (int j = 0; j < 3; ++j) b.R_WB[2][j] = -b.R_WB[2][j];
+            }).rfind("base orientation is a reflection", 0),
+            0U);
+  EXPECT_EQ(refused([](auto& b) { b.R_WF[1][4] = std::nan(""); }), "left non-finite sole orientation");
+  EXPECT_EQ(refused([](auto& b) { b.stage = 10; }), "unknown stage 10");
+  EXPECT_EQ(refused([](auto& b) { b.support = 3; }), "unknown support 3");
+  EXPECT_EQ(refused([](auto& b) { b.f_ext_W[0] = INFINITY; }), "non-finite external force");
+  EXPECT_EQ(refused([](auto& b) { b.foot_load_limit[0] = 1.5; }), "right foot's load limit 1.5 is not in [0, 1]");
+  EXPECT_EQ(refused([](auto& b) { b.p_WCom[2] = std::nan(""); }), "non-finite value");
+  EXPECT_EQ(refused([](auto& b) { b.step_foot = 2; }), "step_foot 2 is no foot (-1, 0 or 1)");
+  EXPECT_NE(msg::from_message(m, {"elbow"}, got), "") << "another robot's free joints";
+  EXPECT_EQ(got.tick, p.tick) << "a refused plan leaves the last one as it was";
 }
 
 TEST_F(Channels, BalanceStatusArrivesUnchanged) {

@@ -206,7 +206,7 @@ TEST(SourceIdentity, OutputsStampTheProcessIdentityOnEveryClockedType) {
     EXPECT_EQ(hpr::test::encode(decoded), hpr::test::encode(original)) << name << ": another field changed";
   });
   EXPECT_EQ(sourced, (std::vector<std::string>{"ROBOT_SENSORS", "ROBOT_STATE", "BALANCE_STATUS", "CAM_REFERENCE", "WHOLEBODY_COMMAND",
-                                               "JOINT_COMMAND", "SIM_TRUTH", "HAL_STATUS"}));
+                                               "JOINT_COMMAND", "SIM_TRUTH", "HAL_STATUS", "BALANCE_PLAN"}));
 }
 
 TEST_F(TickStream, ASourceThatJumpedAheadIsFollowedOnceTheOldStreamIsQuiet) {

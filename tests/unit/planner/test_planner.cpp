@@ -48,9 +48,9 @@ TEST(BalancePlanner, PlansFromTheFirstUsableEstimateAndGoesOnWithoutOne) {
   planner.step({s}, out);
   ASSERT_TRUE(out.valid);
   EXPECT_EQ(out.report.outcome, StepOutcome::kRunning);
-  EXPECT_LT((out.plan.p_com - c_measured).norm(), 1e-9);
-  EXPECT_EQ(out.plan.time, s.time);
-  EXPECT_EQ(out.stage, "init");
+  EXPECT_LT((out.plan.reference.p_com - c_measured).norm(), 1e-9);
+  EXPECT_EQ(out.plan.reference.time, s.time);
+  EXPECT_EQ(out.plan.stage, balance::PlanStage::kInit);
 
   // Unusable estimates from here on: the plan goes on in time and reaches the held posture, whose
   // CoM lies over the middle of the soles (they moved with the base: 2 cm to the side).
@@ -62,12 +62,12 @@ TEST(BalancePlanner, PlansFromTheFirstUsableEstimateAndGoesOnWithoutOne) {
     planner.step({s}, out);
     ASSERT_TRUE(out.valid) << "tick " << k;
   }
-  EXPECT_EQ(out.plan.time, 1.0);
-  EXPECT_EQ(out.stage, "hold");
-  EXPECT_TRUE(out.plan.settled);
-  const Eigen::Vector3d mid = 0.5 * (out.plan.feet[model::kRight].X_WS.p + out.plan.feet[model::kLeft].X_WS.p);
-  EXPECT_NEAR(out.plan.p_com.y(), mid.y(), 1e-9);
-  EXPECT_LT(out.plan.v_com.norm(), 1e-9);
+  EXPECT_EQ(out.plan.reference.time, 1.0);
+  EXPECT_EQ(out.plan.stage, balance::PlanStage::kHold);
+  EXPECT_TRUE(out.plan.reference.settled);
+  const Eigen::Vector3d mid = 0.5 * (out.plan.reference.feet[model::kRight].X_WS.p + out.plan.reference.feet[model::kLeft].X_WS.p);
+  EXPECT_NEAR(out.plan.reference.p_com.y(), mid.y(), 1e-9);
+  EXPECT_LT(out.plan.reference.v_com.norm(), 1e-9);
 
   // A clock that restarted: no plan until a usable estimate, which starts it again from there.
   planner.reset();
@@ -79,7 +79,7 @@ TEST(BalancePlanner, PlansFromTheFirstUsableEstimateAndGoesOnWithoutOne) {
   s = standing_estimate(robot, 0.001);
   planner.step({s}, out);
   ASSERT_TRUE(out.valid);
-  EXPECT_LT((out.plan.p_com - model::center_of_mass(robot.model, data, s.q)).norm(), 1e-9);
+  EXPECT_LT((out.plan.reference.p_com - model::center_of_mass(robot.model, data, s.q)).norm(), 1e-9);
 }
 
 TEST(BalancePlanner, ASupportRequestPutsTheCoMOverTheStanceSoleAndLiftsTheOtherFoot) {
@@ -94,15 +94,15 @@ TEST(BalancePlanner, ASupportRequestPutsTheCoMOverTheStanceSoleAndLiftsTheOtherF
   };
   run_until(0.5);
   ASSERT_TRUE(out.valid);
-  EXPECT_EQ(out.plan.support, balance::Support::kDouble);
+  EXPECT_EQ(out.plan.reference.support, balance::Support::kDouble);
   planner.request_support(balance::Support::kRight, t);
   run_until(0.5 + config.shift_time + config.lift_time + 0.2);
-  EXPECT_EQ(out.plan.support, balance::Support::kRight);
-  EXPECT_TRUE(out.plan.feet[model::kRight].contact);
-  EXPECT_FALSE(out.plan.feet[model::kLeft].contact);
-  EXPECT_NEAR(out.plan.feet[model::kLeft].X_WS.p.z() - out.plan.feet[model::kRight].X_WS.p.z(), config.lift_height, 1e-9);
-  const Eigen::Vector3d& stance = out.plan.feet[model::kRight].X_WS.p;
-  EXPECT_LT((out.plan.p_com.head<2>() - stance.head<2>()).norm(), 0.02) << "the CoM over the stance sole";
+  EXPECT_EQ(out.plan.reference.support, balance::Support::kRight);
+  EXPECT_TRUE(out.plan.reference.feet[model::kRight].contact);
+  EXPECT_FALSE(out.plan.reference.feet[model::kLeft].contact);
+  EXPECT_NEAR(out.plan.reference.feet[model::kLeft].X_WS.p.z() - out.plan.reference.feet[model::kRight].X_WS.p.z(), config.lift_height, 1e-9);
+  const Eigen::Vector3d& stance = out.plan.reference.feet[model::kRight].X_WS.p;
+  EXPECT_LT((out.plan.reference.p_com.head<2>() - stance.head<2>()).norm(), 0.02) << "the CoM over the stance sole";
 }
 
 }  // namespace

@@ -415,7 +415,7 @@ TEST(Wbc, CommandsStayWithinTheJointLimits) {
 }
 
 // The wbc process waits for the motion optimiser's command exactly when the component will use it
-// (uses_wholebody), so the processes and the composed pipeline step on the same inputs: the
+// (balances), so the processes and the composed pipeline step on the same inputs: the
 // predicate must agree with what step() then does, tick by tick, over a start without an estimate,
 // balancing, a run of unusable estimates up to the bad-state damp, recovery and an operator damp.
 TEST(WbcComponent, UsesTheMotionOptimisersCommandExactlyWhenItBalances) {
@@ -451,11 +451,11 @@ TEST(WbcComponent, UsesTheMotionOptimisersCommandExactlyWhenItBalances) {
     s.time = 0.001 * static_cast<double>(k);
     s.status = status;
     wbc.set_damping(damp);
-    const bool uses = wbc.uses_wholebody(s, planner.will_plan(s));
+    const bool uses = wbc.balances(s, planner.will_plan(s));
     planner.step({s}, plan);
     EXPECT_EQ(plan.valid, k > 0) << "tick " << k << ": the first usable estimate starts the plan";
     wbc.step({.state = s,
-              .plan = OptionalRef<balance::TaskReference>::when(plan.valid, plan.plan),
+              .plan = plan.reference(),
               .wholebody = OptionalRef<balance::TaskReference>::when(uses, wholebody)},
              out);
     EXPECT_EQ(out.mode == wbc::WbcComponent::Mode::kBalance, balances) << "tick " << k;
@@ -467,6 +467,45 @@ TEST(WbcComponent, UsesTheMotionOptimisersCommandExactlyWhenItBalances) {
     const StepOutcome expected = balances ? StepOutcome::kRunning : k == 0 ? StepOutcome::kNotReady : StepOutcome::kDamping;
     EXPECT_EQ(out.report.outcome, expected) << "tick " << k;
   }
+}
+
+// Without a plan the wbc damps: not ready before the first plan; once a plan has come and is
+// lost (the planner stopped), damping, with the reason; a plan again, balancing again.
+TEST(WbcComponent, DampsWithoutAPlanAndSaysWhetherItWasLost) {
+  const auto robot = test::load_robot("toro");
+  const Config cfg = Config::load(test::source_dir() + "/config/toro.yaml");
+  wbc::WbcComponent wbc(robot, wbc::WbcConfig::load(cfg.section("wbc"), robot));
+  balance::PostureReference pref(robot, {});
+  pref.start(robot.standing_configuration(), 0.0);
+  const balance::TaskReference plan = pref.update(0.0);
+  EstimatedState s;
+  s.q = robot.standing_configuration();
+  s.v = VectorXd::Zero(robot.model.nv);
+  wbc::WbcComponent::Outputs out;
+  const auto step = [&](std::int64_t k, bool planned) {
+    s.tick = k;
+    s.time = 0.001 * static_cast<double>(k);
+    wbc.step({.state = s, .plan = OptionalRef<balance::TaskReference>::when(planned, plan), .wholebody = {}}, out);
+  };
+  step(0, false);
+  EXPECT_EQ(out.mode, wbc::WbcComponent::Mode::kDampNoState);
+  EXPECT_EQ(out.command.mode, JointCommand::Mode::kDamp);
+  EXPECT_EQ(out.report.outcome, StepOutcome::kNotReady);
+  EXPECT_EQ(out.report.fault("damping").message(), "no balance plan yet (ROBOT_STATE status 0)");
+  step(1, true);
+  EXPECT_EQ(out.mode, wbc::WbcComponent::Mode::kBalance);
+  EXPECT_EQ(out.report.outcome, StepOutcome::kRunning);
+  step(2, false);
+  EXPECT_EQ(out.mode, wbc::WbcComponent::Mode::kDampNoState);
+  EXPECT_EQ(out.command.mode, JointCommand::Mode::kDamp);
+  EXPECT_EQ(out.report.outcome, StepOutcome::kDamping) << "a lost plan is no start";
+  EXPECT_EQ(out.report.fault("damping").message(), "BALANCE_PLAN stale: no plan to follow");
+  step(3, true);
+  EXPECT_EQ(out.mode, wbc::WbcComponent::Mode::kBalance);
+  EXPECT_TRUE(out.report.fault("damping").change == StepReport::Change::kCleared);
+  wbc.reset();
+  step(4, false);
+  EXPECT_EQ(out.report.outcome, StepOutcome::kNotReady) << "after a reset, waiting for the first plan again";
 }
 
 }  // namespace

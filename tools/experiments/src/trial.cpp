@@ -300,8 +300,9 @@ TrialResult run_trial(const TrialSpec& spec, const std::function<void(const std:
     // what it has not written yet rather than dropping it.
     group.start("lcm_recorder", {spec.log_file, "--force", "--quiet", "--lcm-url", group.lcm_url()}, {}, work + "/lcm_recorder.log");
   }
-  std::vector<std::string> nodes = {"estimator", "wbc"};
+  std::vector<std::string> nodes = {"estimator", "planner", "wbc"};
   group.start("estimator", with({}), {}, work + "/estimator.log");
+  group.start("planner", with({}), {}, work + "/planner.log");
   if (spec.strategy == Strategy::kCam) {
     group.start("wbc", with({}), {}, work + "/wbc.log");
     group.start("reference_gen", with({}), {}, work + "/reference_gen.log");

@@ -27,6 +27,7 @@ const CAM_SCALE = 0.25;    // [m per N m s]
 const PUSH_SCALE = 1 / 150; // [m per N]
 const PHASES = ['idle', 'generate', 'reduce', 'recover'];
 const SUPPORT = ['double', 'left', 'right'];
+const STAGES = ['init', 'hold', 'shift', 'lift', 'lower', 'shift back', 'step unload', 'step swing', 'step settle', 'step recover'];  // BALANCE_PLAN.stage
 const STATES = ['starting', 'ok', 'degraded', 'FAULT', 'stopping'];
 
 // ---------------------------------------------------------------------------------------------
@@ -132,7 +133,7 @@ const soleLines = [0, 1].map(() => {
   scene.add(l);
   return l;
 });
-// The stepping strategy (WHOLEBODY_COMMAND): the capture point it watches (a diamond on the
+// The stepping strategy (BALANCE_PLAN; WHOLEBODY_COMMAND carries it too): the capture point it watches (a diamond on the
 // ground, red once a step is due) and the landing of the step under way (the sole's outline,
 // filled translucent).
 // Both are drawn in the transparent pass, after the support polygon, so that its tint stays off them.
@@ -328,7 +329,7 @@ function draw() {
     supportMesh.geometry = new THREE.ShapeGeometry(shape);
     supportMesh.position.z = 0.001;
   }
-  drawStepping(wb);
+  drawStepping(ch.BALANCE_PLAN ?? wb);
   // CoP: measured (disc) and commanded (ring), from the virtual stance foot frame.
   copMarker.visible = copCmdMarker.visible = !!bal;
   if (bal) {
@@ -338,17 +339,17 @@ function draw() {
   drawStatus();
 }
 
-function drawStepping(wb) {
-  const on = !!(wb?.stepping && wb.xi_W?.every((x) => x !== null));
+function drawStepping(plan) {
+  const on = !!(plan?.stepping && plan.xi_W?.every((x) => x !== null));
   captureMarker.visible = on;
-  stepOutline.visible = on && wb.step_foot >= 0 && wb.step_foot < info.feet.length && wb.step_target_W.every((x) => x !== null);
+  stepOutline.visible = on && plan.step_foot >= 0 && plan.step_foot < info.feet.length && plan.step_target_W.every((x) => x !== null);
   if (!on) return;
-  captureMarker.position.set(wb.xi_W[0], wb.xi_W[1], 0.004);
-  captureMarker.material.color.setHex(wb.xi_excess > 0 ? COLORS.push : COLORS.capture);
+  captureMarker.position.set(plan.xi_W[0], plan.xi_W[1], 0.004);
+  captureMarker.material.color.setHex(plan.xi_excess > 0 ? COLORS.push : COLORS.capture);
   if (stepOutline.visible) {
-    const foot = info.feet[wb.step_foot];
-    stepOutline.position.set(wb.step_target_W[0], wb.step_target_W[1], 0.003);
-    stepOutline.rotation.set(0, 0, wb.step_target_W[2]);
+    const foot = info.feet[plan.step_foot];
+    stepOutline.position.set(plan.step_target_W[0], plan.step_target_W[1], 0.003);
+    stepOutline.rotation.set(0, 0, plan.step_target_W[2]);
     stepOutline.scale.set(foot.length, foot.width, 1);
   }
 }
@@ -378,7 +379,12 @@ function drawStatus() {
   parts.push(`support ${bal ? SUPPORT[bal.support] ?? bal.support : '–'}`);
   if (cam) parts.push(`phase x ${PHASES[cam.phase[0]]}, y ${PHASES[cam.phase[1]]}, z ${PHASES[cam.phase[2]]}`);
   if (truth?.push_active) parts.push(`push ${fmt(Math.hypot(...truth.push_force_W), 0)} N`);
-  const wb = ch.WHOLEBODY_COMMAND;
+  const plan = ch.BALANCE_PLAN;
+  if (plan) {
+    const f = Math.hypot(plan.f_ext_W[0] ?? 0, plan.f_ext_W[1] ?? 0);
+    parts.push(`plan ${STAGES[plan.stage] ?? plan.stage}${f >= 1 ? `, resisting ${fmt(f, 0)} N` : ''}`);
+  }
+  const wb = plan ?? ch.WHOLEBODY_COMMAND;
   if (wb?.stepping) {
     parts.push(wb.follow_steps ? `steps ${wb.steps_taken} (${wb.follow_steps} closing up)` : `steps ${wb.steps_taken}`);
     if (wb.step_foot >= 0) parts.push(`${info.feet[wb.step_foot]?.side ?? wb.step_foot} foot lands in ${fmt(wb.step_time_left, 2)} s`);

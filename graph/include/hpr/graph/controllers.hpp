@@ -8,13 +8,12 @@
 ///
 /// Per tick k:
 ///   estimate(ROBOT_SENSORS k)                                  → ROBOT_STATE k
-///   planner(ROBOT_STATE k)                                     → the balance plan k
+///   planner(ROBOT_STATE k)                                     → BALANCE_PLAN k
 ///   reference_gen(ROBOT_STATE k, BALANCE_STATUS k−1, WHOLEBODY_COMMAND k−1) → CAM_REFERENCE k
-///   motion_opt(ROBOT_STATE k, plan k, CAM_REFERENCE k)         → WHOLEBODY_COMMAND k
-///   wbc(ROBOT_STATE k, plan k, WHOLEBODY_COMMAND k)             → JOINT_COMMAND k, BALANCE_STATUS k
-/// The plan is stepped once and handed to both (each of their processes steps a planner of its own
-/// on the same state: the same plan).
+///   motion_opt(ROBOT_STATE k, BALANCE_PLAN k, CAM_REFERENCE k) → WHOLEBODY_COMMAND k
+///   wbc(ROBOT_STATE k, BALANCE_PLAN k, WHOLEBODY_COMMAND k)    → JOINT_COMMAND k, BALANCE_STATUS k
 
+#include <humanoid/balance_plan_t.hpp>
 #include <humanoid/balance_status_t.hpp>
 #include <humanoid/cam_reference_t.hpp>
 #include <humanoid/joint_command_t.hpp>
@@ -92,20 +91,23 @@ class Controllers {
   [[nodiscard]] const ControllersOptions& options() const { return options_; }
 
   // What each component made in the last tick.
-  [[nodiscard]] const planner::BalancePlanner::Outputs& plan() const { return plan_out_; }  ///< the balance plan
+  [[nodiscard]] const balance::BalancePlan& plan() const { return plan_; }  ///< BALANCE_PLAN (when have_plan())
+  /// The planner made a BALANCE_PLAN this tick (a usable estimate has started it).
+  [[nodiscard]] bool have_plan() const { return plan_out_.valid; }
   [[nodiscard]] const balance::CamReference& cam() const { return reference_out_.reference; }  ///< CAM_REFERENCE
   [[nodiscard]] const balance::WholebodyCommand& wholebody() const { return motion_out_.wholebody; }  ///< WHOLEBODY_COMMAND
   /// motion_opt made a WHOLEBODY_COMMAND this tick.
   [[nodiscard]] bool have_wholebody() const { return have_wholebody_; }
   [[nodiscard]] const wbc::WbcComponent::Outputs& wbc_out() const { return wbc_out_; }  ///< JOINT_COMMAND, BALANCE_STATUS
   /// The reports of the components that stepped in the last tick, in the data flow's order
-  /// (estimator, reference_gen, motion_opt, wbc): a composed process applies them to its HEALTH as
-  /// the separate processes apply theirs.
+  /// (estimator, planner, reference_gen, motion_opt, wbc): a composed process applies them to its
+  /// HEALTH as the separate processes apply theirs.
   [[nodiscard]] std::span<const StepReport* const> reports() const { return {reports_.data(), n_reports_}; }
 
   /// The messages of the last tick (with `options().messages`).
   struct Messages {
     humanoid::robot_state_t state{};          ///< ROBOT_STATE
+    humanoid::balance_plan_t plan{};          ///< BALANCE_PLAN (when have_plan())
     humanoid::cam_reference_t cam{};          ///< CAM_REFERENCE (with cam)
     humanoid::wholebody_command_t wholebody{};  ///< WHOLEBODY_COMMAND (when have_wholebody())
     humanoid::joint_command_t command{};      ///< JOINT_COMMAND
@@ -146,13 +148,14 @@ class Controllers {
   motion_opt::MotionOptComponent::Outputs motion_out_;
   wbc::WbcComponent::Outputs wbc_out_;
   bool have_wholebody_ = false;
-  std::array<const StepReport*, 4> reports_{};
+  std::array<const StepReport*, 5> reports_{};
   std::size_t n_reports_ = 0;
   Messages messages_;
   StepTimes times_;
   // The channels as their receivers decode them.
   EstimatedState state_;            ///< ROBOT_STATE of the tick
   EstimatedState flagged_;          ///< the estimate with extra status bits
+  balance::BalancePlan plan_;       ///< BALANCE_PLAN of the tick
   balance::BalanceStatus balance_;  ///< BALANCE_STATUS of the previous tick
   bool have_balance_ = false;
   balance::CamReference cam_;

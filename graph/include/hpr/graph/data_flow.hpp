@@ -3,7 +3,7 @@
 /// The stack's data flow (README.md, "The processes"), gathered from the ports each process
 /// declares beside its component (hpr/common/ports.hpp): every process with the channels it reads
 /// and writes, in the order of one tick's data flow. The composed `controllers` process's ports are
-/// computed from its four components': it reads what they read and none of them writes, and writes
+/// computed from its five components': it reads what they read and none of them writes, and writes
 /// what they write. The supervisor checks a group against it (a process whose required input no
 /// process of the group writes), and replay_check compares the outputs it lists.
 
@@ -26,7 +26,7 @@ const Read& read_of(std::string_view process, std::string_view channel);
 /// writes (a trigger if any part steps on it, optional if every part can do without it; its use
 /// says which part reads it for what), and every channel they write.
 Ports composed(std::string_view name, std::span<const Ports> parts);
-/// The composed controllers process's ports: composed() of estimator, reference_gen, motion_opt, wbc.
+/// The composed controllers process's ports: composed() of estimator, planner, reference_gen, motion_opt, wbc.
 const Ports& controllers_ports();
 
 /// For processes run together (names of data_flow(); others are ignored): each required input

@@ -26,13 +26,13 @@ class MotionOptComponent {
   /// The motion_opt process's ports.
   static constexpr Read kReads[] = {
       {channel::kRobotState, 0, true, false, "the state it optimises from"},
-      {channel::kCamReference, 0, false, true, "l_c^ref (without it: the posture task only)"},
-      {channel::kOperator, 0, false, true, "support requests"}};
+      {channel::kBalancePlan, 0, false, false, "the task-space reference it optimises around"},
+      {channel::kCamReference, 0, false, true, "l_c^ref (without it: the posture task only)"}};
   static constexpr std::string_view kWrites[] = {channel::kWholebodyCommand};
   static constexpr Ports kPorts{"motion_opt", kReads, kWrites};
   struct Inputs {
     const EstimatedState& state;               ///< ROBOT_STATE of tick k
-    OptionalRef<balance::TaskReference> plan;  ///< the balance plan of tick k; empty: none yet
+    OptionalRef<balance::TaskReference> plan;  ///< BALANCE_PLAN of tick k; empty: none yet, or stale
     OptionalRef<balance::CamReference> cam;    ///< CAM_REFERENCE of tick k; empty when missing or stale
   };
   struct Outputs {

@@ -12,8 +12,10 @@
 #include <array>
 #include <string_view>
 
+#include "hpr/balance/ports.hpp"
 #include "hpr/balance/task_reference.hpp"
 #include "hpr/common/component.hpp"
+#include "hpr/common/ports.hpp"
 #include "hpr/common/robot_io.hpp"
 #include "hpr/model/robot.hpp"
 
@@ -24,15 +26,23 @@ class BalancePlanner {
   /// The component's tick (hpr/common/component.hpp). No faults of its own; not ready, with no
   /// plan, while no usable estimate has started the posture.
   static constexpr std::array<std::string_view, 0> kFaultKeys{};
+  /// The planner process's ports.
+  static constexpr Read kReads[] = {
+      {channel::kRobotState, 0, true, false, "the state it plans from"},
+      {channel::kOperator, 0, false, true, "support requests"}};
+  static constexpr std::string_view kWrites[] = {channel::kBalancePlan};
+  static constexpr Ports kPorts{"planner", kReads, kWrites};
   struct Inputs {
     const EstimatedState& state;  ///< ROBOT_STATE of tick k (an unusable one: the plan goes on without it)
   };
   struct Outputs {
-    balance::TaskReference plan;  ///< the task-space reference of tick k (when `valid`)
-    bool valid = false;           ///< a usable estimate has started the posture
-    Eigen::Vector2d f_ext_W = Eigen::Vector2d::Zero();  ///< F̂: the horizontal external force resisted [N]
-    std::string_view stage;       ///< what the plan is doing (PostureReference::stage_name)
+    balance::BalancePlan plan;  ///< BALANCE_PLAN of tick k (when `valid`)
+    bool valid = false;         ///< a usable estimate has started the posture
     StepReport report{kFaultKeys};
+    /// The task-space reference for the components that follow the plan; empty without one.
+    [[nodiscard]] OptionalRef<balance::TaskReference> reference() const {
+      return OptionalRef<balance::TaskReference>::when(valid, plan.reference);
+    }
   };
 
   BalancePlanner(const model::RobotSpec& robot, balance::PostureReferenceConfig config);

@@ -26,18 +26,19 @@ class WbcComponent {
   /// "contact_qp" (the contact QP failed: the last valid wrenches kept), "singular" (the task
   /// Jacobian singular: the last valid inverse kept) and "wholebody" (the motion optimiser's
   /// command, seen before, missing this tick: the balance plan); not ready while there is no
-  /// plan, damping while it damps.
+  /// plan (BALANCE_PLAN) yet, damping while it damps (a plan lost included).
   static constexpr std::array<std::string_view, 4> kFaultKeys{"damping", "contact_qp", "singular", "wholebody"};
   /// The wbc process's ports.
   static constexpr Read kReads[] = {
       {channel::kRobotState, 0, true, false, "the state it controls"},
+      {channel::kBalancePlan, 0, false, false, "the balance plan (without it: damps)"},
       {channel::kWholebodyCommand, 0, false, true, "the task-space command (without it: the balance plan)"},
-      {channel::kOperator, 0, false, true, "enable, damp, stop, support requests"}};
+      {channel::kOperator, 0, false, true, "enable, damp, stop"}};
   static constexpr std::string_view kWrites[] = {channel::kJointCommand, channel::kBalanceStatus};
   static constexpr Ports kPorts{"wbc", kReads, kWrites};
   struct Inputs {
     const EstimatedState& state;                    ///< ROBOT_STATE of tick k
-    OptionalRef<balance::TaskReference> plan;       ///< the balance plan of tick k; empty: none yet (damps)
+    OptionalRef<balance::TaskReference> plan;       ///< BALANCE_PLAN of tick k; empty: none yet, or stale (damps)
     OptionalRef<balance::TaskReference> wholebody;  ///< WHOLEBODY_COMMAND of tick k; empty: the plan
   };
   /// What the tick did.
@@ -63,10 +64,10 @@ class WbcComponent {
   /// The mode step() takes with state `s` and a plan (`planned`) or none: no plan, the
   /// operator's damp, `s` unusable for bad_state_ticks in a row, else balancing.
   [[nodiscard]] Mode mode_for(const EstimatedState& s, bool planned) const;
-  /// Whether step() with state `s` uses the motion optimiser's command (it balances). A node waits
-  /// for WHOLEBODY_COMMAND exactly then, so that the processes step on the same inputs as the
-  /// composed pipeline.
-  [[nodiscard]] bool uses_wholebody(const EstimatedState& s, bool planned) const {
+  /// Whether step() with state `s` balances, and so follows the plan and the motion optimiser's
+  /// command of the tick. A node waits for BALANCE_PLAN and WHOLEBODY_COMMAND exactly then, so that
+  /// the processes step on the same inputs as the composed pipeline.
+  [[nodiscard]] bool balances(const EstimatedState& s, bool planned) const {
     return mode_for(s, planned) == Mode::kBalance;
   }
   /// A damping command for `tick` (every joint: zero torque, damping gain kDampGain) without
@@ -92,6 +93,7 @@ class WbcComponent {
   bool damping_ = false;
   int bad_state_count_ = 0;
   bool had_wholebody_ = false;  ///< a command of the motion optimiser came since the start
+  bool had_plan_ = false;       ///< a plan came since the start (without one now: lost, damping)
 
   void report(const EstimatedState& s, const Inputs& in, Outputs& out) const;
 };

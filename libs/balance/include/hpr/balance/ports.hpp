@@ -22,6 +22,15 @@ namespace hpr::balance {
 
 using model::Vector6d;
 
+/// BALANCE_PLAN: the balance planner's plan of one tick, which motion_opt optimises around and the
+/// wbc tracks, with what the planner decided.
+struct BalancePlan {
+  std::int64_t tick = 0;
+  TaskReference reference;          ///< the task-space reference of the tick (its `stepping`: the capture point and the step)
+  PlanStage stage = PlanStage::kInit;
+  Eigen::Vector2d f_ext_W = Eigen::Vector2d::Zero();  ///< F̂: the horizontal external force resisted [N]
+};
+
 /// BALANCE_STATUS: the wbc's balance state of one tick (frame V).
 struct BalanceStatus {
   std::int64_t tick = 0;

@@ -24,6 +24,17 @@ enum class Support : std::int8_t { kDouble = 0, kLeft = 1, kRight = 2 };
 const char* to_string(Support s);
 Support support_from_string(const std::string& s);
 
+/// What the balance plan is doing (PostureReference's stages, BALANCE_PLAN.stage): ramping in from
+/// the measured posture, holding, a support change (shift the CoM, lift or lower a foot, shift
+/// back), or a step (unload, swing, settle on the new support, recover the posture).
+enum class PlanStage : std::int8_t {
+  kInit = 0, kHold, kShift, kLift, kLower, kShiftBack, kStepUnload, kStepSwing, kStepSettle, kStepRecover
+};
+inline constexpr int kPlanStages = 10;
+/// "init", "hold", "shift", "lift", "lower", "shift back", "step unload", "step swing",
+/// "step settle", "step recover".
+const char* to_string(PlanStage s);
+
 struct FootReference {
   model::SE3 X_WS;                                            ///< sole pose
   Eigen::Matrix<double, 6, 1> twist = Eigen::Matrix<double, 6, 1>::Zero();  ///< (v, ω) world, at the sole
@@ -141,12 +152,12 @@ class PostureReference {
   /// push compensation enabled only); the capture point, the step under way and the steps taken
   /// are the reference's `stepping` (StepStatus).
   [[nodiscard]] const Eigen::Vector2d& external_force() const { return observer_.force(); }
-  /// What the reference is doing: "init", "hold", "shift", "lift", "lower", "shift back",
-  /// "step unload", "step swing", "step settle", "step recover" (a static string).
-  [[nodiscard]] const char* stage_name() const;
+  /// What the reference is doing.
+  [[nodiscard]] PlanStage stage() const { return stage_; }
+  [[nodiscard]] const char* stage_name() const { return to_string(stage_); }
 
  private:
-  enum class Stage { kInit, kHold, kShift, kLift, kLower, kShiftBack, kStepUnload, kStepSwing, kStepSettle, kStepRecover };
+  using Stage = PlanStage;
   void begin_stage(Stage s, double t);
   // The steps of update, in order: what the estimate says (stepping_stages.cpp), the stage's
   // references, the stepping status.

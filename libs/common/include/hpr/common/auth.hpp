@@ -2,7 +2,7 @@
 /// \file
 /// Message authentication for every message a process acts on: the commands (OPERATOR,
 /// JOINT_COMMAND, SUPERVISOR_COMMAND) and every clocked channel of the control chain (ROBOT_SENSORS,
-/// ROBOT_STATE, BALANCE_STATUS, CAM_REFERENCE, WHOLEBODY_COMMAND, SIM_TRUTH, HAL_STATUS). A keyed
+/// ROBOT_STATE, BALANCE_PLAN, BALANCE_STATUS, CAM_REFERENCE, WHOLEBODY_COMMAND, SIM_TRUTH, HAL_STATUS). A keyed
 /// hash over a message's encoded bytes with a per-deployment key, so that only holders of the key
 /// command the robot or feed its controllers: a forged or corrupted sample is refused before it is
 /// decoded, whatever it holds. The hash is keyed BLAKE2b with a 256-bit output

@@ -20,6 +20,7 @@ namespace channel {
 // The control chain, one message per tick.
 inline constexpr const char* kRobotSensors = "ROBOT_SENSORS";
 inline constexpr const char* kRobotState = "ROBOT_STATE";
+inline constexpr const char* kBalancePlan = "BALANCE_PLAN";
 inline constexpr const char* kCamReference = "CAM_REFERENCE";
 inline constexpr const char* kWholebodyCommand = "WHOLEBODY_COMMAND";
 inline constexpr const char* kJointCommand = "JOINT_COMMAND";

@@ -3,6 +3,7 @@
 /// Every channel of the stack with the message type it carries (names: hpr/common/ports.hpp;
 /// contracts in lcmtypes/*.lcm; who reads and writes which: hpr/graph/data_flow.hpp).
 
+#include <humanoid/balance_plan_t.hpp>
 #include <humanoid/balance_status_t.hpp>
 #include <humanoid/cam_reference_t.hpp>
 #include <humanoid/hal_status_t.hpp>
@@ -29,6 +30,7 @@ namespace hpr::msg::channels {
 // The control chain, one message per tick.
 inline constexpr Channel<humanoid::robot_sensors_t> kRobotSensors{channel::kRobotSensors};
 inline constexpr Channel<humanoid::robot_state_t> kRobotState{channel::kRobotState};
+inline constexpr Channel<humanoid::balance_plan_t> kBalancePlan{channel::kBalancePlan};
 inline constexpr Channel<humanoid::cam_reference_t> kCamReference{channel::kCamReference};
 inline constexpr Channel<humanoid::wholebody_command_t> kWholebodyCommand{channel::kWholebodyCommand};
 inline constexpr Channel<humanoid::joint_command_t> kJointCommand{channel::kJointCommand};
@@ -45,9 +47,9 @@ inline constexpr Channel<humanoid::supervisor_command_t> kSupervisorCommand{chan
 inline constexpr Channel<humanoid::supervisor_status_t> kSupervisorStatus{channel::kSupervisorStatus};
 
 /// Every channel above.
-inline constexpr std::tuple kAll{kRobotSensors, kRobotState,     kCamReference,      kWholebodyCommand, kJointCommand,
-                                 kBalanceStatus, kSimTruth,      kHalStatus,         kPush,             kOperator,
-                                 kHealth,        kParams,        kSupervisorCommand, kSupervisorStatus};
+inline constexpr std::tuple kAll{kRobotSensors, kRobotState, kBalancePlan, kCamReference,      kWholebodyCommand,
+                                 kJointCommand, kBalanceStatus, kSimTruth,   kHalStatus,    kPush,
+                                 kOperator,     kHealth,        kParams,     kSupervisorCommand, kSupervisorStatus};
 
 /// Whether `logged` is the channel `name` on LCM, under any prefix a runtime may add ("A/", "X_",
 /// "x."): the name itself or the name after a '/', '_' or '.'. No channel's name is the end of

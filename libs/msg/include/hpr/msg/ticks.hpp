@@ -13,8 +13,8 @@ namespace hpr::msg {
 /// the buffer is too short to hold one.
 std::int64_t tick_of(const void* data, int size);
 
-/// Position of a channel in one tick's data flow: ROBOT_SENSORS, ROBOT_STATE, CAM_REFERENCE (with
-/// the previous tick's BALANCE_STATUS), WHOLEBODY_COMMAND, JOINT_COMMAND, BALANCE_STATUS, then
+/// Position of a channel in one tick's data flow: ROBOT_SENSORS, ROBOT_STATE, BALANCE_PLAN,
+/// CAM_REFERENCE (with the previous tick's BALANCE_STATUS), WHOLEBODY_COMMAND, JOINT_COMMAND, BALANCE_STATUS, then
 /// SIM_TRUTH. kNotInFlow for channels published at their own rate (HEALTH, PUSH, OPERATOR, ...).
 int flow_rank(const std::string& channel);
 inline constexpr int kNotInFlow = 99;
