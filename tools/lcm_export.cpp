@@ -138,6 +138,19 @@ void fill(Row& r, const humanoid::cam_reference_t& m) {
   r.add("status", m.status);
 }
 
+/// The stepping status, which WHOLEBODY_COMMAND and BALANCE_PLAN carry alike.
+template <class M>
+void stepping(Row& r, const M& m) {
+  r.add("stepping", m.stepping ? 1.0 : 0.0);
+  r.arr("xi_W", m.xi_W);
+  r.add("xi_excess", m.xi_excess);
+  r.add("step_foot", m.step_foot);
+  r.arr("step_target_W", m.step_target_W);
+  r.add("step_time_left", m.step_time_left);
+  r.add("steps_taken", m.steps_taken);
+  r.add("follow_steps", m.follow_steps);
+}
+
 void fill(Row& r, const humanoid::wholebody_command_t& m) {
   r.add("tick", static_cast<double>(m.tick));
   r.add("t", static_cast<double>(m.utime) * 1e-6);
@@ -159,14 +172,7 @@ void fill(Row& r, const humanoid::wholebody_command_t& m) {
   r.vec("xad_min", m.xad_min, m.adjusted_name);
   r.vec("xad_max", m.xad_max, m.adjusted_name);
   r.mat("segment_l_W", m.segment_l_W, m.segment_name);
-  r.add("stepping", m.stepping ? 1.0 : 0.0);
-  r.arr("xi_W", m.xi_W);
-  r.add("xi_excess", m.xi_excess);
-  r.add("step_foot", m.step_foot);
-  r.arr("step_target_W", m.step_target_W);
-  r.add("step_time_left", m.step_time_left);
-  r.add("steps_taken", m.steps_taken);
-  r.add("follow_steps", m.follow_steps);
+  stepping(r, m);
   r.add("posture_error", m.posture_error);
   r.add("qp_status", m.qp_status);
   r.add("qp_iterations", m.qp_iterations);
@@ -185,14 +191,7 @@ void fill(Row& r, const humanoid::balance_plan_t& m) {
   r.mat("p_WF", m.p_WF, m.foot_name);
   r.vec("foot_load_limit", m.foot_load_limit, m.foot_name);
   r.arr("f_ext_W", m.f_ext_W);
-  r.add("stepping", m.stepping ? 1.0 : 0.0);
-  r.arr("xi_W", m.xi_W);
-  r.add("xi_excess", m.xi_excess);
-  r.add("step_foot", m.step_foot);
-  r.arr("step_target_W", m.step_target_W);
-  r.add("step_time_left", m.step_time_left);
-  r.add("steps_taken", m.steps_taken);
-  r.add("follow_steps", m.follow_steps);
+  stepping(r, m);
 }
 
 void fill(Row& r, const humanoid::robot_sensors_t& m) {
