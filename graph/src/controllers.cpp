@@ -2,13 +2,10 @@
 
 #include <chrono>
 #include <stdexcept>
-#include <type_traits>
 
-#include "hpr/msg/balance.hpp"
 #include "hpr/msg/channels.hpp"
+#include "hpr/msg/codec.hpp"
 #include "hpr/msg/lcm_section.hpp"
-#include "hpr/msg/plan.hpp"
-#include "hpr/msg/state.hpp"
 
 namespace hpr::graph {
 
@@ -39,9 +36,8 @@ Controllers::Controllers(const Config& cfg, const model::RobotSpec& robot, Contr
     : planner(robot, balance::PostureReferenceConfig::load(cfg.section("balance"))),
       wbc(robot, wbc::WbcConfig::load(cfg.section("wbc"), robot),
           static_cast<int>(cfg.section("wbc").integer_or("bad_state_ticks", 20, 1, 100000))),
-      options_(opts) {
-  names_.joints = robot.model.joint_name;
-  for (int j : robot.free_joints) free_names_.push_back(robot.model.joint_name[static_cast<size_t>(j)]);
+      options_(opts),
+      naming_(msg::Naming::of(robot)) {
   wbc_out_.command.resize(robot.model.nj);
   if (options_.estimator) estimator.emplace(robot, estimator::EstimatorConfig::load(cfg.section("estimator")));
   if (options_.cam) {
@@ -50,21 +46,14 @@ Controllers::Controllers(const Config& cfg, const model::RobotSpec& robot, Contr
   }
 }
 
-template <class Message, class Value, class... Context>
-void Controllers::pass(const char* channel, const Value& sent, Message& m, Value& value, const Context&... context) {
+template <class Message, class Value>
+void Controllers::pass(const char* channel, const Value& sent, Message& m, Value& value) {
   if (!options_.messages) {
     value = sent;
     return;
   }
-  msg::to_message(sent, context..., m);
-  std::string why;
-  if constexpr (std::is_same_v<Message, humanoid::robot_state_t>) {
-    why = msg::from_message(m, names_, value);
-  } else if constexpr (std::is_same_v<Message, humanoid::wholebody_command_t> || std::is_same_v<Message, humanoid::balance_plan_t>) {
-    why = msg::from_message(m, free_names_, value);
-  } else {
-    why = msg::from_message(m, value);
-  }
+  msg::Codec<Message>::encode(sent, naming_, m);
+  const std::string why = msg::Codec<Message>::decode(m, naming_, value);
   if (!why.empty()) throw std::runtime_error(std::string("in-process ") + channel + " refused: " + why);
 }
 
@@ -86,11 +75,11 @@ void Controllers::control(std::int32_t extra_status) {
   if (!estimator) throw std::logic_error("Controllers::control: no estimator in this loop");
   n_reports_ = 0;
   if (extra_status == 0) {
-    pass(msg::channels::kRobotState.name, estimator->state(), messages_.state, state_, names_);
+    pass(msg::channels::kRobotState.name, estimator->state(), messages_.state, state_);
   } else {
     flagged_ = estimator->state();
     flagged_.status |= extra_status;
-    pass(msg::channels::kRobotState.name, flagged_, messages_.state, state_, names_);
+    pass(msg::channels::kRobotState.name, flagged_, messages_.state, state_);
     estimator->report(state_, estimate_out_.report);
   }
   reports_[n_reports_++] = &estimate_out_.report;
@@ -126,7 +115,7 @@ void Controllers::step_controllers() {
   have_wholebody_ = false;
   run_component(Component::kPlanner, times_.planner_us, [&] { planner.step({state_}, plan_out_); });
   reports_[n_reports_++] = &plan_out_.report;
-  if (plan_out_.valid) pass(msg::channels::kBalancePlan.name, plan_out_.plan, messages_.plan, plan_, free_names_, names_);
+  if (plan_out_.valid) pass(msg::channels::kBalancePlan.name, plan_out_.plan, messages_.plan, plan_);
   const auto plan = OptionalRef<balance::TaskReference>::when(plan_out_.valid, plan_.reference);
   if (options_.cam) {
     run_component(Component::kReferenceGen, times_.reference_gen_us, [&] {
@@ -142,7 +131,7 @@ void Controllers::step_controllers() {
     reports_[n_reports_++] = &motion_out_.report;
     have_wholebody_ = motion_out_.valid;
     if (have_wholebody_) {
-      pass(msg::channels::kWholebodyCommand.name, motion_out_.wholebody, messages_.wholebody, wholebody_, free_names_, names_);
+      pass(msg::channels::kWholebodyCommand.name, motion_out_.wholebody, messages_.wholebody, wholebody_);
     }
   }
   run_component(Component::kWbc, times_.wbc_us, [&] {
@@ -152,9 +141,9 @@ void Controllers::step_controllers() {
              wbc_out_);
   });
   reports_[n_reports_++] = &wbc_out_.report;
-  if (options_.messages) msg::to_message(wbc_out_.command, names_, messages_.command);
+  if (options_.messages) msg::Codec<humanoid::joint_command_t>::encode(wbc_out_.command, naming_, messages_.command);
   have_balance_ = wbc_out_.mode == wbc::WbcComponent::Mode::kBalance;
-  if (have_balance_) pass(msg::channels::kBalanceStatus.name, wbc_out_.status, messages_.balance, balance_, names_);
+  if (have_balance_) pass(msg::channels::kBalanceStatus.name, wbc_out_.status, messages_.balance, balance_);
 }
 
 void Controllers::request_support(balance::Support s, double t) {

@@ -35,7 +35,7 @@
 #include "hpr/estimator/estimator.hpp"
 #include "hpr/model/robot.hpp"
 #include "hpr/motion_opt/component.hpp"
-#include "hpr/msg/robot_io.hpp"
+#include "hpr/msg/codec.hpp"
 #include "hpr/planner/component.hpp"
 #include "hpr/reference_gen/generator.hpp"
 #include "hpr/wbc/component.hpp"
@@ -87,7 +87,7 @@ class Controllers {
 
   /// The state the last control tick used (ROBOT_STATE as its readers decode it).
   [[nodiscard]] const EstimatedState& state() const { return state_; }
-  [[nodiscard]] const msg::RobotNames& names() const { return names_; }
+  [[nodiscard]] const msg::RobotNames& names() const { return naming_.names; }
   [[nodiscard]] const ControllersOptions& options() const { return options_; }
 
   // What each component made in the last tick.
@@ -130,8 +130,8 @@ class Controllers {
  private:
   /// `sent` through the channel's conversion (message `m`) into `value`, as its receiving node
   /// decodes it; a copy without `options.messages`.
-  template <class Message, class Value, class... Context>
-  void pass(const char* channel, const Value& sent, Message& m, Value& value, const Context&... context);
+  template <class Message, class Value>
+  void pass(const char* channel, const Value& sent, Message& m, Value& value);
   /// Times `f` (a component's step) into `us`, with the probe around it.
   template <class F>
   void run_component(Component c, double& us, F&& f);
@@ -139,8 +139,7 @@ class Controllers {
   void step_controllers();
 
   ControllersOptions options_;
-  msg::RobotNames names_;
-  std::vector<std::string> free_names_;
+  msg::Naming naming_;
   // Each component's outputs.
   estimator::Estimator::Outputs estimate_out_;
   planner::BalancePlanner::Outputs plan_out_;
