@@ -18,7 +18,6 @@
 #include "hpr/node/runtime.hpp"
 #include "hpr/graph/controllers.hpp"
 #include "hpr/graph/data_flow.hpp"
-#include "hpr/wbc/node.hpp"
 
 namespace {
 
@@ -59,9 +58,7 @@ int main(int argc, char** argv) {
         sample.resize(robot.model.nj);
         auto& sensors = rt.subscribe(msg::channels::kRobotSensors,
             [&](const humanoid::robot_sensors_t& m) { return msg::from_message(m, c.names(), sample); });
-        rt.subscribe(msg::channels::kOperator, msg::check_operator, [&](const humanoid::operator_t& m) {
-          if (const auto s = wbc::apply_operator(c.wbc, m)) c.request_support(*s, c.state().time);
-        });
+        rt.subscribe(msg::channels::kOperator, msg::check_operator, [&](const humanoid::operator_t& m) { c.apply(m); });
         add_parameters(rt, c);
         estimator::TickReport estimator_report;
         auto state_out = rt.advertise(msg::channels::kRobotState);
@@ -73,13 +70,12 @@ int main(int argc, char** argv) {
         // The joint command first (the drives wait for it), then what the five processes publish
         // on the way to it, in their order.
         auto publish = [&] {
-          const graph::Controllers::Messages& m = c.messages();
-          command_out.publish(m.command);
-          state_out.publish(m.state);
-          if (c.have_plan()) plan_out.publish(m.plan);
-          if (c.options().cam) cam_out.publish(m.cam);
-          if (c.have_wholebody()) wholebody_out.publish(m.wholebody);
-          if (c.wbc_out().mode == wbc::WbcComponent::Mode::kBalance) balance_out.publish(m.balance);
+          command_out.publish(c.message<humanoid::joint_command_t>());
+          state_out.publish(c.message<humanoid::robot_state_t>());
+          if (c.have_plan()) plan_out.publish(c.message<humanoid::balance_plan_t>());
+          if (c.options().cam) cam_out.publish(c.message<humanoid::cam_reference_t>());
+          if (c.have_wholebody()) wholebody_out.publish(c.message<humanoid::wholebody_command_t>());
+          if (c.wbc_out().mode == wbc::WbcComponent::Mode::kBalance) balance_out.publish(c.message<humanoid::balance_status_t>());
         };
         rt.on_restart(sensors, [&] { c.reset(); });
         rt.on_tick(sensors, {}, 0.0, [&](const node::TickInfo&) {

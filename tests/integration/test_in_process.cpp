@@ -172,7 +172,7 @@ void expect_same_messages(TrialSpec spec, const std::string& name, int min_steps
     loop.step();
     if (const auto p = plans.find(k); p != plans.end()) {
       const auto& rec = p->second;
-      const auto& in = loop.messages().plan;  // the in-process plan as its message
+      const auto& in = loop.message<humanoid::balance_plan_t>();  // the in-process plan as its message
       plan_cmp.add(k, loop.have_plan() ? first_of({differ("utime", rec.utime, in.utime), differ("stage", rec.stage, in.stage),
                                                    differ("support", rec.support, in.support), differ("settled", rec.settled, in.settled),
                                                    differ("p_WCom", rec.p_WCom, in.p_WCom, 3), differ("v_WCom", rec.v_WCom, in.v_WCom, 3),

@@ -16,7 +16,7 @@ WbcNodeOptions WbcNodeOptions::load(const Config& c) {
   return o;
 }
 
-std::optional<balance::Support> apply_operator(WbcComponent& wbc, const humanoid::operator_t& m) {
+void apply_operator(WbcComponent& wbc, const humanoid::operator_t& m) {
   if (m.command == humanoid::operator_t::COMMAND_DAMP || m.command == humanoid::operator_t::COMMAND_STOP) {
     if (!wbc.damping()) {
       log::warn("OPERATOR {} from {}: damping ({})", m.command == humanoid::operator_t::COMMAND_STOP ? "stop" : "damp", m.source,
@@ -26,12 +26,7 @@ std::optional<balance::Support> apply_operator(WbcComponent& wbc, const humanoid
   } else if (m.command == humanoid::operator_t::COMMAND_ENABLE) {
     if (wbc.damping()) log::info("OPERATOR enable from {}", m.source);
     wbc.set_damping(false);
-  } else if (m.command == humanoid::operator_t::COMMAND_SET_SUPPORT && m.support >= 0 && m.support <= 2) {
-    const auto s = static_cast<balance::Support>(m.support);
-    log::info("OPERATOR: support {} requested", balance::to_string(s));
-    return s;
   }
-  return std::nullopt;
 }
 
 }  // namespace hpr::wbc

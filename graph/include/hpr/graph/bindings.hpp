@@ -232,7 +232,7 @@ class WbcBinding {
   void on(const balance::BalancePlan&, const Slots<kReads>&) { have_plan_ = true; }
   void on(const balance::WholebodyCommand&, const Slots<kReads>&) { have_wholebody_ = true; }
   /// Support requests are the planner's.
-  void on(const humanoid::operator_t& m, const Slots<kReads>&) { (void)wbc::apply_operator(wbc_, m); }
+  void on(const humanoid::operator_t& m, const Slots<kReads>&) { wbc::apply_operator(wbc_, m); }
 
   [[nodiscard]] Component::Inputs inputs(const Slots<kReads>& s, std::int64_t tick) const {
     const auto& plan = slot<balance::BalancePlan>(s);

@@ -2,9 +2,11 @@
 /// \file
 /// The stack's controllers as one: estimator → planner → reference_gen → motion_opt → wbc, stepping tick by
 /// tick with the data flow of the processes (README.md, "The processes"), for the in-process loop and the
-/// composed process. Every channel between the components passes through its hpr::msg conversion,
-/// as the processes exchange them, and the messages of the last tick are kept for a composed
-/// process to publish: the same traffic as the processes, bit for bit.
+/// composed process. The planner, reference_gen, motion_opt and wbc are composed from their
+/// bindings (hpr/graph/bindings.hpp), the connections computed from what each declares; every
+/// channel between the components passes through its hpr::msg conversion, as the processes
+/// exchange them, and the messages of the last tick are kept for a composed process to publish:
+/// the same traffic as the processes, bit for bit.
 ///
 /// Per tick k:
 ///   estimate(ROBOT_SENSORS k)                                  → ROBOT_STATE k
@@ -17,6 +19,7 @@
 #include <humanoid/balance_status_t.hpp>
 #include <humanoid/cam_reference_t.hpp>
 #include <humanoid/joint_command_t.hpp>
+#include <humanoid/operator_t.hpp>
 #include <humanoid/robot_sensors_t.hpp>
 #include <humanoid/robot_state_t.hpp>
 #include <humanoid/wholebody_command_t.hpp>
@@ -32,6 +35,8 @@
 #include "hpr/balance/ports.hpp"
 #include "hpr/common/component.hpp"
 #include "hpr/common/config.hpp"
+#include "hpr/graph/bindings.hpp"
+#include "hpr/graph/diagram.hpp"
 #include "hpr/estimator/estimator.hpp"
 #include "hpr/model/robot.hpp"
 #include "hpr/motion_opt/component.hpp"
@@ -66,7 +71,13 @@ struct ControllersOptions {
 /// configuration serves both and a misspelt key is refused the same way.
 void check_exchange_options(const Config& cfg, const ControllersOptions& run);
 
+/// The four controllers that follow the state, composed from their bindings (the connections
+/// computed from the declarations, hpr/graph/diagram.hpp).
+using ControllerDiagram = Diagram<PlannerBinding, ReferenceGenBinding, MotionOptBinding, WbcBinding>;
+
 class Controllers {
+  ControllerDiagram diagram_;  // first: the components' references below point into it
+
  public:
   /// `cfg`: the robot configuration (sections robot, estimator, reference_gen, motion_opt, wbc,
   /// balance) describing `robot`.
@@ -80,85 +91,69 @@ class Controllers {
   /// One control tick on `state` (the simulator's truth, say; no ROBOT_STATE message).
   void control(const EstimatedState& state);
 
+  /// An OPERATOR message, to each component that reads it, as the processes take it: the planner
+  /// (support requests, from the time of the last state on) and the wbc (damp, stop, enable).
+  void apply(const humanoid::operator_t& m);
   /// A support mode requested from time t on, as an OPERATOR message asks the planner.
   void request_support(balance::Support s, double t);
   /// Forgets the estimate, the references and the held posture (a clock that restarted).
   void reset();
 
   /// The state the last control tick used (ROBOT_STATE as its readers decode it).
-  [[nodiscard]] const EstimatedState& state() const { return state_; }
-  [[nodiscard]] const msg::RobotNames& names() const { return naming_.names; }
+  [[nodiscard]] const EstimatedState& state() const { return diagram_.slot<PlannerBinding, EstimatedState>().value; }
+  [[nodiscard]] const msg::RobotNames& names() const { return diagram_.naming().names; }
   [[nodiscard]] const ControllersOptions& options() const { return options_; }
 
   // What each component made in the last tick.
-  [[nodiscard]] const balance::BalancePlan& plan() const { return plan_; }  ///< BALANCE_PLAN (when have_plan())
+  /// BALANCE_PLAN as its readers decode it (when have_plan()).
+  [[nodiscard]] const balance::BalancePlan& plan() const { return diagram_.slot<WbcBinding, balance::BalancePlan>().value; }
   /// The planner made a BALANCE_PLAN this tick (a usable estimate has started it).
-  [[nodiscard]] bool have_plan() const { return plan_out_.valid; }
-  [[nodiscard]] const balance::CamReference& cam() const { return reference_out_.reference; }  ///< CAM_REFERENCE
-  [[nodiscard]] const balance::WholebodyCommand& wholebody() const { return motion_out_.wholebody; }  ///< WHOLEBODY_COMMAND
+  [[nodiscard]] bool have_plan() const { return diagram_.outputs<PlannerBinding>().valid; }
+  /// CAM_REFERENCE (with cam).
+  [[nodiscard]] const balance::CamReference& cam() const { return diagram_.outputs<ReferenceGenBinding>().reference; }
+  /// WHOLEBODY_COMMAND (when have_wholebody()).
+  [[nodiscard]] const balance::WholebodyCommand& wholebody() const { return diagram_.outputs<MotionOptBinding>().wholebody; }
   /// motion_opt made a WHOLEBODY_COMMAND this tick.
-  [[nodiscard]] bool have_wholebody() const { return have_wholebody_; }
-  [[nodiscard]] const wbc::WbcComponent::Outputs& wbc_out() const { return wbc_out_; }  ///< JOINT_COMMAND, BALANCE_STATUS
+  [[nodiscard]] bool have_wholebody() const { return options_.cam && diagram_.outputs<MotionOptBinding>().valid; }
+  /// JOINT_COMMAND, BALANCE_STATUS.
+  [[nodiscard]] const wbc::WbcComponent::Outputs& wbc_out() const { return diagram_.outputs<WbcBinding>(); }
   /// The reports of the components that stepped in the last tick, in the data flow's order
   /// (estimator, planner, reference_gen, motion_opt, wbc): a composed process applies them to its
   /// HEALTH as the separate processes apply theirs.
   [[nodiscard]] std::span<const StepReport* const> reports() const { return {reports_.data(), n_reports_}; }
-
-  /// The messages of the last tick (with `options().messages`).
-  struct Messages {
-    humanoid::robot_state_t state{};          ///< ROBOT_STATE
-    humanoid::balance_plan_t plan{};          ///< BALANCE_PLAN (when have_plan())
-    humanoid::cam_reference_t cam{};          ///< CAM_REFERENCE (with cam)
-    humanoid::wholebody_command_t wholebody{};  ///< WHOLEBODY_COMMAND (when have_wholebody())
-    humanoid::joint_command_t command{};      ///< JOINT_COMMAND
-    humanoid::balance_status_t balance{};     ///< BALANCE_STATUS (when the wbc balanced)
-  };
-  [[nodiscard]] const Messages& messages() const { return messages_; }
+  /// The last message of type `Msg` (with `options().messages`): ROBOT_STATE, BALANCE_PLAN (when
+  /// have_plan()), CAM_REFERENCE (with cam), WHOLEBODY_COMMAND (when have_wholebody()),
+  /// JOINT_COMMAND, BALANCE_STATUS (when the wbc balanced).
+  template <class Msg>
+  [[nodiscard]] const Msg& message() const {
+    return diagram_.message<Msg>();
+  }
   /// Compute time of each component in the last tick.
   [[nodiscard]] const StepTimes& times() const { return times_; }
 
   // The components (a test reads their state; a composed process adds their live parameters).
   std::optional<estimator::Estimator> estimator;
-  planner::BalancePlanner planner;
-  std::optional<reference_gen::ReferenceGenerator> generator;
-  std::optional<motion_opt::MotionOptComponent> optimizer;
-  wbc::WbcComponent wbc;
+  planner::BalancePlanner& planner;
+  reference_gen::ReferenceGenerator* generator;     ///< null without cam
+  motion_opt::MotionOptComponent* optimizer;        ///< null without cam
+  wbc::WbcComponent& wbc;
   /// Called right before (`entering` true) and right after each component's step, when set: for a
   /// test that counts what a component does (allocations, say) apart from the rest.
   std::function<void(Component, bool entering)> probe;
 
  private:
-  /// `sent` through the channel's conversion (message `m`) into `value`, as its receiving node
-  /// decodes it; a copy without `options.messages`.
-  template <class Message, class Value>
-  void pass(const char* channel, const Value& sent, Message& m, Value& value);
   /// Times `f` (a component's step) into `us`, with the probe around it.
   template <class F>
   void run_component(Component c, double& us, F&& f);
-  /// planner, reference_gen, motion_opt and wbc on state_.
+  /// planner, reference_gen, motion_opt and wbc on the state fed.
   void step_controllers();
 
   ControllersOptions options_;
-  msg::Naming naming_;
-  // Each component's outputs.
   estimator::Estimator::Outputs estimate_out_;
-  planner::BalancePlanner::Outputs plan_out_;
-  reference_gen::ReferenceGenerator::Outputs reference_out_;
-  motion_opt::MotionOptComponent::Outputs motion_out_;
-  wbc::WbcComponent::Outputs wbc_out_;
-  bool have_wholebody_ = false;
   std::array<const StepReport*, 5> reports_{};
   std::size_t n_reports_ = 0;
-  Messages messages_;
   StepTimes times_;
-  // The channels as their receivers decode them.
-  EstimatedState state_;            ///< ROBOT_STATE of the tick
-  EstimatedState flagged_;          ///< the estimate with extra status bits
-  balance::BalancePlan plan_;       ///< BALANCE_PLAN of the tick
-  balance::BalanceStatus balance_;  ///< BALANCE_STATUS of the previous tick
-  bool have_balance_ = false;
-  balance::CamReference cam_;
-  balance::WholebodyCommand wholebody_;
+  EstimatedState flagged_;  ///< the estimate with extra status bits
 };
 
 }  // namespace hpr::graph

@@ -7,8 +7,6 @@
 #include "hpr/common/config.hpp"
 #include "hpr/wbc/component.hpp"
 
-#include <optional>
-
 namespace hpr::wbc {
 
 struct WbcNodeOptions {
@@ -21,8 +19,7 @@ struct WbcNodeOptions {
 };
 
 /// What an OPERATOR message asks of the wbc: damp and stop damp it, enable ends the damping (each
-/// logged when it changes something). Returns the support mode a COMMAND_SET_SUPPORT requests (the
-/// caller passes it on to the planner), nothing otherwise.
-std::optional<balance::Support> apply_operator(WbcComponent& wbc, const humanoid::operator_t& m);
+/// logged when it changes something). Support requests are the planner's.
+void apply_operator(WbcComponent& wbc, const humanoid::operator_t& m);
 
 }  // namespace hpr::wbc
