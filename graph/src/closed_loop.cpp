@@ -6,7 +6,7 @@
 #include <cstdio>
 
 #include "hpr/common/args.hpp"
-#include "hpr/msg/sim_truth.hpp"
+#include "hpr/estimator/truth_state.hpp"
 
 namespace hpr::graph {
 
@@ -53,7 +53,7 @@ void ClosedLoop::step() {
     truth_.time = sim.time();
     truth_.q = sim.truth().q;
     truth_.v = sim.truth().v;
-    msg::contacts_from_truth(sim.truth(), truth_);
+    estimator::contacts_from_truth(sim.truth(), truth_);
     control(truth_);
   }
   sim::Simulator::Outputs plant;

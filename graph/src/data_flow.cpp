@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "hpr/estimator/estimator.hpp"
+#include "hpr/estimator/truth_state.hpp"
 #include "hpr/hal/ports.hpp"
 #include "hpr/motion_opt/component.hpp"
 #include "hpr/planner/component.hpp"
@@ -79,7 +80,7 @@ std::span<const Ports> data_flow() {
                                    hal::kPorts,
                                    hal::kEmulatorPorts,
                                    estimator::Estimator::kPorts,
-                                   estimator::kTruthStatePorts,
+                                   estimator::TruthState::kPorts,
                                    planner::BalancePlanner::kPorts,
                                    reference_gen::ReferenceGenerator::kPorts,
                                    motion_opt::MotionOptComponent::kPorts,

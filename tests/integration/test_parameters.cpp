@@ -14,6 +14,8 @@
 #include <string>
 #include <vector>
 
+#include "hpr/model/robot.hpp"
+#include "hpr/msg/state.hpp"
 #include "lcm_listener.hpp"
 #include "process_group.hpp"
 #include "shell.hpp"
@@ -31,6 +33,11 @@ class LiveParameters : public ::testing::Test {
     refs_ = lcm_.collect<humanoid::cam_reference_t>("CAM_REFERENCE");
     params_ = lcm_.collect<humanoid::params_t>("PARAMS");
     const std::string cfg = hpr::test::source_dir() + "/config/toro.yaml";
+    // A standing robot's state (only its tick and time matter to reference_gen, which decodes it whole).
+    const auto robot = hpr::model::RobotSpec::load(hpr::Config::load(cfg).section("robot"));
+    names_.joints = robot.model.joint_name;
+    state_.q = robot.standing_configuration();
+    state_.v = Eigen::VectorXd::Zero(robot.model.nv);
     group_.start("reference_gen", {"--config", cfg, "--set", "reference_gen.wait_for_balance=false"});
     // The node announces its parameters once it runs.
     ASSERT_TRUE(lcm_.wait_for([&] { return !params_->empty(); }, 20s)) << "reference_gen did not start";
@@ -50,9 +57,10 @@ class LiveParameters : public ::testing::Test {
       b.tau_ankle_V[k] = 1.0;
     }
     lcm_.publish("BALANCE_STATUS", b);
+    state_.tick = tick_;
+    state_.time = static_cast<double>(utime) * 1e-6;
     humanoid::robot_state_t s{};
-    s.tick = tick_;
-    s.utime = utime;
+    hpr::msg::to_message(state_, names_, s);
     lcm_.publish("ROBOT_STATE", s);
     const bool got = lcm_.wait_for([&] { return !refs_->empty() && refs_->back().tick == tick_; }, 5s);
     EXPECT_TRUE(got) << "no CAM_REFERENCE for tick " << tick_;
@@ -71,6 +79,8 @@ class LiveParameters : public ::testing::Test {
   std::shared_ptr<std::vector<humanoid::cam_reference_t>> refs_;
   std::shared_ptr<std::vector<humanoid::params_t>> params_;
   std::int64_t tick_ = 0;
+  hpr::msg::RobotNames names_;
+  hpr::EstimatedState state_;
 };
 
 TEST_F(LiveParameters, AnOperatorSetReachesTheNextStep) {

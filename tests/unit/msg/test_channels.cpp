@@ -489,23 +489,6 @@ TEST_F(Channels, SimTruthArrivesUnchanged) {
   EXPECT_EQ(got.push_active, t.push_active);
   EXPECT_EQ(got.fallen, t.fallen);
 
-  // The state a perfect estimator would give: the base twist back in the base frame.
-  SensorSample sensors;
-  sensors.resize(4);
-  sensors.tick = 12;
-  sensors.time = 0.012;
-  fill(sensors.q);
-  fill(sensors.qd);
-  EstimatedState s;
-  msg::state_from_truth(got, sensors, s);
-  EXPECT_EQ(s.tick, 12);
-  EXPECT_EQ(s.q.head<3>(), t.p_WB);
-  EXPECT_TRUE(Eigen::Quaterniond(s.q.segment<4>(3)).isApprox(qb, 1e-15));
-  EXPECT_EQ(s.q.tail(4), sensors.q);
-  EXPECT_LT((qb.toRotationMatrix() * s.v.head<3>() - t.v_WB).norm(), 1e-14);
-  EXPECT_LT((qb.toRotationMatrix() * s.v.segment<3>(3) - t.omega_WB).norm(), 1e-14);
-  EXPECT_EQ(s.v.tail(4), sensors.qd);
-
   m.quat_WB[0] *= 1.5;
   EXPECT_NE(msg::from_message(m, got), "");
 }

@@ -236,12 +236,4 @@ class Estimator {
 /// (its own node, or the composed controllers) answers OPERATOR sets with them.
 void add_parameters(ParameterSet& params, EstimatorConfig& c);
 
-/// The truth_state process, which stands in for the estimator in a simulation (a group chooses
-/// it): ROBOT_STATE from the simulator's truth of the same tick.
-inline constexpr Read kTruthStateReads[] = {
-    {channel::kRobotSensors, 0, true, false, "the joints and the tick"},
-    {channel::kSimTruth, 0, false, false, "the simulator's base, CoM and contacts of the same tick"}};
-inline constexpr std::string_view kTruthStateWrites[] = {channel::kRobotState};
-inline constexpr Ports kTruthStatePorts{"truth_state", kTruthStateReads, kTruthStateWrites};
-
 }  // namespace hpr::estimator

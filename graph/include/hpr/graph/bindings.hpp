@@ -15,6 +15,7 @@
 #include "hpr/common/log.hpp"
 #include "hpr/estimator/estimator.hpp"
 #include "hpr/estimator/node.hpp"
+#include "hpr/estimator/truth_state.hpp"
 #include "hpr/graph/component_node.hpp"
 #include "hpr/model/robot.hpp"
 #include "hpr/motion_opt/component.hpp"
@@ -192,6 +193,34 @@ class MotionOptBinding {
   double timeout_;
   std::int64_t reference_stale_, plan_stale_;
   bool have_plan_ = false;  ///< a BALANCE_PLAN since the state's clock started
+};
+
+/// The simulator's true state in the estimator's place (simulated groups only): steps on every
+/// ROBOT_SENSORS sample (tick k) with the SIM_TRUTH of the same tick, which the simulator publishes
+/// before it waits (up to 0.5 s), and publishes ROBOT_STATE k; nothing for a tick without it.
+class TruthStateBinding {
+ public:
+  using Component = estimator::TruthState;
+  static constexpr const char* kSummary = "the simulator's true state as ROBOT_STATE (simulated groups only)";
+  static constexpr std::tuple kReads{msg::channels::kRobotSensors, msg::channels::kSimTruth};
+  static constexpr std::tuple kWrites{msg::channels::kRobotState};
+
+  TruthStateBinding(const model::RobotSpec&, const Config&) {}
+  [[nodiscard]] Component& component() { return truth_; }
+  [[nodiscard]] static double period() { return 1e-3; }
+  [[nodiscard]] static bool waits_for(std::string_view ch) { return ch == msg::channels::kSimTruth.name; }
+  [[nodiscard]] static double timeout() { return 0.5; }
+
+  [[nodiscard]] static Component::Inputs inputs(const Slots<kReads>& s, std::int64_t tick) {
+    const auto& truth = slot<SimTruth>(s);
+    return {.sensors = slot<SensorSample>(s).value, .truth = OptionalRef<SimTruth>::when(truth.tick == tick, truth.value)};
+  }
+  [[nodiscard]] static std::tuple<const EstimatedState*> written(const Component::Outputs& out, std::int64_t) {
+    return {out.valid ? &out.state : nullptr};
+  }
+
+ private:
+  Component truth_;
 };
 
 /// The wbc: steps on every ROBOT_STATE (from the estimator, or in a simulated group from

@@ -16,6 +16,7 @@
 #include "hpr/msg/commands.hpp"
 #include "hpr/msg/plan.hpp"
 #include "hpr/msg/robot_io.hpp"
+#include "hpr/msg/sim_truth.hpp"
 #include "hpr/msg/state.hpp"
 
 namespace hpr::msg {
@@ -86,6 +87,13 @@ struct Codec<humanoid::joint_command_t> {
   using Value = JointCommand;
   static std::string decode(const humanoid::joint_command_t& m, const Naming& n, Value& v) { return from_message(m, n.names, v); }
   static void encode(const Value& v, const Naming& n, humanoid::joint_command_t& m) { to_message(v, n.names, m); }
+};
+
+template <>
+struct Codec<humanoid::sim_truth_t> {
+  using Value = SimTruth;
+  static std::string decode(const humanoid::sim_truth_t& m, const Naming&, Value& v) { return from_message(m, v); }
+  static void encode(const Value& v, const Naming& n, humanoid::sim_truth_t& m) { to_message(v, n.names.feet, m); }
 };
 
 /// OPERATOR is taken as it is, once checked (its commands are events, not a state to convert).
