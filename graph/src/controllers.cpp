@@ -11,20 +11,6 @@
 namespace hpr::graph {
 
 void check_exchange_options(const Config& cfg, const ControllersOptions& run) {
-  if (run.cam) {
-    const Config rg = cfg.section("reference_gen"), mo = cfg.section("motion_opt");
-    (void)rg.boolean_or("wait_for_balance", true);
-    (void)rg.real_or("balance_timeout", 0.5, 0.0, 60.0);
-    (void)mo.boolean_or("wait_for_reference", true);
-    (void)mo.real_or("reference_timeout", 0.5, 0.0, 60.0);
-    (void)mo.integer_or("reference_stale_ticks", 20, 1, 100000);
-    (void)mo.integer_or("plan_stale_ticks", 20, 1, 100000);
-  }
-  const Config wb = cfg.section("wbc");
-  (void)wb.integer_or("plan_stale_ticks", 20, 1, 100000);
-  (void)wb.boolean_or("wait_for_wholebody", true);
-  (void)wb.real_or("wholebody_timeout", 0.5, 0.0, 60.0);
-  (void)wb.integer_or("wholebody_stale_ticks", 50, 1, 100000);
   if (run.estimator) (void)cfg.section("estimator").real_or("sensor_timeout", 0.02, 1e-3, 60.0);
   (void)msg::LcmSection::load(cfg);
 }

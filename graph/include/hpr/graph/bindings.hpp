@@ -181,10 +181,9 @@ class MotionOptBinding {
             .plan = OptionalRef<balance::TaskReference>::when(have_plan_ && plan.fresh(tick, plan_stale_), plan.value.reference),
             .cam = OptionalRef<balance::CamReference>::when(cam.fresh(tick, reference_stale_), cam.value)};
   }
-  [[nodiscard]] static std::tuple<const balance::WholebodyCommand*> written(Component::Outputs& out, std::int64_t tick) {
-    if (!out.valid) return {nullptr};
-    out.wholebody.tick = tick;
-    return {&out.wholebody};
+  /// The command carries the tick of the state it answers (the component stamps it).
+  [[nodiscard]] static std::tuple<const balance::WholebodyCommand*> written(const Component::Outputs& out, std::int64_t) {
+    return {out.valid ? &out.wholebody : nullptr};
   }
 
  private:

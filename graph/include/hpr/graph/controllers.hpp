@@ -65,9 +65,9 @@ struct ControllersOptions {
   bool messages = true;   ///< pass every channel through its message (else hand the values over)
 };
 
-/// The options of the controller processes that concern their exchange over LCM (waits, timeouts,
-/// staleness): composed, every input of a tick is there when it steps, so they do not apply; they
-/// are validated with the processes' ranges for the components `run` runs, so that one
+/// The options of the controller processes that no component's binding reads when composed (the
+/// bindings read their own waits, timeouts and staleness limits, hpr/graph/bindings.hpp): the
+/// estimator's sensor timeout and the lcm section, validated with the processes' ranges so that one
 /// configuration serves both and a misspelt key is refused the same way.
 void check_exchange_options(const Config& cfg, const ControllersOptions& run);
 
