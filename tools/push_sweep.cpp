@@ -3,7 +3,8 @@
 // (largest_recovered: the start, the cap, ×1.5 steps, bisection); in process, each case's trials
 // continue one run from just before the push (PrePushCheckpoint); the cases run on this machine
 // or as a Slurm job array (--executor, executor.hpp); a progress line per trial; a JSON table and
-// a polar plot (largest recovered impulse per direction, CAM against ankle).
+// a polar plot (largest recovered impulse per direction, CAM against ankle). --dominance: the
+// default controller against each single strategy standing, at three peaks (dominance.hpp).
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -16,6 +17,7 @@
 #include <optional>
 
 #include "hpr/common/args.hpp"
+#include "hpr/experiments/dominance.hpp"
 #include "hpr/experiments/executor.hpp"
 #include "hpr/experiments/version.hpp"
 #include "hpr/launch/process_group.hpp"
@@ -29,7 +31,13 @@ void usage(std::FILE* out) {
   std::fprintf(out, R"(usage: push_sweep [options]
 
   --supports LIST         comma-separated: double,left,right (default double)
-  --strategies LIST       comma-separated: cam,ankle (default cam,ankle)
+  --strategies LIST       comma-separated: cam,ankle (as configured: stepping when the configuration
+                          steps), cam-standing,ankle-standing (stepping off) (default cam,ankle)
+  --peaks LIST            comma-separated peak forces [N], one envelope each (default: --peak)
+  --dominance             the table of the default against each single strategy: strategies
+                          cam,cam-standing,ankle-standing, peaks 65,130,260 N, 8 directions in double
+                          support and sideways (90, 270 deg) on either foot; --max-impulse 120 unless
+                          given; checks and prints the table (dominance.md beside sweep.json)
   --directions N          N directions evenly spaced from 0 deg (default 8)
   --angles LIST           explicit directions in degrees (instead of --directions)
   --start NS              first impulse tried [N s] (default 15)
@@ -52,7 +60,8 @@ Where the cases run:
 
 struct Case {
   std::string support;
-  Strategy strategy = Strategy::kCam;
+  std::string strategy = "cam";  ///< a strategy name of --strategies (Variant)
+  double peak = 65.0;            ///< [N]
   double direction = 0.0;
   double max_recovered = 0.0;
   double min_lost = 0.0;  ///< the smallest impulse tried that was not recovered (0: none, reached_max)
@@ -71,10 +80,12 @@ struct Case {
 struct SweepOptions {
   TrialSpec base;
   std::vector<std::string> supports = {"double"}, strategies = {"cam", "ankle"};
-  std::vector<double> angles;
+  std::vector<double> angles, peaks;
   int directions = 8;
+  bool dominance = false;
   ExecutorOptions executor;
   double start = 15.0, max_impulse = 80.0, resolution = 0.5;
+  bool max_impulse_given = false;
   std::string out_dir;
 };
 
@@ -90,12 +101,17 @@ std::optional<int> read_options(int argc, char** argv, SweepOptions& o) {
     } else if (args.is("--directions")) {
       o.directions = args.integer();
       if (o.directions < 1) throw hpr::UsageError("--directions: at least 1");
+    } else if (args.is("--peaks")) {
+      for (const auto& a : args.list()) o.peaks.push_back(hpr::parse_number(a, "--peaks"));
+    } else if (args.is("--dominance")) {
+      o.dominance = true;
     } else if (args.is("--angles")) {
       for (const auto& a : args.list()) o.angles.push_back(hpr::parse_number(a, "--angles"));
     } else if (args.is("--start")) {
       o.start = args.number();
     } else if (args.is("--max-impulse")) {
       o.max_impulse = args.number();
+      o.max_impulse_given = true;
     } else if (args.is("--resolution")) {
       o.resolution = args.number();
     } else if (args.is("--out")) {
@@ -109,27 +125,47 @@ std::optional<int> read_options(int argc, char** argv, SweepOptions& o) {
     if (o.executor.resume && o.out_dir.empty()) throw hpr::UsageError("--resume needs --out DIR");
     if (o.base.truth_state && !o.base.in_process) throw std::invalid_argument("--truth-state needs --in-process");
     o.base.config = find_config(o.base.config);
-    for (const auto& st : o.strategies) (void)strategy_from_string(st);
+    if (o.dominance) {
+      o.strategies = {"cam", "cam-standing", "ankle-standing"};
+      if (o.peaks.empty()) o.peaks = {65.0, 130.0, 260.0};
+      if (!o.max_impulse_given) o.max_impulse = 120.0;
+    }
+    if (o.peaks.empty()) o.peaks = {o.base.peak};
+    for (const auto& st : o.strategies) (void)variant_from_string(st);
     if (o.angles.empty()) {
       for (int d = 0; d < o.directions; ++d) o.angles.push_back(360.0 * d / o.directions);
     }
-    if (!(o.resolution > 0) || !(o.start > 0) || !(o.max_impulse > o.start) || !(o.base.peak > 0)) {
-      throw std::invalid_argument("need 0 < --start < --max-impulse, --resolution > 0 and --peak > 0");
+    const bool peaks_positive = std::all_of(o.peaks.begin(), o.peaks.end(), [](double p) { return p > 0; });
+    if (!(o.resolution > 0) || !(o.start > 0) || !(o.max_impulse > o.start) || !peaks_positive) {
+      throw std::invalid_argument("need 0 < --start < --max-impulse, --resolution > 0 and every peak > 0");
     }
   };
   return hpr::read_command_line(argc, argv, "push_sweep", usage, option, check);
 }
 
-/// Every (support, strategy, direction), in the table's order.
+/// Every (peak, support, strategy, direction), in the table's order. With --dominance the supports
+/// are double (every direction) and either foot pushed sideways.
 std::vector<Case> cases_of(const SweepOptions& o) {
+  std::vector<std::pair<std::string, double>> cells;
+  if (o.dominance) {
+    for (double d : o.angles) cells.emplace_back("double", d);
+    for (const char* foot : {"left", "right"}) {
+      for (double d : {90.0, 270.0}) cells.emplace_back(foot, d);
+    }
+  } else {
+    for (const auto& s : o.supports) {
+      for (double d : o.angles) cells.emplace_back(s, d);
+    }
+  }
   std::vector<Case> cases;
-  for (const auto& s : o.supports) {
-    for (const auto& st : o.strategies) {
-      for (double d : o.angles) {
+  for (double peak : o.peaks) {
+    for (const auto& [support, direction] : cells) {
+      for (const auto& st : o.strategies) {
         Case c;
-        c.support = s;
-        c.strategy = strategy_from_string(st);
-        c.direction = d;
+        c.support = support;
+        c.strategy = st;
+        c.peak = peak;
+        c.direction = direction;
         cases.push_back(c);
       }
     }
@@ -137,22 +173,24 @@ std::vector<Case> cases_of(const SweepOptions& o) {
   return cases;
 }
 
-/// The progress lines: one per trial, one per finished search.
-ExecutorEvents progress_lines(int& trials_done, std::chrono::steady_clock::time_point t0) {
+/// The progress lines: one per trial, one per finished search (k of `searches`).
+ExecutorEvents progress_lines(int& trials_done, int& searches_done, size_t searches, std::chrono::steady_clock::time_point t0) {
   ExecutorEvents events;
   events.trial = [&trials_done, t0](const SearchSpec& s, const TrialOutcome& t, bool stored) {
     const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    std::fprintf(stderr, "[%4d, %6.0f s] %-6s %-5s %5.1f deg %6.2f N s: %s%s\n", ++trials_done, elapsed, s.base.support.c_str(),
-                 to_string(s.base.strategy), s.base.direction_deg, t.impulse,
+    std::fprintf(stderr, "[%4d, %6.0f s] %-6s %-14s %3.0f N %5.1f deg %6.2f N s: %s%s\n", ++trials_done, elapsed,
+                 s.base.support.c_str(), variant_name(s.base).c_str(), s.base.peak, s.base.direction_deg, t.impulse,
                  t.result.recovered ? "recovered" : ("not recovered (" + t.result.failure + ")").c_str(), stored ? " [stored]" : "");
   };
-  events.search = [](const SearchSpec& s, const SearchResult& r) {
+  events.search = [&searches_done, searches](const SearchSpec& s, const SearchResult& r) {
+    ++searches_done;
     if (r.failed) {
-      std::fprintf(stderr, "  => %s: FAILED, %s\n", s.label().c_str(), r.failure.c_str());
+      std::fprintf(stderr, "  => [%d/%zu] %s: FAILED, %s\n", searches_done, searches, s.label().c_str(), r.failure.c_str());
       return;
     }
-    std::fprintf(stderr, "  => %s %s %.0f deg: largest recovered impulse %.2f N s%s\n", s.base.support.c_str(),
-                 to_string(s.base.strategy), s.base.direction_deg, r.bracket.max_recovered,
+    std::fprintf(stderr, "  => [%d/%zu] %s %s %.0f N %.0f deg: largest recovered impulse %.2f N s%s\n", searches_done, searches,
+                 s.base.support.c_str(),
+                 variant_name(s.base).c_str(), s.base.peak, s.base.direction_deg, r.bracket.max_recovered,
                  r.bracket.reached_max ? " (the maximum tried)" : "");
   };
   events.note = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
@@ -164,7 +202,8 @@ nlohmann::ordered_json sweep_json(const SweepOptions& o, const std::vector<Case>
   using ojson = nlohmann::ordered_json;
   ojson j;
   j["robot"] = o.base.config;
-  j["peak_force_N"] = o.base.peak;
+  j["peak_force_N"] = o.peaks.front();
+  j["peaks_N"] = o.peaks;
   j["resolution_Ns"] = o.resolution;
   j["max_impulse_Ns"] = o.max_impulse;
   if (o.base.alpha) j["alpha"] = *o.base.alpha;
@@ -176,7 +215,8 @@ nlohmann::ordered_json sweep_json(const SweepOptions& o, const std::vector<Case>
   for (const auto& c : cases) {
     ojson r;
     r["support"] = c.support;
-    r["strategy"] = to_string(c.strategy);
+    r["strategy"] = c.strategy;
+    r["peak_force_N"] = c.peak;
     r["direction_deg"] = c.direction;
     r["max_recovered_Ns"] = c.failed ? ojson(nullptr) : ojson(c.max_recovered);
     if (c.reached_max || c.failed) {
@@ -201,13 +241,14 @@ nlohmann::ordered_json sweep_json(const SweepOptions& o, const std::vector<Case>
 
 /// The table on stdout.
 void print_table(const std::vector<Case>& cases) {
-  std::printf("%-7s %-6s %9s %14s\n", "support", "strat.", "direction", "max impulse");
+  std::printf("%-7s %-14s %6s %9s %14s\n", "support", "strategy", "peak", "direction", "max impulse");
   for (const auto& c : cases) {
     if (c.failed) {
-      std::printf("%-7s %-6s %7.0f deg %14s  (%s)\n", c.support.c_str(), to_string(c.strategy), c.direction, "failed", c.failure.c_str());
+      std::printf("%-7s %-14s %4.0f N %5.0f deg %14s  (%s)\n", c.support.c_str(), c.strategy.c_str(), c.peak, c.direction, "failed",
+                  c.failure.c_str());
       continue;
     }
-    std::printf("%-7s %-6s %7.0f deg %10.2f N s%s%s\n", c.support.c_str(), to_string(c.strategy), c.direction, c.max_recovered,
+    std::printf("%-7s %-14s %4.0f N %5.0f deg %10.2f N s%s%s\n", c.support.c_str(), c.strategy.c_str(), c.peak, c.direction, c.max_recovered,
                 c.reached_max ? "+" : "", c.inconclusive ? "  (a trial stayed inconclusive: may be low)" : "");
   }
 }
@@ -242,8 +283,9 @@ int main(int argc, char** argv) {
     SearchSpec search;
     search.base = o.base;
     search.base.support = cases[i].support;
-    search.base.strategy = cases[i].strategy;
+    search.base.peak = cases[i].peak;
     search.base.direction_deg = cases[i].direction;
+    apply(variant_from_string(cases[i].strategy), search.base);
     search.start = o.start;
     search.max_impulse = o.max_impulse;
     search.resolution = o.resolution;
@@ -251,7 +293,8 @@ int main(int argc, char** argv) {
   }
 
   int trials_done = 0;
-  const ExecutorEvents events = progress_lines(trials_done, std::chrono::steady_clock::now());
+  int searches_done = 0;
+  const ExecutorEvents events = progress_lines(trials_done, searches_done, searches.size(), std::chrono::steady_clock::now());
   std::vector<SearchResult> results;
   std::string executor_text;
   try {
@@ -285,6 +328,15 @@ int main(int argc, char** argv) {
   print_table(cases);
   std::printf("table: %s\n", json_path.c_str());
   plot(json_path, o.out_dir);
+  if (o.dominance) {
+    std::vector<DominanceCell> cells;
+    for (const auto& c : cases) {
+      cells.push_back({c.support, c.strategy, c.peak, c.direction, c.failed ? std::nullopt : std::optional(c.max_recovered), c.reached_max});
+    }
+    const std::string md = dominance_table(cells, o.base.config, o.max_impulse, o.resolution);
+    std::ofstream(o.out_dir + "/dominance.md") << md;
+    std::printf("\n%s\ndominance table: %s/dominance.md\n", md.c_str(), o.out_dir.c_str());
+  }
   if (std::any_of(cases.begin(), cases.end(), [](const Case& c) { return c.failed; })) {
     std::fprintf(stderr, "push_sweep: some cases did not finish (marked failed in the table and the JSON)\n");
     return 4;

@@ -29,7 +29,8 @@ lockstep on a private LCM URL (or, with --in-process, their libraries in one thr
 tilt, maximum sole slip, peak CAM per axis, minimum CoP margin, time to return to the posture.
 
   --support S           double | left | right (default double)
-  --strategy S          cam | ankle (ankle: the wbc holds the posture, no CAM reference) (default cam)
+  --strategy S          cam | ankle (ankle: the wbc holds the posture, no CAM reference), stepping as
+                        configured; cam-standing | ankle-standing: stepping off (default cam)
   --direction DEG       push direction: 0 = pushed forward from behind, 90 = towards +y, 180 = from the front
   --impulse NS          impulse of the half-sine push [N s] (default 18; 0 with no --duration: no push,
                         a standing trial judged alike)
@@ -75,13 +76,14 @@ std::optional<int> read_options(int argc, char** argv, TrialOptions& o) {
   using namespace hpr::experiments;
   TrialSpec& spec = o.spec;
   spec.config = "toro";
+  Variant variant;
   return hpr::read_command_line(
       argc, argv, "push_trial", usage,
       [&](hpr::ArgReader& args) {
         if (args.is("--support")) {
           spec.support = args.value();
         } else if (args.is("--strategy")) {
-          spec.strategy = strategy_from_string(args.value());
+          variant = variant_from_string(args.value());
         } else if (args.is("--direction")) {
           spec.direction_deg = args.number();
         } else if (args.is("--impulse")) {
@@ -122,6 +124,7 @@ std::optional<int> read_options(int argc, char** argv, TrialOptions& o) {
           throw std::invalid_argument("the push needs --peak > 0 and a positive --impulse or --duration (--impulse 0: no push)");
         }
         spec.config = find_config(spec.config);
+        apply(variant, spec);  // after every --set and --overlay: "-standing" has the last word
         if (spec.truth_state && !spec.in_process) throw std::invalid_argument("--truth-state needs --in-process");
         if (!spec.lcm_url.empty() && spec.in_process) throw std::invalid_argument("--lcm-url: an --in-process trial has no LCM");
         if (spec.in_process && (!spec.log_file.empty() || !o.video_file.empty())) {

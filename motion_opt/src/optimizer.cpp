@@ -57,6 +57,7 @@ MotionOptConfig MotionOptConfig::load(const Config& c, const model::RobotSpec& r
     if (l.has("swing_foot")) {
       const Config s = l.section("swing_foot");
       m.swing_range = s.real_or("range", m.swing_range, 0.0, 1.0);
+      m.swing_clearance = s.real_or("clearance", m.swing_clearance, 0.0, 0.5);
       m.swing_velocity = s.real_or("velocity", m.swing_velocity, 0.0, 10.0);
       m.swing_return_rate = s.real_or("return_rate", m.swing_return_rate, 0.0, 1e3);
     }
@@ -146,11 +147,19 @@ void MotionOptimizer::limits(int c, const balance::TaskReference& ref, double& d
       vmax = config_.joint_velocity_fraction * robot_->model.v_max[j];
       break;
     }
-    case Coordinate::Kind::kFoot:
+    case Coordinate::Kind::kFoot: {
       dmin = -config_.swing_range;
       dmax = config_.swing_range;
       vmax = config_.swing_velocity;
+      if (co.axis == 2) {
+        // Downwards no further than `swing_clearance` above the stance sole: a swing foot that
+        // touches the ground carries load the contact plan does not know of, and tips the robot.
+        const auto swing = static_cast<size_t>(co.index);
+        const double height = ref.feet[swing].X_WS.p.z() - ref.feet[1 - swing].X_WS.p.z();
+        dmin = std::min(0.0, std::max(dmin, config_.swing_clearance - height));
+      }
       break;
+    }
   }
 }
 

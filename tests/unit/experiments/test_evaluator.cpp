@@ -139,8 +139,8 @@ TEST(TrialEvaluator, WithStepsASoleThatLiftsAndLandsElsewhereIsAStepNotASlip) {
   EXPECT_NE(s.failure.find("sole slip"), std::string::npos) << s.failure;
   EXPECT_EQ(s.outcome, "slipped");
   EXPECT_EQ(s.steps, 0) << "steps are counted only when they are allowed";
-  EXPECT_TRUE(hpr::experiments::steps_enabled({"a.b=1", "balance.stepping.enabled=true"}));
-  EXPECT_FALSE(hpr::experiments::steps_enabled({"balance.stepping.enabled=true", "balance.stepping.enabled=false"}));
+  EXPECT_TRUE(hpr::experiments::overrides_enable_steps({"a.b=1", "balance.stepping.enabled=true"}));
+  EXPECT_FALSE(hpr::experiments::overrides_enable_steps({"balance.stepping.enabled=true", "balance.stepping.enabled=false"}));
 }
 
 TEST(TrialEvaluator, AResultReadBackFromItsJsonIsTheSameToTheLastBit) {

@@ -227,6 +227,34 @@ TEST_F(MotionOptTest, ChangingTheAdjustedSetDoesNotMakeTheCommandJump) {
   EXPECT_EQ(set_changes, 2) << "the swing foot joins and leaves x_a";
 }
 
+TEST_F(MotionOptTest, TheSwingFootNeverComesLowerThanItsClearanceAboveTheStanceSole) {
+  // In single support the swing foot is an adjusted coordinate; a large CAM reference about x
+  // would swing it down and under the body, onto the ground, where it takes load the contact plan
+  // does not know of (the robot then tips over the sole it thinks it stands on).
+  const motion_opt::MotionOptConfig c = config();
+  ASSERT_GT(c.swing_clearance, 0.0);
+  balance::TaskReference r = ref;
+  r.support = balance::Support::kRight;
+  r.settled = true;
+  r.feet[1].contact = false;
+  r.feet[1].X_WS.p.z() += 0.05;  // lifted 5 cm
+  double lowest = 1.0;
+  for (const double sign : {1.0, -1.0}) {
+    for (int axis = 0; axis < 2; ++axis) {
+      motion_opt::MotionOptimizer opt(robot, c);
+      const Vector3d l_ref = sign * 25.0 * Vector3d::Unit(axis);
+      for (int s = 0; s < 2000; ++s) {
+        const auto& out = opt.step(q, v, r, l_ref, true, kDt);
+        ASSERT_FALSE(out.qp_failed);
+        const double height = out.command.feet[1].X_WS.p.z() - r.feet[0].X_WS.p.z();
+        ASSERT_GE(height, c.swing_clearance - 1e-9) << "l_ref " << l_ref.transpose() << ", step " << s;
+        lowest = std::min(lowest, height);
+      }
+    }
+  }
+  EXPECT_LT(lowest, c.swing_clearance + 1e-3) << "some reference drives the foot down to the bound (else this proves nothing)";
+}
+
 TEST_F(MotionOptTest, TheCamTaskKeepsTheMomentumOfAMovingReference) {
   // A swinging foot carries CAM of its own (Ā ẋ^ref); the CAM task asks for l_c^ref on top of it,
   // so that the upper body does not cancel a step's swing leg. Without posture weight the commanded

@@ -25,6 +25,26 @@ Strategy strategy_from_string(const std::string& s) {
   throw std::invalid_argument("strategy '" + s + "': expected cam or ankle");
 }
 
+Variant variant_from_string(const std::string& s) {
+  constexpr std::string_view kStanding = "-standing";
+  if (s.ends_with(kStanding)) {
+    const std::string strategy = s.substr(0, s.size() - kStanding.size());
+    if (strategy == "cam" || strategy == "ankle") return {strategy_from_string(strategy), true};
+  } else if (s == "cam" || s == "ankle") {
+    return {strategy_from_string(s), false};
+  }
+  throw std::invalid_argument("strategy '" + s + "': expected cam, ankle, cam-standing or ankle-standing");
+}
+
+void apply(const Variant& v, TrialSpec& spec) {
+  spec.strategy = v.strategy;
+  if (v.standing) spec.overrides.push_back("balance.stepping.enabled=false");
+}
+
+std::string variant_name(const TrialSpec& spec) {
+  return std::string(to_string(spec.strategy)) + (overrides_enable_steps(spec.overrides, true) ? "" : "-standing");
+}
+
 TrialEvaluator::TrialEvaluator(const model::RobotSpec& robot, const std::string& support, double push_start, double push_end)
     : robot_(&robot), push_start_(push_start), push_end_(push_end) {
   if (support == "double") {
@@ -190,6 +210,7 @@ std::string TrialResult::to_json(const TrialSpec& spec) const {
   j["robot"] = spec.config;
   j["support"] = spec.support;
   j["strategy"] = to_string(spec.strategy);
+  j["stepping"] = steps_enabled(spec);
   j["direction_deg"] = spec.direction_deg;
   j["pipeline"] = spec.in_process ? "in-process" : "processes";
   j["peak_force_N"] = spec.peak;

@@ -39,7 +39,7 @@ struct InProcessRun {
       : plan(plan_trial(spec)),
         loop(plan.config, plan.overrides, loop_options(spec)),
         eval(loop.spec, spec.support, plan.push.start, plan.push.start + plan.push.duration) {
-    eval.allow_steps(steps_enabled(spec.overrides));
+    eval.allow_steps(steps_enabled(spec));
     names.joints = loop.spec.model.joint_name;
   }
 

@@ -28,12 +28,26 @@ namespace hpr::experiments {
 namespace fs = std::filesystem;
 using namespace std::chrono_literals;
 
-bool steps_enabled(const std::vector<std::string>& overrides) {
-  bool on = false;
+bool overrides_enable_steps(const std::vector<std::string>& overrides, bool configured) {
+  bool on = configured;
   for (const std::string& o : overrides) {
     if (o.rfind("balance.stepping.enabled=", 0) == 0) on = o.substr(o.find('=') + 1) == "true";
   }
   return on;
+}
+
+bool steps_enabled(const TrialSpec& spec) {
+  bool configured = false;
+  std::error_code ec;
+  if (!spec.config.empty() && fs::is_regular_file(spec.config, ec)) {  // a name not yet found: its run will say
+    try {
+      const YAML::Node stepping = YAML::LoadFile(spec.config)["balance"]["stepping"]["enabled"];
+      configured = stepping && stepping.as<bool>();
+    } catch (const YAML::Exception& e) {
+      throw std::runtime_error(fmt::format("{}: balance.stepping.enabled: {}", spec.config, e.what()));
+    }
+  }
+  return overrides_enable_steps(spec.overrides, configured);
 }
 
 std::string find_in_config_dirs(const std::string& relative) {
@@ -292,7 +306,7 @@ TrialResult run_trial(const TrialSpec& spec, const std::function<void(const std:
   const std::unique_ptr<lcm::LCM> lcm_handle = node::open_lcm(group.lcm_url());
   lcm::LCM& lcm = *lcm_handle;
   TrialEvaluator eval(*plan.robot, spec.support, t_push, t_end);
-  eval.allow_steps(steps_enabled(spec.overrides));
+  eval.allow_steps(steps_enabled(spec));
   Listener listener(lcm, eval);
   if (!spec.log_file.empty()) {
     fs::create_directories(fs::absolute(spec.log_file).parent_path());

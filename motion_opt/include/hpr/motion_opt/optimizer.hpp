@@ -46,6 +46,7 @@ struct MotionOptConfig {
   double joint_limit_margin = 0.05;                            ///< [rad] inside the URDF limits
   double joint_velocity_fraction = 0.8;                        ///< of the URDF velocity limits
   double swing_range = 0.15;                                   ///< swing foot offsets [m]
+  double swing_clearance = 0.02;  ///< [m] the swing sole stays this far above the stance sole at least
   double swing_velocity = 1.0;                                 ///< [m/s]
   double swing_return_rate = 10.0;                             ///< [1/s] offset decay once the foot is not adjusted
   double acceleration_filter = 0.005;                          ///< [s] time constant of the differentiated acceleration

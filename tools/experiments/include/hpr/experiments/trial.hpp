@@ -42,8 +42,9 @@ Strategy strategy_from_string(const std::string& s);
 /// tree next to the build and the installed share directory. Throws std::runtime_error with the
 /// places searched when not found.
 std::string find_config(const std::string& robot_or_path);
-/// Whether the spec's overrides turn stepping on (balance.stepping.enabled=true).
-bool steps_enabled(const std::vector<std::string>& overrides);
+/// Whether stepping is on after `overrides` (the last balance.stepping.enabled=... wins) when the
+/// configuration says `configured`.
+bool overrides_enable_steps(const std::vector<std::string>& overrides, bool configured = false);
 
 /// A file of the configuration folder ($HPR_CONFIG_DIR, the source tree next to the build, the
 /// installed share directory), e.g. "templates/robot.yaml". Throws std::runtime_error naming the
@@ -78,6 +79,23 @@ struct TrialSpec {
   /// would have come, judged as after a push.
   [[nodiscard]] bool standing() const { return impulse == 0.0 && duration == 0.0; }
 };
+
+/// A strategy as the tools name it: "cam" or "ankle" as configured (stepping when the configuration
+/// steps), "cam-standing" or "ankle-standing" with stepping off.
+struct Variant {
+  Strategy strategy = Strategy::kCam;
+  bool standing = false;
+};
+/// Throws std::invalid_argument naming the accepted words.
+Variant variant_from_string(const std::string& s);
+/// Sets the spec's strategy and, standing, appends balance.stepping.enabled=false to its overrides.
+void apply(const Variant& v, TrialSpec& spec);
+/// The spec's name: its strategy, "-standing" when its overrides turn stepping off.
+std::string variant_name(const TrialSpec& spec);
+
+/// Whether the trial's robot may step: its configuration file's balance.stepping.enabled, then
+/// its overrides. Throws std::runtime_error naming the file when that key is not a boolean.
+bool steps_enabled(const TrialSpec& spec);
 
 struct TrialResult {
   bool recovered = false, fallen = false, completed = false;
