@@ -78,7 +78,7 @@ json results_of(const std::string& out) {
 
 /// The table push_sweep prints (from its header line to "table:").
 std::string table_of(const std::string& output) {
-  const auto from = output.find("support strat.");
+  const auto from = output.find("support strategy");
   const auto to = output.find("table:", from);
   return from == std::string::npos || to == std::string::npos ? "" : output.substr(from, to - from);
 }
