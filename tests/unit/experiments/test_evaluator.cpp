@@ -133,12 +133,14 @@ TEST(TrialEvaluator, WithStepsASoleThatLiftsAndLandsElsewhereIsAStepNotASlip) {
   const TrialResult r = with_steps.result();
   EXPECT_TRUE(r.recovered) << r.failure;
   EXPECT_EQ(r.steps, 1);
+  EXPECT_TRUE(r.stepping) << "the result says by which criteria it was judged";
   EXPECT_GT(r.max_slip, 0.19);
   const TrialResult s = standing_only.result();
   EXPECT_FALSE(s.recovered);
   EXPECT_NE(s.failure.find("sole slip"), std::string::npos) << s.failure;
   EXPECT_EQ(s.outcome, "slipped");
   EXPECT_EQ(s.steps, 0) << "steps are counted only when they are allowed";
+  EXPECT_FALSE(s.stepping);
   EXPECT_TRUE(hpr::experiments::overrides_enable_steps({"a.b=1", "balance.stepping.enabled=true"}));
   EXPECT_FALSE(hpr::experiments::overrides_enable_steps({"balance.stepping.enabled=true", "balance.stepping.enabled=false"}));
 }
@@ -154,6 +156,7 @@ TEST(TrialEvaluator, AResultReadBackFromItsJsonIsTheSameToTheLastBit) {
   r.impulse_W = Eigen::Vector3d(0.1 / 3.0, -2.0 / 7.0, 0.0);
   r.max_tilt_deg = M_PI;
   r.max_slip = 1e-17;
+  r.stepping = true;
   r.steps = 2;
   r.peak_cam = Eigen::Vector3d(1.0 / 3.0, 2.0 / 3.0, 5.0 / 9.0);
   r.peak_cam_cmd = Eigen::Vector3d(std::sqrt(2.0), 1e300, -0.0);

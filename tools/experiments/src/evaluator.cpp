@@ -168,6 +168,7 @@ void TrialEvaluator::on_truth(const humanoid::sim_truth_t& t) {
 
 TrialResult TrialEvaluator::result() const {
   TrialResult r = r_;
+  r.stepping = steps_allowed_;
   if (r.min_cop_margin > 1e8) r.min_cop_margin = 0.0;
   r.completed = evaluated_after_push_ && last_time_ >= push_end_ + kSettleTime - 1e-3;
   if (last_out_of_posture_ < 0) {
@@ -210,7 +211,7 @@ std::string TrialResult::to_json(const TrialSpec& spec) const {
   j["robot"] = spec.config;
   j["support"] = spec.support;
   j["strategy"] = to_string(spec.strategy);
-  j["stepping"] = steps_enabled(spec);
+  j["stepping"] = stepping;
   j["direction_deg"] = spec.direction_deg;
   j["pipeline"] = spec.in_process ? "in-process" : "processes";
   j["peak_force_N"] = spec.peak;
@@ -263,6 +264,7 @@ TrialResult TrialResult::from_json(const std::string& json) {
   r.impulse_W = vec("applied_impulse_W_Ns");
   r.max_tilt_deg = j.at("max_foot_tilt_deg").get<double>();
   r.max_slip = j.at("max_sole_slip_m").get<double>();
+  r.stepping = j.value("stepping", false);  // absent from results files written before it
   r.steps = j.at("steps").get<int>();
   r.steps_started = j.value("steps_started", 0);  // absent from results files written before these counts
   r.follow_steps = j.value("follow_steps", 0);

@@ -37,17 +37,9 @@ bool overrides_enable_steps(const std::vector<std::string>& overrides, bool conf
 }
 
 bool steps_enabled(const TrialSpec& spec) {
-  bool configured = false;
-  std::error_code ec;
-  if (!spec.config.empty() && fs::is_regular_file(spec.config, ec)) {  // a name not yet found: its run will say
-    try {
-      const YAML::Node stepping = YAML::LoadFile(spec.config)["balance"]["stepping"]["enabled"];
-      configured = stepping && stepping.as<bool>();
-    } catch (const YAML::Exception& e) {
-      throw std::runtime_error(fmt::format("{}: balance.stepping.enabled: {}", spec.config, e.what()));
-    }
-  }
-  return overrides_enable_steps(spec.overrides, configured);
+  const Config c = Config::load(spec.config, spec.overrides);
+  if (!c.has("balance") || !c.section("balance").has("stepping")) return false;
+  return c.section("balance").section("stepping").boolean_or("enabled", false);
 }
 
 std::string find_in_config_dirs(const std::string& relative) {

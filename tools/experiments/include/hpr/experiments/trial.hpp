@@ -93,8 +93,9 @@ void apply(const Variant& v, TrialSpec& spec);
 /// The spec's name: its strategy, "-standing" when its overrides turn stepping off.
 std::string variant_name(const TrialSpec& spec);
 
-/// Whether the trial's robot may step: its configuration file's balance.stepping.enabled, then
-/// its overrides. Throws std::runtime_error naming the file when that key is not a boolean.
+/// Whether the trial's robot may step: balance.stepping.enabled of its configuration with its
+/// overrides, read as the processes read it (Config: a non-boolean throws ConfigError naming the
+/// file, line, key and value).
 bool steps_enabled(const TrialSpec& spec);
 
 struct TrialResult {
@@ -118,6 +119,8 @@ struct TrialResult {
   double final_joint_deg = 0.0;        ///< largest free-joint deviation
   std::string final_joint;             ///< and its joint
   double push_start = 0.0, push_end = 0.0, sim_time = 0.0, wall_time = 0.0;
+  /// Judged as a robot that may step (balance.stepping.enabled): at rest anywhere, not back in place.
+  bool stepping = false;
   /// With stepping on (balance.stepping.enabled): touchdowns of a sole after at least 20 ms in the
   /// air, from the push on.
   int steps = 0;
