@@ -65,9 +65,11 @@ function(hpr_add_library)
 endfunction()
 
 # hpr_add_executable(NAME <name> SOURCES ... DEPS ...)
+#   A program of the stack (a process, a tool, a benchmark), installed and part of target hpr_stack.
 function(hpr_add_executable)
   cmake_parse_arguments(A "" "NAME" "SOURCES;DEPS" ${ARGN})
   add_executable(${A_NAME} ${A_SOURCES})
+  set_property(GLOBAL APPEND PROPERTY HPR_STACK_TARGETS ${A_NAME})
   target_link_libraries(${A_NAME} PRIVATE ${A_DEPS})
   hpr_set_options(${A_NAME})
   set_target_properties(${A_NAME} PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/bin)

@@ -19,9 +19,8 @@ namespace hpr::mesh {
 namespace {
 
 Eigen::Matrix4d to_eigen(const aiMatrix4x4& m) {
-  Eigen::Matrix4d out;
-  out << m.a1, m.a2, m.a3, m.a4, m.b1, m.b2, m.b3, m.b4, m.c1, m.c2, m.c3, m.c4, m.d1, m.d2, m.d3, m.d4;
-  return out;
+  // aiMatrix4x4 holds a1..a4, b1..b4, c1..c4, d1..d4: its rows, one after the other.
+  return Eigen::Map<const Eigen::Matrix<ai_real, 4, 4, Eigen::RowMajor>>(&m.a1).cast<double>();
 }
 
 void collect(const aiScene& scene, const aiNode& node, const Eigen::Matrix4d& parent, const Eigen::Vector3d& scale,
@@ -32,7 +31,7 @@ void collect(const aiScene& scene, const aiNode& node, const Eigen::Matrix4d& pa
     const int base = static_cast<int>(out.vertices.size());
     for (unsigned v = 0; v < m.mNumVertices; ++v) {
       const aiVector3D& p = m.mVertices[v];
-      const Eigen::Vector4d x = T * Eigen::Vector4d(p.x, p.y, p.z, 1.0);
+      const Eigen::Vector4d x = T * Eigen::Vector4d(static_cast<double>(p.x), static_cast<double>(p.y), static_cast<double>(p.z), 1.0);
       out.vertices.push_back(x.head<3>().cwiseProduct(scale));
     }
     for (unsigned f = 0; f < m.mNumFaces; ++f) {

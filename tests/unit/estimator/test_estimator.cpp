@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <limits>
 #include <random>
 
 #include "hpr/estimator/estimator.hpp"
@@ -410,7 +411,7 @@ TEST_F(EstimatorTest, RefusesImplausibleSamplesAndKeepsTheEstimate) {
       {"NaN gyro", [](SensorSample& s) { s.imu_gyro_B.x() = std::nan(""); }, "IMU"},
       {"huge acceleration", [](SensorSample& s) { s.imu_accel_B.z() = 1e3; }, "specific force"},
       {"joint out of range", [](SensorSample& s) { s.q(3) = 10.0; }, robot.model.joint_name[3].c_str()},
-      {"infinite force", [](SensorSample& s) { s.ft_wrench_S[1](2) = INFINITY; }, "left force/torque"},
+      {"infinite force", [](SensorSample& s) { s.ft_wrench_S[1](2) = std::numeric_limits<double>::infinity(); }, "left force/torque"},
       {"wrong size", [](SensorSample& s) { s.q.resize(3); }, "joint arrays"},
   };
   for (const auto& c : cases) {

@@ -177,7 +177,7 @@ TEST_F(Channels, JointCommandArrivesUnchanged) {
   EXPECT_EQ(got.kp, c.kp);
   EXPECT_EQ(got.kd, c.kd);
 
-  m.tau_ff[0] = INFINITY;
+  m.tau_ff[0] = std::numeric_limits<double>::infinity();
   EXPECT_NE(msg::from_message(m, names, got), "");
 }
 
@@ -331,7 +331,7 @@ TEST_F(Channels, BalancePlanArrivesBitForBit) {
   EXPECT_EQ(refused([](auto& b) { b.R_WF[1][4] = std::nan(""); }), "left non-finite sole orientation");
   EXPECT_EQ(refused([](auto& b) { b.stage = 10; }), "unknown stage 10");
   EXPECT_EQ(refused([](auto& b) { b.support = 3; }), "unknown support 3");
-  EXPECT_EQ(refused([](auto& b) { b.f_ext_W[0] = INFINITY; }), "non-finite external force");
+  EXPECT_EQ(refused([](auto& b) { b.f_ext_W[0] = std::numeric_limits<double>::infinity(); }), "non-finite external force");
   EXPECT_EQ(refused([](auto& b) { b.foot_load_limit[0] = 1.5; }), "right foot's load limit 1.5 is not in [0, 1]");
   EXPECT_EQ(refused([](auto& b) { b.p_WCom[2] = std::nan(""); }), "non-finite value");
   EXPECT_EQ(refused([](auto& b) { b.step_foot = 2; }), "step_foot 2 is no foot (-1, 0 or 1)");
@@ -437,7 +437,7 @@ TEST_F(Channels, CamReferenceArrivesUnchanged) {
   m.phase[2] = 4;
   EXPECT_NE(msg::from_message(m, got), "");
   m.phase[2] = 0;
-  m.l_ref_W[0] = -INFINITY;
+  m.l_ref_W[0] = -std::numeric_limits<double>::infinity();
   EXPECT_NE(msg::from_message(m, got), "");
 }
 

@@ -161,17 +161,19 @@ class ComponentNode {
     const auto& ch = std::get<I>(B::kReads);
     using Msg = typename std::remove_cvref_t<decltype(ch)>::Message;
     using Value = typename msg::Codec<Msg>::Value;
-    auto& slot = std::get<I>(slots_);
     // Decoded into a scratch value and swapped in when valid: a refused message leaves the slot.
     auto scratch = std::make_shared<Value>();
     inputs_[I] = &rt_.subscribe(
         ch,
         [this, scratch](const Msg& m) { return msg::Codec<Msg>::decode(m, naming_, *scratch); },
-        [this, scratch, &slot](const Msg& m) {
-          std::swap(slot.value, *scratch);
-          slot.tick = m.tick;
-          if constexpr (requires { b_.on(slot.value, slots_); }) b_.on(slot.value, slots_);
-        });
+        [this, scratch](const Msg& m) { this->template take<I>(m.tick, *scratch); });
+  }
+  template <std::size_t I, class Value>
+  void take(std::int64_t tick, Value& decoded) {
+    auto& slot = std::get<I>(slots_);
+    std::swap(slot.value, decoded);
+    slot.tick = tick;
+    if constexpr (requires { b_.on(slot.value, slots_); }) b_.on(slot.value, slots_);
   }
   template <std::size_t... I>
   void advertise_all(std::index_sequence<I...>) {
