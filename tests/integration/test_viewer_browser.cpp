@@ -33,7 +33,7 @@ double q_at(const Eigen::VectorXd& stand, std::int64_t k, int j) {
 
 TEST(ViewerBrowser, PageShowsTheLoggedPostureTheRobotAndThePush) {
   const std::string web = hpr::test::source_dir() + "/viewer/web";
-  ASSERT_TRUE(std::filesystem::exists(web + "/node_modules/playwright-core")) << "npm ci --prefix " << web << " (tools/install-deps)";
+  ASSERT_TRUE(std::filesystem::exists(web + "/node_modules/playwright-core")) << "tools/install-web-packages " << web << " (tools/install-deps)";
   ASSERT_TRUE(std::filesystem::exists("/usr/bin/chromium")) << "Debian's chromium (tools/install-deps)";
 
   const auto spec = hpr::model::RobotSpec::load(hpr::Config::load(hpr::test::source_dir() + "/config/toro.yaml").section("robot"));

@@ -170,7 +170,7 @@ int main(int argc, char** argv) {
     opt.web_dir = section.has("web_dir") ? section.file_path("web_dir") : default_web_dir();
     if (!fs::exists(fs::path(opt.web_dir) / "node_modules" / "three" / "build" / "three.module.js")) {
       section.fail("web_dir", fmt::format("'{}' lacks node_modules/three: install the page's packages with "
-                                          "`npm ci --prefix {}` (tools/install-deps does)", opt.web_dir, opt.web_dir));
+                                          "`tools/install-web-packages {}` (tools/install-deps does)", opt.web_dir, opt.web_dir));
     }
     const auto robot = model::RobotSpec::load(cfg.section("robot"));
     viewer::DisplayOptions display_options;
