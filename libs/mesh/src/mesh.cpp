@@ -31,7 +31,7 @@ void collect(const aiScene& scene, const aiNode& node, const Eigen::Matrix4d& pa
     const int base = static_cast<int>(out.vertices.size());
     for (unsigned v = 0; v < m.mNumVertices; ++v) {
       const aiVector3D& p = m.mVertices[v];
-      const Eigen::Vector4d x = T * Eigen::Vector4d(static_cast<double>(p.x), static_cast<double>(p.y), static_cast<double>(p.z), 1.0);
+      const Eigen::Vector4d x = T * Eigen::Matrix<ai_real, 3, 1>(p.x, p.y, p.z).cast<double>().homogeneous();
       out.vertices.push_back(x.head<3>().cwiseProduct(scale));
     }
     for (unsigned f = 0; f < m.mNumFaces; ++f) {
