@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "closed_loop.hpp"
+#include "paper.hpp"
 
 namespace {
 
@@ -62,12 +63,14 @@ TEST(EstimatorAccuracy, Standing30sDriftAndOrientation) {
 }
 
 // Pooled over three noise seeds: one seed's error depends on where its noise lands in the push
-// (from 2.4 % to 5.4 % of the peak CAM for seeds 1 to 4).
+// (from 2.4 % to 5.4 % of the peak CAM for seeds 1 to 4). Experiment 1 in the paper's
+// configuration, which keeps both feet on the ground (with seed 1's noise the default unloads a
+// foot in it).
 TEST(EstimatorAccuracy, During18NsPush) {
   Errors e;
   double vcom_peak = 0;
   for (const int seed : {1, 2, 3}) {
-    std::vector<std::string> overrides = kNoise;
+    std::vector<std::string> overrides = hpr::test::paper_and(kNoise);
     overrides.push_back(fmt::format("sim.noise.seed={}", seed));
     ClosedLoop loop("toro", overrides, ClosedLoopOptions{.cam = true, .estimator_in_loop = true});
     const double t_push = 2.0, impulse = 18.0, peak = 65.0;

@@ -1,7 +1,9 @@
 // The paper's experiments in simulation, every process of the stack in lockstep with the estimator
-// in the loop (push_trial, push_sweep), TORO-like robot with its default configuration (α = 0.9,
-// β = 0.4) and the second robot with configuration changes only. Figures from each run's LCM log
-// go to the test's work folder (build/test-work/...).
+// in the loop (push_trial, push_sweep): the TORO-like robot in the paper's configuration
+// (config/overlays/paper.yaml, α = 0.9, β = 0.4) and the variants docs/RESULTS.md measures on it,
+// the default controller (ankle → hip → step, config/toro.yaml) against its single strategies, and
+// the other robots with configuration changes only. Figures from each run's LCM log go to the
+// test's work folder (build/test-work/...).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -45,6 +47,13 @@ int run(const std::string& cmd, std::string* out = nullptr) {
 }
 
 std::string bin(const std::string& name) { return hpr::test::bin_dir() + "/" + name; }
+
+/// " --overlay" of config/overlays/NAME.yaml, for push_trial and push_sweep.
+std::string overlay(const std::string& name) { return " --overlay " + hpr::test::source_dir() + "/config/overlays/" + name + ".yaml"; }
+
+/// The paper's configuration: the standing posture, two strategies, no lean budget, no push
+/// compensation, no stepping.
+const std::string kPaper = overlay("paper");
 
 /// push_trial with `args`; the JSON result. The LCM log and figures go to `dir` when given.
 json trial(const std::string& args, const std::string& dir = "", const std::string& title = "") {
@@ -114,7 +123,7 @@ double peak_segment(const LogData& d, const std::string& part, int axis) {
 
 TEST(PaperExperiments, Experiment1DoubleSupportPushFromBehind18Ns) {
   const std::string dir = hpr::test::temp_dir("experiment1");
-  const json cam = trial("--robot toro --support double --strategy cam --direction 0 --peak 65 --impulse 18", dir,
+  const json cam = trial("--robot toro --support double --strategy cam --direction 0 --peak 65 --impulse 18" + kPaper, dir,
                          "Experiment 1: double support, 18 N s from behind, CAM strategy");
   EXPECT_TRUE(cam["recovered"].get<bool>()) << cam.dump();
   EXPECT_NEAR(cam["applied_impulse_Ns"].get<double>(), 18.0, 0.1);
@@ -129,7 +138,7 @@ TEST(PaperExperiments, Experiment1DoubleSupportPushFromBehind18Ns) {
   EXPECT_GT(peak_offset(d, "base_rotation_y"), 0.005) << "the trunk bends forward";
   EXPECT_GT(peak_segment(d, "arm", 1), 0.05) << "the arms swing back";
   // The ankle strategy alone with the same gains at the same push, reported.
-  const json ankle = trial("--robot toro --support double --strategy ankle --direction 0 --peak 65 --impulse 18",
+  const json ankle = trial("--robot toro --support double --strategy ankle --direction 0 --peak 65 --impulse 18" + kPaper,
                            hpr::test::temp_dir("experiment1-ankle"), "Experiment 1: the ankle strategy alone");
   std::printf("experiment 1 (18 N s from behind): CAM strategy %s, ankle strategy %s\n",
               cam["recovered"].get<bool>() ? "recovered" : "NOT recovered",
@@ -142,7 +151,7 @@ TEST(PaperExperiments, Experiment1DoubleSupportPushFromBehind18Ns) {
 
 TEST(PaperExperiments, Experiment2SingleSupportPushFromTheFront22_5Ns) {
   const std::string dir = hpr::test::temp_dir("experiment2");
-  const json r = trial("--robot toro --support right --strategy cam --direction 180 --peak 75 --impulse 22.5", dir,
+  const json r = trial("--robot toro --support right --strategy cam --direction 180 --peak 75 --impulse 22.5" + kPaper, dir,
                        "Experiment 2: single support (right), 22.5 N s from the front");
   EXPECT_TRUE(r["recovered"].get<bool>()) << r.dump();
   EXPECT_NEAR(r["applied_impulse_Ns"].get<double>(), 22.5, 0.1);
@@ -158,15 +167,14 @@ TEST(PaperExperiments, Experiment2SingleSupportPushFromTheFront22_5Ns) {
 }
 
 TEST(SingleSupport, PushedTowardsTheLiftedFootTheHipStrategyHoldsWhatTheAnkleStrategyLoses) {
-  // On the right foot, pushed towards the lifted left one (+y) at a 65 N peak, with the stepping
-  // overlay's stiff swing foot and push compensation: the hip strategy swings the lifted leg for
-  // momentum about x, but never lower than its clearance above the stance sole
+  // On the right foot, pushed towards the lifted left one (+y) at a 65 N peak, in the paper's
+  // posture with the stepping overlay's stiff swing foot and push compensation: the hip strategy
+  // swings the lifted leg for momentum about x, but never lower than its clearance above the stance sole
   // (motion_opt.limits.swing_foot.clearance). Swung onto the ground, the foot took load the
   // contact plan knew nothing of and the robot fell over it from 12.5 N s on, where the ankle
   // strategy alone holds 17.8 N s (docs/RESULTS.md, "Single support").
-  const std::string push = "--in-process --robot toro --support right --peak 65 --direction 90 --impulse 24"
-                           " --overlay " + hpr::test::source_dir() + "/config/overlays/toro_stepping.yaml"
-                           " --overlay " + hpr::test::source_dir() + "/config/overlays/push_compensation.yaml --strategy ";
+  const std::string push = "--in-process --robot toro --support right --peak 65 --direction 90 --impulse 24" + kPaper +
+                           overlay("toro_stepping") + overlay("push_compensation") + " --strategy ";
   const json cam = trial(push + "cam");
   const json ankle = trial(push + "ankle");
   EXPECT_TRUE(cam["recovered"].get<bool>()) << cam.dump();
@@ -185,7 +193,7 @@ std::pair<double, double> fig3_trial(double impulse, double alpha) {
                 alpha);
   char title[128];
   std::snprintf(title, sizeof(title), "Fig. 3 scenario: %.0f N s from behind, alpha = %.1f", impulse, alpha);
-  const json r = trial(args, dir, title);
+  const json r = trial(args + kPaper, dir, title);
   EXPECT_TRUE(r["recovered"].get<bool>()) << impulse << " N s, alpha " << alpha << ": " << r.dump();
   const LogData d = read_log(dir + "/run.lcm");
   double start = -1.0, peak = 0.0;
@@ -245,12 +253,12 @@ std::map<std::pair<std::string, double>, double> sweep(const std::string& args, 
 
 TEST(PushSweep, TheDominanceTableRunsTheThreeControllersOnEveryPushAndChecksThem) {
   // One direction in double support and either foot pushed both ways sideways, at one peak, coarse.
-  // The configured robot does not step, so "cam" (as configured) and "cam-standing" (stepping
+  // The paper's configuration does not step, so "cam" (as configured) and "cam-standing" (stepping
   // turned off) are the same controller: their limits must agree to the bit in every cell.
   const std::string dir = hpr::test::temp_dir("dominance");
   std::string out;
   ASSERT_EQ(run(bin("push_sweep") + " --robot toro --dominance --peaks 65 --angles 0 --max-impulse 40 --resolution 2 --jobs 2"
-                " --in-process --out " + dir, &out), 0) << out;
+                " --in-process --out " + dir + kPaper, &out), 0) << out;
   std::ifstream f(dir + "/sweep.json");
   const json j = json::parse(f, nullptr, false);
   ASSERT_FALSE(j.is_discarded()) << "no sweep.json in " << dir;
@@ -293,9 +301,9 @@ double lip_bound(const std::string& config_file) {
 TEST(PaperExperiments, EnvelopeOfBothStrategiesAgainstTheInvertedPendulumsBound) {
   const std::string dir = hpr::test::temp_dir("envelope");
   // Through the in-process pipeline, which gives the processes' messages bit for bit (InProcess.*),
-  // in the four directions the test judges (docs/RESULTS.md has all eight).
+  // in the four directions the test judges (docs/results/paper-configuration.md has all eight).
   // At 1 N s resolution: the checks below have margins of several N s.
-  const auto m = sweep("--robot toro --supports double --strategies cam,ankle --directions 4 --resolution 1 --in-process", dir);
+  const auto m = sweep("--robot toro --supports double --strategies cam,ankle --directions 4 --resolution 1 --in-process" + kPaper, dir);
   ASSERT_EQ(m.size(), 8U);
   const double bound = lip_bound(hpr::test::source_dir() + "/config/toro.yaml");
   std::printf("m ω d = %.2f N s\n", bound);
@@ -308,8 +316,8 @@ TEST(PaperExperiments, EnvelopeOfBothStrategiesAgainstTheInvertedPendulumsBound)
   // friction or CoP range on internal forces (it recovered 0.75 of it from behind when it did).
   for (double d : {0.0, 180.0}) EXPECT_GE(m.at({"ankle", d}), 0.95 * bound) << d << " deg";
   // From the front the hip strategy recovers more than the ankle strategy alone (42.5 against
-  // 35.9 N s); from behind it loses to it (28.1 against 32.7 N s, docs/RESULTS.md), and both stay
-  // beyond the bound.
+  // 35.9 N s); from behind it loses to it (28.1 against 32.7 N s,
+  // docs/results/paper-configuration.md), and both stay beyond the bound.
   EXPECT_GT(m.at({"cam", 180.0}), m.at({"ankle", 180.0})) << "from the front";
   for (double d : {0.0, 180.0}) EXPECT_GT(m.at({"cam", d}), bound) << d << " deg";
   // Sideways both hold every push tried (80 N s).
@@ -322,8 +330,8 @@ TEST(PaperExperiments, EnvelopeOfBothStrategiesAgainstTheInvertedPendulumsBound)
 
 TEST(Robustness, CamBeatsTheAnkleStrategyWhenTheTrunkIsNotWhereTheModelSaysTheDrivesLagAndTheSensorsAreNoisy) {
   // The paper's claim that the hip strategy makes the robot more robust to model uncertainty, at
-  // three mismatches from docs/RESULTS.md, each at an impulse from the front between the two
-  // strategies' largest recovered ones: the simulated trunk's centre of mass 2 cm ahead of the
+  // three mismatches from docs/results/paper-configuration.md, each at an impulse from the front
+  // between the two strategies' largest recovered ones: the simulated trunk's centre of mass 2 cm ahead of the
   // controllers' model (CAM 45.62, ankle 39.81 N s), a 2 ms extra actuation delay (CAM 40.61, ankle
   // 35.33 N s) and the simulated sensors' noise (CAM 37.44, ankle 33.75 N s). In process (the
   // processes' messages bit for bit).
@@ -332,7 +340,7 @@ TEST(Robustness, CamBeatsTheAnkleStrategyWhenTheTrunkIsNotWhereTheModelSaysTheDr
       {"sim.actuation_delay_ticks=2", "38"},
       {"sim.noise.enabled=true", "35.5"}};
   for (const auto& [mismatch, impulse] : cases) {
-    const std::string args = "--in-process --robot toro --support double --direction 180 --peak 65 --impulse " + impulse + " --set " + mismatch;
+    const std::string args = "--in-process --robot toro --support double --direction 180 --peak 65 --impulse " + impulse + kPaper + " --set " + mismatch;
     const json ankle = trial(args + " --strategy ankle");
     const json cam = trial(args + " --strategy cam");
     EXPECT_FALSE(ankle["recovered"].get<bool>()) << mismatch << ": " << ankle.dump();
@@ -342,13 +350,12 @@ TEST(Robustness, CamBeatsTheAnkleStrategyWhenTheTrunkIsNotWhereTheModelSaysTheDr
 
 TEST(Robustness, StandingLowerWithALeanBudgetTheHipStrategyBeatsTheAnkleStrategyFromBehindUnderMismatch) {
   // Knees bent (config/overlays/toro_knees_bent.yaml) with the lean budget [6, 10] about y, the CAM
-  // strategy's lead from behind survives every mismatch of docs/RESULTS.md (1.26 to 1.54 times the
-  // ankle strategy's limit). Two of them, each at an impulse from behind between the strategies'
+  // strategy's lead from behind survives every mismatch of docs/results/paper-configuration.md
+  // (1.26 to 1.54 times the ankle strategy's limit). Two of them, each at an impulse from behind between the strategies'
   // limits: the simulated trunk's CoM 2 cm ahead of the model (CAM 44.0, ankle 32.0 N s) and the
   // simulated sensors' noise (CAM 37.2, ankle 27.4 N s).
-  const std::string posture = " --overlay " + hpr::test::source_dir() +
-                              "/config/overlays/toro_knees_bent.yaml --set reference_gen.y.lean_budget_negative=6"
-                              " --set reference_gen.y.lean_budget_positive=10";
+  const std::string posture = kPaper + overlay("toro_knees_bent") +
+                              " --set reference_gen.y.lean_budget_negative=6 --set reference_gen.y.lean_budget_positive=10";
   const std::vector<std::pair<std::string, std::string>> cases = {
       {"'sim.model_error=[{body: torso, com_offset: [0.02, 0, 0]}]'", "38"}, {"sim.noise.enabled=true", "32"}};
   for (const auto& [mismatch, impulse] : cases) {
@@ -364,15 +371,16 @@ TEST(LeanBudget, TheBoundedReferenceRecoversSagittalPushesBothStrategiesLoseAsCo
   // config/overlays/toro_lean_budget.yaml bounds the episode's ∫ l_c^ref dt about y (2.5 N m s² for
   // a push from behind, 12 from the front). The largest pushes the CAM strategy recovers go from
   // 28.1 to 36.9 N s from behind and from 42.5 to 53.8 N s from the front; the ankle strategy's are
-  // 32.7 and 35.9 (docs/RESULTS.md). At 35 N s from behind and 50 N s from the front both
-  // configured strategies fall, and the CAM strategy with the budget recovers.
-  const std::string overlay = " --overlay " + hpr::test::source_dir() + "/config/overlays/toro_lean_budget.yaml";
+  // 32.7 and 35.9 (docs/results/paper-configuration.md). At 35 N s from behind and 50 N s from the
+  // front both strategies of the paper's configuration fall, and the CAM strategy with the budget
+  // recovers.
+  const std::string budget = overlay("toro_lean_budget");
   for (const auto& [direction, impulse] : std::vector<std::pair<std::string, std::string>>{{"0", "35"}, {"180", "50"}}) {
-    const std::string push = "--in-process --robot toro --support double --peak 65 --direction " + direction + " --impulse " + impulse;
+    const std::string push = "--in-process --robot toro --support double --peak 65 --direction " + direction + " --impulse " + impulse + kPaper;
     const std::string which = direction + " deg " + impulse + " N s";
     const json configured = trial(push + " --strategy cam");
     const json ankle = trial(push + " --strategy ankle");
-    const json bounded = trial(push + overlay + " --strategy cam");
+    const json bounded = trial(push + budget + " --strategy cam");
     EXPECT_FALSE(configured["recovered"].get<bool>()) << which << ": " << configured.dump();
     EXPECT_FALSE(ankle["recovered"].get<bool>()) << which << ": " << ankle.dump();
     EXPECT_TRUE(bounded["recovered"].get<bool>()) << which << ": " << bounded.dump();
@@ -382,31 +390,32 @@ TEST(LeanBudget, TheBoundedReferenceRecoversSagittalPushesBothStrategiesLoseAsCo
 TEST(KneesBent, StandingLowerTheHipStrategyRecoversPushesFromBehindTheConfiguredPostureLoses) {
   // config/overlays/toro_knees_bent.yaml (CoM 0.87 m instead of 0.93 m, base pitch within
   // ±0.55 rad): the largest push from behind the CAM strategy recovers goes from 28.1 to 42.2 N s,
-  // the ankle strategy's in the same posture from 32.7 to 35.6 N s (docs/RESULTS.md). At 37 N s:
-  // the configured posture stretches the knees and loses it; standing lower, the CAM strategy
-  // recovers it and the ankle strategy does not.
-  const std::string push = "--in-process --robot toro --support double --direction 0 --peak 65 --impulse 37";
-  const std::string overlay = " --overlay " + hpr::test::source_dir() + "/config/overlays/toro_knees_bent.yaml";
+  // the ankle strategy's in the same posture from 32.7 to 35.6 N s
+  // (docs/results/paper-configuration.md). At 37 N s the paper's posture stretches the knees and
+  // loses it; standing lower, the CAM strategy recovers it and the ankle strategy does not.
+  const std::string push = "--in-process --robot toro --support double --direction 0 --peak 65 --impulse 37" + kPaper;
+  const std::string knees = overlay("toro_knees_bent");
   const json configured = trial(push + " --strategy cam");
-  const json ankle = trial(push + overlay + " --strategy ankle");
-  const json cam = trial(push + overlay + " --strategy cam");
+  const json ankle = trial(push + knees + " --strategy ankle");
+  const json cam = trial(push + knees + " --strategy cam");
   EXPECT_FALSE(configured["recovered"].get<bool>()) << configured.dump();
   EXPECT_FALSE(ankle["recovered"].get<bool>()) << ankle.dump();
   EXPECT_TRUE(cam["recovered"].get<bool>()) << cam.dump();
 }
 
 TEST(PushCompensation, BothStrategiesHoldSteadyPushesTheirCoMImpedanceLoses) {
-  // Under a steady horizontal force F at height h the configured stack holds the CoM F / K_com
+  // Under a steady horizontal force F at height h the paper's configuration holds the CoM F / K_com
   // ahead of its reference, so the CoP has to sit F (1 / K_com + h / (m g)) ahead of the ankles: a
-  // 4 s push holds up to 44 N from behind with either strategy (docs/RESULTS.md, "Steady pushes").
+  // 4 s push holds up to 44 N from behind with either strategy (docs/results/paper-configuration.md,
+  // "Steady pushes").
   // balance.push_compensation cancels the observed force in the CoM wrench the wbc asks for, which
   // leaves F h / (m g): 60 N for 4 s from behind is then held by both strategies, and so is a
-  // 60 N s push of the envelope's 65 N peak from the front, which both lose as configured
-  // (limits 42.5 and 35.9 N s).
+  // 60 N s push of the envelope's 65 N peak from the front, which both lose without it (limits
+  // 42.5 and 35.9 N s).
   const std::string on = " --set balance.push_compensation.enabled=true";
   for (const std::string& push : {std::string("--direction 0 --peak 60 --duration 4"), std::string("--direction 180 --peak 65 --impulse 60")}) {
     for (const std::string strategy : {"cam", "ankle"}) {
-      const std::string args = "--in-process --robot toro --support double --strategy " + strategy + " " + push;
+      const std::string args = "--in-process --robot toro --support double --strategy " + strategy + " " + push + kPaper;
       const json configured = trial(args);
       const json compensated = trial(args + on);
       EXPECT_FALSE(configured["recovered"].get<bool>()) << strategy << " " << push << ": " << configured.dump();
@@ -419,11 +428,12 @@ TEST(PushCompensation, BothStrategiesHoldSteadyPushesTheirCoMImpedanceLoses) {
 TEST(PhysicsStep, TheConfiguredStepGivesTheOutcomeOfAStepFourTimesFiner) {
   // Pushes near the sagittal limits, where one 1 ms physics step with 10 contact solver iterations
   // gave another outcome (CAM 40 N s from the front fell, ankle 31 N s from behind did not come
-  // back; docs/RESULTS.md, "The physics step"): at the configured step (2 sub-steps, 20 iterations)
-  // each comes out as with 8 sub-steps, and its posture returns at the same time.
+  // back; docs/results/paper-configuration.md, "The physics step"): at the configured step (2
+  // sub-steps, 20 iterations) each comes out as with 8 sub-steps, and its posture returns at the
+  // same time.
   for (const auto& [strategy, direction, impulse] : std::vector<std::tuple<std::string, std::string, std::string>>{
            {"cam", "180", "40"}, {"ankle", "0", "31"}}) {
-    const std::string args = "--in-process --robot toro --support double --peak 65 --strategy " + strategy + " --direction " + direction + " --impulse " + impulse;
+    const std::string args = "--in-process --robot toro --support double --peak 65 --strategy " + strategy + " --direction " + direction + " --impulse " + impulse + kPaper;
     const json configured = trial(args);
     const json fine = trial(args + " --set sim.substeps=8");
     const std::string which = strategy + " " + direction + " deg " + impulse + " N s";
@@ -431,6 +441,25 @@ TEST(PhysicsStep, TheConfiguredStepGivesTheOutcomeOfAStepFourTimesFiner) {
     ASSERT_TRUE(configured["recovered"].get<bool>()) << which << ": " << configured.dump();
     EXPECT_NEAR(configured["return_time_s"].get<double>(), fine["return_time_s"].get<double>(), 0.05) << which;
   }
+}
+
+TEST(DefaultController, StepsWhereBothStandingStrategiesFallAndStandsThroughASmallerPush) {
+  // config/toro.yaml as shipped: ankle, hip and step. At a 130 N peak from behind (docs/RESULTS.md,
+  // "The default controller": the default holds every push up to 120 N s, the CAM strategy standing
+  // 45.6 and the ankle strategy standing 39.8 N s), 55 N s: the default recovers by stepping where
+  // both single strategies, in the same posture, fall. 20 N s: it holds standing, without a step.
+  const std::string push = "--in-process --robot toro --support double --peak 130 --direction 0 --impulse ";
+  const json stepped = trial(push + "55 --strategy cam");
+  const json cam = trial(push + "55 --strategy cam-standing");
+  const json ankle = trial(push + "55 --strategy ankle-standing");
+  EXPECT_TRUE(stepped["recovered"].get<bool>()) << stepped.dump();
+  EXPECT_GE(stepped["steps"].get<int>(), 1) << stepped.dump();
+  EXPECT_FALSE(cam["recovered"].get<bool>()) << cam.dump();
+  EXPECT_FALSE(ankle["recovered"].get<bool>()) << ankle.dump();
+  const json held = trial(push + "20 --strategy cam");
+  EXPECT_TRUE(held["recovered"].get<bool>()) << held.dump();
+  EXPECT_EQ(held["steps"].get<int>(), 0) << held.dump();
+  EXPECT_EQ(held["steps_started"].get<int>(), 0) << held.dump();
 }
 
 TEST(SecondRobot, H1StandsAndRecoversAPushItsAnkleStrategyDoesNot) {

@@ -28,12 +28,15 @@ std::vector<json> read_results(const std::string& path) {
 }
 
 std::string toro() { return hpr::test::source_dir() + "/config/toro.yaml"; }
+/// The paper's configuration: no lean budget, nothing that holds a 65 N push for good.
+std::string paper() { return hpr::test::source_dir() + "/config/overlays/paper.yaml"; }
 
-/// A short Sbplx search of `params` from behind on the TORO-like robot, results in `dir`.
+/// A short Sbplx search of `params` from behind on the TORO-like robot in the paper's
+/// configuration, results in `dir`.
 std::vector<std::string> tune_args(const std::string& dir, const std::string& params, const std::string& evaluations,
                                    const std::string& resolution) {
-  return {hpr::test::bin_dir() + "/push_tune", "--robot", toro(), "--params", params, "--angles", "0", "--evaluations", evaluations,
-          "--algorithm", "sbplx", "--resolution", resolution, "--out", dir};
+  return {hpr::test::bin_dir() + "/push_tune", "--robot", toro(), "--overlay", paper(), "--params", params, "--angles", "0",
+          "--evaluations", evaluations, "--algorithm", "sbplx", "--resolution", resolution, "--out", dir};
 }
 
 /// The same search resumed: answered from results.jsonl, no trial runs, nothing appended.
@@ -84,7 +87,7 @@ TEST(PushTune, EvaluationsAreRecordedTheOverlayAppliesAndAResumedRunReplaysThem)
   const double impulse = best_eval["impulse_Ns"][0].get<double>();
   const auto at = [&](double ns) {
     const auto r = hpr::test::run_command({hpr::test::bin_dir() + "/push_trial", "--quiet", "--in-process", "--robot", toro(), "--overlay",
-                                           dir + "/tuned.yaml", "--impulse", std::to_string(ns)});
+                                           paper(), "--overlay", dir + "/tuned.yaml", "--impulse", std::to_string(ns)});
     EXPECT_TRUE(r.exit_code == 0 || r.exit_code == 1) << r.out;
     return json::parse(r.out, nullptr, false);
   };
@@ -97,7 +100,7 @@ TEST(PushTune, EvaluationsAreRecordedTheOverlayAppliesAndAResumedRunReplaysThem)
 }
 
 TEST(PushTune, TheLeanBudgetStartsSwitchedOffAndTheTunedValueIsWrittenAndReplayed) {
-  // The configuration has no lean budget: the first evaluation is the unbounded generator (".inf"
+  // The paper's configuration has no lean budget: the first evaluation is the unbounded generator (".inf"
   // in the file, as JSON has no infinity), the others lie in the searched range, the overlay names
   // the key, and a resumed run reads the ".inf" back without running a trial.
   const std::string dir = hpr::test::temp_dir("push-tune-lean");

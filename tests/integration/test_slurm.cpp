@@ -65,11 +65,13 @@ class SlurmCluster : public ::testing::Test {
   bool started_ = false;
 };
 
+/// The paper's configuration, where the pushes below end in a fall (the default holds them all).
+const std::string kPaper = " --overlay " + source_dir() + "/config/overlays/paper.yaml";
 /// A small sweep: one direction, both strategies, 4 N s resolution (two cases, about 10 trials).
 constexpr int kSweepCases = 2;
-const std::string kSweep = "--robot toro --in-process --angles 180 --strategies cam,ankle --start 20 --max-impulse 60 --resolution 4";
+const std::string kSweep = "--robot toro --in-process --angles 180 --strategies cam,ankle --start 20 --max-impulse 60 --resolution 4" + kPaper;
 /// One case (about 6 trials).
-const std::string kOneCase = "--robot toro --in-process --angles 180 --strategies cam --start 20 --max-impulse 60 --resolution 4";
+const std::string kOneCase = "--robot toro --in-process --angles 180 --strategies cam --start 20 --max-impulse 60 --resolution 4" + kPaper;
 
 json results_of(const std::string& out) {
   const json j = json::parse(read_file(out + "/sweep.json"));
@@ -213,7 +215,7 @@ TEST_F(SlurmCluster, ATaskThatFailsTwiceIsReportedAsFailedNeverAsAFall) {
 }
 
 TEST_F(SlurmCluster, ATuningRunGivesTheLocalEvaluations) {
-  const std::string args = "--robot toro --params alpha --angles 180 --evaluations 2 --algorithm sbplx --resolution 8";
+  const std::string args = "--robot toro --params alpha --angles 180 --evaluations 2 --algorithm sbplx --resolution 8" + kPaper;
   const auto l = sh(quote(bin_dir() + "/push_tune") + " " + args + " --jobs 2 --out " + quote(dir_ + "/tune-local"));
   ASSERT_EQ(l.exit_code, 0) << l.out;
   const auto c = sh(quote(bin_dir() + "/push_tune") + " " + args + " --executor slurm --out " + quote(dir_ + "/tune-slurm"));

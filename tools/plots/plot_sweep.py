@@ -16,8 +16,10 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 
-NAMES = {"cam": "CAM strategy as configured", "ankle": "ankle strategy as configured", "cam-standing": "CAM strategy standing",
-         "ankle-standing": "ankle strategy standing"}
+NAMES = {"cam": "CAM strategy as configured (stepping if it is on)",
+         "ankle": "ankle strategy as configured (stepping if it is on)",
+         "cam-standing": "CAM strategy standing (stepping off)",
+         "ankle-standing": "ankle strategy standing (stepping off)"}
 
 
 def main() -> int:

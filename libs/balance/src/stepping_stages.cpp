@@ -1,4 +1,4 @@
-// The stepping side of the posture reference (docs/RESULTS.md, "Stepping, the third strategy"): the
+// The stepping side of the posture reference (docs/results/stepping.md, "Stepping, the third strategy"): the
 // external-force observer, the capture point and the step decision, the stepping stages (unload, swing, settle,
 // recover) and the swing trajectory.
 #include <algorithm>

@@ -205,7 +205,7 @@ void gains(const Model& m, model::Data& data, const VectorXd& q, RobotDraft& r) 
   r.lightest_body = std::numeric_limits<double>::infinity();
   for (int b = 1; b < m.nb; ++b) r.lightest_body = std::min(r.lightest_body, m.inertia[static_cast<size_t>(b)].m);
   // One 1 ms step is not enough even for a robot without light links: the TORO-like robot's sagittal
-  // limits moved by up to 10 N s from 1 to 2 sub-steps, and by 1.4 N s more up to 8 (docs/RESULTS.md).
+  // limits moved by up to 10 N s from 1 to 2 sub-steps, and by 1.4 N s more up to 8 (docs/results/paper-configuration.md, "The physics step").
   r.substeps = r.lightest_body >= 0.3 ? 2 : 4;
   r.notes.push_back(fmt::format("mass {:.2f} kg, composite inertia about the CoM diag({:.3f}, {:.3f}, {:.3f}) kg m^2; "
                                 "lightest moving body {:.3f} kg: {} physics steps per ms",

@@ -108,14 +108,47 @@ TEST(TrialEvaluator, AFallOrATiltDecidesAShortRun) {
   }
 }
 
-TEST(TrialEvaluator, WithStepsASoleThatLiftsAndLandsElsewhereIsAStepNotASlip) {
-  // The left sole in the air from 1.3 to 1.6 s, then down 0.2 m further forward; a 10 ms loss of
-  // contact at 2 s is chatter, no step. Judged with steps allowed the run is recovered with one
-  // step; judged as a standing trial the same run is a sole slip.
+TEST(TrialEvaluator, WithStepsAllowedASoleThatSlidesOrTiltsBeforeAnyStepFailsAsInAStandingTrial) {
+  // The same runs judged with and without steps allowed: the left sole sliding 2 cm on the ground,
+  // or rolling 3 deg onto its edge and back, with no step at all. A controller that may step but
+  // does not is judged as one that may not: the same verdict, the same figures.
   static const auto robot = hpr::test::load_robot("toro");
   const double weight = robot.model.mass * robot.model.gravity.norm();
-  TrialEvaluator with_steps(robot, "double", kPushStart, kPushEnd), standing_only(robot, "double", kPushStart, kPushEnd);
+  for (const bool slide : {true, false}) {
+    TrialEvaluator with_steps(robot, "double", kPushStart, kPushEnd), standing_only(robot, "double", kPushStart, kPushEnd);
+    with_steps.allow_steps(true);
+    for (int k = 500; k <= static_cast<int>(std::lround((kPushEnd + 5.01) * 1e3)); ++k) {
+      const double t = k * 1e-3;
+      auto m = standing(t, weight);
+      m.foot_contact = {true, true};
+      if (slide && t >= 1.3) m.p_WF[1][0] = std::min(0.02, 0.1 * (t - 1.3));
+      if (!slide && t >= 1.3 && t < 1.5) m.foot_tilt[1] = 3.0 * M_PI / 180.0;
+      with_steps.on_truth(m);
+      standing_only.on_truth(m);
+    }
+    const TrialResult r = with_steps.result(), s = standing_only.result();
+    EXPECT_FALSE(r.recovered) << (slide ? "slide" : "tilt");
+    EXPECT_EQ(r.outcome, s.outcome);
+    EXPECT_EQ(r.outcome, slide ? "slipped" : "tilted");
+    EXPECT_EQ(r.failure, s.failure);
+    EXPECT_EQ(r.max_slip, s.max_slip);
+    EXPECT_EQ(r.max_tilt_deg, s.max_tilt_deg);
+    EXPECT_EQ(r.steps, 0);
+    EXPECT_TRUE(with_steps.failed()) << "a sweep may stop it as it stops the standing trial";
+  }
+}
+
+TEST(TrialEvaluator, WithStepsASoleThatLiftsAndLandsElsewhereIsAStepNotASlip) {
+  // The planner starts a step at 1.25 s; the left sole in the air from 1.3 to 1.6 s, then down
+  // 0.2 m further forward; a 10 ms loss of contact at 2 s is chatter, no step. Judged with steps
+  // allowed the run is recovered with one step; judged as a standing trial the same run is a sole
+  // slip. A sole that flies without a step started (a robot falling over) is no step.
+  static const auto robot = hpr::test::load_robot("toro");
+  const double weight = robot.model.mass * robot.model.gravity.norm();
+  TrialEvaluator with_steps(robot, "double", kPushStart, kPushEnd), standing_only(robot, "double", kPushStart, kPushEnd),
+      unannounced(robot, "double", kPushStart, kPushEnd);
   with_steps.allow_steps(true);
+  unannounced.allow_steps(true);
   for (int k = 500; k <= static_cast<int>(std::lround((kPushEnd + 5.01) * 1e3)); ++k) {
     const double t = k * 1e-3;
     auto m = standing(t, weight);
@@ -127,14 +160,23 @@ TEST(TrialEvaluator, WithStepsASoleThatLiftsAndLandsElsewhereIsAStepNotASlip) {
     }
     if (t >= 1.6) m.p_WF[1][0] = 0.2;
     if (t >= 2.0 && t < 2.01) m.foot_contact[1] = false;
-    with_steps.on_truth(m);
-    standing_only.on_truth(m);
+    humanoid::wholebody_command_t w{};  // the planner announces its step before the lift-off
+    w.utime = static_cast<std::int64_t>(std::lround(t * 1e6));
+    w.steps_taken = t >= 1.25 ? 1 : 0;
+    for (TrialEvaluator* e : {&with_steps, &standing_only}) {
+      e->on_wholebody(w);
+      e->on_truth(m);
+    }
+    unannounced.on_truth(m);
   }
+  const TrialResult u = unannounced.result();
+  EXPECT_EQ(u.steps, 0) << "no step was started";
+  EXPECT_EQ(u.outcome, "slipped") << u.failure;
   const TrialResult r = with_steps.result();
   EXPECT_TRUE(r.recovered) << r.failure;
   EXPECT_EQ(r.steps, 1);
   EXPECT_TRUE(r.stepping) << "the result says by which criteria it was judged";
-  EXPECT_GT(r.max_slip, 0.19);
+  EXPECT_LT(r.max_slip, 1e-9) << "judged until the step: the soles had not moved";
   const TrialResult s = standing_only.result();
   EXPECT_FALSE(s.recovered);
   EXPECT_NE(s.failure.find("sole slip"), std::string::npos) << s.failure;

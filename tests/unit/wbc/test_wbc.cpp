@@ -305,14 +305,15 @@ TEST(PushCompensation, TheWbcAsksTheContactsToCancelTheObservedPushWithinItsBoun
   // ground's horizontal force −F) gets c̈^ref = −F / m and the CoM wrench the wbc asks of the
   // contacts cancels F; the same when nothing on the ground resists and the CoM accelerates
   // (F̂ = m c̈); the force is clamped to max_force along its direction; a sensor's NaN restarts the
-  // observer; off (the default) and without an estimate, nothing changes.
+  // observer; off (unless configured) and without an estimate, nothing changes.
   const auto robot = test::load_robot("toro");
   const model::Model& m = robot.model;
   const Config cfg = Config::load(test::source_dir() + "/config/toro.yaml");
   wbc::WholeBodyController ctl(robot, wbc::WbcConfig::load(cfg.section("wbc"), robot));
   const auto on = balance::PostureReferenceConfig::load(
       Config::parse("balance: {push_compensation: {enabled: true, filter: 0.1, max_force: 150}}", "test.yaml").section("balance"));
-  EXPECT_FALSE(balance::PostureReferenceConfig::load(cfg.section("balance")).push_compensation.enabled) << "off as configured";
+  EXPECT_FALSE(balance::PostureReferenceConfig{}.push_compensation.enabled) << "off unless configured";
+  EXPECT_TRUE(balance::PostureReferenceConfig::load(cfg.section("balance")).push_compensation.enabled) << "on in config/toro.yaml";
   EXPECT_THROW((void)balance::PostureReferenceConfig::load(
                    Config::parse("balance: {push_compensation: {filter: 0}}", "test.yaml").section("balance")),
                ConfigError);

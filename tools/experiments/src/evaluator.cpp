@@ -110,18 +110,30 @@ void TrialEvaluator::on_truth(const humanoid::sim_truth_t& t) {
   const double weight = robot_->model.mass * robot_->model.gravity.norm();
   for (int k : stance_) {
     const auto ku = static_cast<size_t>(k);
-    final_tilt_deg_[ku] = t.foot_tilt[ku] * 180.0 / M_PI;
+    const double tilt = t.foot_tilt[ku] * 180.0 / M_PI;
+    const Vector3d p(t.p_WF[ku][0], t.p_WF[ku][1], t.p_WF[ku][2]);
+    const double slip = (p - sole0_[ku]).head<2>().norm();
+    final_tilt_deg_[ku] = tilt;
     if (steps_allowed_) {
-      // A step: the sole leaves the ground, then lands again after a real flight.
+      if (!stepped_) pending_[ku].push_back({time, tilt, slip});
+      // A step: the balance planner has started one, and the sole leaves the ground, then lands
+      // again after a real flight (a sole that bounces as the robot falls is none). The first one
+      // ends the standing judgement: what the soles did from just before its lift-off is the step's.
       if (!t.foot_contact[ku] && lift_time_[ku] < 0.0) lift_time_[ku] = time;
       if (t.foot_contact[ku] && lift_time_[ku] >= 0.0) {
-        if (time - lift_time_[ku] >= kMinFlightTime) ++r_.steps;
+        if (time - lift_time_[ku] >= kMinFlightTime && r_.steps_started > 0) {
+          ++r_.steps;
+          if (!stepped_) {
+            judge_until(lift_time_[ku] - kLiftWindow);
+            for (auto& q : pending_) q.clear();
+            stepped_ = true;
+          }
+        }
         lift_time_[ku] = -1.0;
       }
     }
-    r_.max_tilt_deg = std::max(r_.max_tilt_deg, t.foot_tilt[ku] * 180.0 / M_PI);
-    const Vector3d p(t.p_WF[ku][0], t.p_WF[ku][1], t.p_WF[ku][2]);
-    r_.max_slip = std::max(r_.max_slip, (p - sole0_[ku]).head<2>().norm());
+    r_.max_tilt_deg = std::max(r_.max_tilt_deg, tilt);
+    r_.max_slip = std::max(r_.max_slip, slip);
     // Centre of pressure in the sole frame, for a foot that carries load.
     const Eigen::Matrix3d R = quat(t.quat_WF[ku]).normalized().toRotationMatrix();
     const auto& w = t.contact_wrench_W[ku];
@@ -133,6 +145,15 @@ void TrialEvaluator::on_truth(const humanoid::sim_truth_t& t) {
       const double margin = std::min(0.5 * foot.length - std::abs(cx), 0.5 * foot.width - std::abs(cy));
       r_.min_cop_margin = std::min(r_.min_cop_margin, margin);
     }
+  }
+  if (steps_allowed_ && !stepped_) {
+    // Judged once older than the lift window, and never past a lift-off under way.
+    double horizon = time - kLiftWindow;
+    for (int k : stance_) {
+      const double lift = lift_time_[static_cast<size_t>(k)];
+      if (lift >= 0.0) horizon = std::min(horizon, lift - kLiftWindow);
+    }
+    judge_until(horizon);
   }
   for (int i = 0; i < 3; ++i) r_.peak_cam(i) = std::max(r_.peak_cam(i), std::abs(t.l_WCom[i]));
   const Vector3d com0 = com_ref_ / n_ref_;
@@ -152,7 +173,7 @@ void TrialEvaluator::on_truth(const humanoid::sim_truth_t& t) {
   r_.final_base_angle_deg = angle;
   r_.final_joint_deg = joints;
   bool in_band = dev < kPostureDistance && angle < kPostureAngleDeg && joints < kPostureAngleDeg;
-  if (steps_allowed_) {
+  if (stepped_) {
     // After steps the CoM rests over the new support: at rest, soles flat and down, posture back.
     const double speed = Vector3d(t.v_WCom[0], t.v_WCom[1], t.v_WCom[2]).norm();
     bool flat = true;
@@ -166,9 +187,30 @@ void TrialEvaluator::on_truth(const humanoid::sim_truth_t& t) {
   evaluated_after_push_ = true;
 }
 
+void TrialEvaluator::judge_until(double horizon) {
+  for (auto& q : pending_) {
+    while (!q.empty() && q.front().time < horizon) {
+      judged_tilt_deg_ = std::max(judged_tilt_deg_, q.front().tilt_deg);
+      judged_slip_ = std::max(judged_slip_, q.front().slip);
+      q.pop_front();
+    }
+  }
+}
+
 TrialResult TrialEvaluator::result() const {
   TrialResult r = r_;
   r.stepping = steps_allowed_;
+  if (steps_allowed_) {
+    // What is judged: before the first step (all of the run when there was none).
+    r.max_tilt_deg = judged_tilt_deg_;
+    r.max_slip = judged_slip_;
+    for (const auto& q : pending_) {
+      for (const SoleSample& x : q) {
+        r.max_tilt_deg = std::max(r.max_tilt_deg, x.tilt_deg);
+        r.max_slip = std::max(r.max_slip, x.slip);
+      }
+    }
+  }
   if (r.min_cop_margin > 1e8) r.min_cop_margin = 0.0;
   r.completed = evaluated_after_push_ && last_time_ >= push_end_ + kSettleTime - 1e-3;
   if (last_out_of_posture_ < 0) {
@@ -182,11 +224,12 @@ TrialResult TrialEvaluator::result() const {
   const bool decided = failed();
   r.inconclusive = !r.completed && !decided;
   if (r.inconclusive) why.emplace_back(fmt::format("run ended at t = {:.2f} s, before 5 s after the push", last_time_));
-  if (!steps_allowed_ && r.max_tilt_deg >= kTiltLimitDeg) why.emplace_back(fmt::format("sole tilt {:.1f} deg", r.max_tilt_deg));
-  if (!steps_allowed_ && r.max_slip >= kSlipLimit) why.emplace_back(fmt::format("sole slip {:.1f} mm", r.max_slip * 1e3));
+  const char* before = stepped_ ? " before the first step" : "";
+  if (r.max_tilt_deg >= kTiltLimitDeg) why.emplace_back(fmt::format("sole tilt {:.1f} deg{}", r.max_tilt_deg, before));
+  if (r.max_slip >= kSlipLimit) why.emplace_back(fmt::format("sole slip {:.1f} mm{}", r.max_slip * 1e3, before));
   if (!decided && (!r.return_time || *r.return_time > kSettleTime)) {
-    why.emplace_back(steps_allowed_ ? "not at rest on flat soles with the base within 5 deg"
-                                    : "posture not back within 1 cm and 1 deg");
+    why.emplace_back(stepped_ ? "not at rest on flat soles with the base within 5 deg"
+                              : "posture not back within 1 cm and 1 deg");
   }
   r.recovered = why.empty();
   for (size_t i = 0; i < why.size(); ++i) r.failure += (i > 0 ? "; " : "") + why[i];
@@ -196,9 +239,9 @@ TrialResult TrialEvaluator::result() const {
     r.outcome = "fell";
   } else if (r.inconclusive) {
     r.outcome = "inconclusive";
-  } else if (!steps_allowed_ && r.max_tilt_deg >= kTiltLimitDeg) {
+  } else if (r.max_tilt_deg >= kTiltLimitDeg) {
     r.outcome = "tilted";
-  } else if (!steps_allowed_ && r.max_slip >= kSlipLimit) {
+  } else if (r.max_slip >= kSlipLimit) {
     r.outcome = "slipped";
   } else {
     r.outcome = "unsettled";

@@ -73,7 +73,8 @@ const char* const kOutcomeLegend =
     "outcomes (judged from 5 s after the push ends; a standing trial from when the push would have come):\n"
     "  recovered     no fall; stance soles flat (tilt < 2 deg) and in place (slip < 1 cm); CoM, base and every\n"
     "                free joint back within 1 cm and 1 deg of the pre-push posture within 5 s (with stepping:\n"
-    "                at rest on flat soles, base within 5 deg, wherever the steps took it)\n"
+    "                the same until the first step lands; from 50 ms before its lift-off the soles may move,\n"
+    "                and the robot must come to rest on flat soles, base within 5 deg, wherever it stepped)\n"
     "  stood         the same for a trial without a push\n"
     "  fell          the simulator saw the robot fall\n"
     "  tilted        a stance sole rolled onto an edge (tilt of 2 deg or more)\n"
@@ -345,7 +346,8 @@ const char* const kPushOptionsUsage =
   --after S             simulated time after the push ends (default 5)
   --set KEY=VALUE       configuration override for every process (repeatable)
   --overlay FILE         configuration overrides from a YAML file in the configuration's layout
-                        (e.g. push_tune's tuned.yaml), before the --set ones
+                        (e.g. push_tune's tuned.yaml, config/overlays/paper.yaml); repeated, a later
+                        file wins over an earlier one and every --set over them all
   --in-process          the stack's libraries stepping in one thread (the in-process pipeline)
                         instead of the processes over LCM: many times faster, no log
   --truth-state         (with --in-process) every controller sees the simulator's true state
@@ -377,7 +379,9 @@ bool read_push_option(ArgReader& args, TrialSpec& spec) {
     spec.truth_state = true;
   } else if (args.is("--overlay")) {
     const auto o = overlay_overrides(args.value());
-    spec.overrides.insert(spec.overrides.begin(), o.begin(), o.end());
+    spec.overlay_keys = std::min(spec.overlay_keys, spec.overrides.size());
+    spec.overrides.insert(spec.overrides.begin() + static_cast<std::ptrdiff_t>(spec.overlay_keys), o.begin(), o.end());
+    spec.overlay_keys += o.size();
   } else {
     return false;
   }

@@ -13,7 +13,7 @@
 ///
 /// A new push re-enters phase 1 from any phase, continuing from the current l^ref (no jump).
 ///
-/// The lean budget (a bound the paper does not have, docs/RESULTS.md): what builds l_c^ref is the
+/// The lean budget (a bound the paper does not have, docs/results/paper-configuration.md): what builds l_c^ref is the
 /// rotation of the adjusted coordinates (`motion_opt.adjusted`), and the angle they turn through in one
 /// episode is ∫ l dt divided by their composite inertia, so their range bounds ∫ l dt. In phase 1
 /// the generator predicts the episode's ∫ l dt if phase 2 began now (what was stored, plus

@@ -16,6 +16,7 @@
 
 #include <Eigen/Core>
 #include <chrono>
+#include <deque>
 #include <functional>
 #include <memory>
 #include <optional>
@@ -64,7 +65,9 @@ struct TrialSpec {
   std::optional<double> alpha, beta;  ///< reference_gen overrides for every axis
   double push_time = 0.0;             ///< [s] simulation time of the push (0: when the support is settled)
   double after = 5.0;                 ///< [s] simulated after the push ends
-  std::vector<std::string> overrides; ///< more --set key=value for every process
+  std::vector<std::string> overrides; ///< more --set key=value for every process (later ones win)
+  size_t overlay_keys = 0;            ///< of `overrides`, the first this many came from --overlay files, in their order:
+                                      ///<   a later overlay wins over an earlier one, every --set over both
   std::string log_file;               ///< LCM log of the run (lcm_recorder), empty: none
   std::string work_dir;               ///< folder for the processes' output (default: a temporary one)
   std::string lcm_url;                ///< the processes' LCM URL (default: one no other run uses)
@@ -149,18 +152,23 @@ class TrialEvaluator {
   [[nodiscard]] TrialResult result() const;
   [[nodiscard]] double last_time() const { return last_time_; }
   [[nodiscard]] bool fallen() const { return r_.fallen; }
-  /// True once the run can no longer count as recovered (fallen, a sole tilted or slid too far).
+  /// True once the run can no longer count as recovered (fallen, a sole tilted or slid too far
+  /// before any step).
   [[nodiscard]] bool failed() const {
-    return r_.fallen || (!steps_allowed_ && (r_.max_tilt_deg >= kTiltLimitDeg || r_.max_slip >= kSlipLimit));
+    return r_.fallen || (steps_allowed_ ? (judged_tilt_deg_ >= kTiltLimitDeg || judged_slip_ >= kSlipLimit)
+                                        : (r_.max_tilt_deg >= kTiltLimitDeg || r_.max_slip >= kSlipLimit));
   }
-  /// The robot may step (the third strategy): a sole that lifts, tilts or moves is no failure, and
+  /// The robot may step (the third strategy). Until its first step (once the planner has started
+  /// one, a sole that lands again after a flight of kMinFlightTime) it is judged as a robot that may not: its soles flat and sliding less
+  /// than kSlipLimit, its posture back in the band; a run without steps is judged exactly so. From
+  /// kLiftWindow before that step's lift-off on, a sole that lifts, tilts or moves is no failure, and
   /// the robot counts as recovered once its CoM is at rest (wherever the steps took it) with both
   /// soles flat on the ground and the base within 5° of its orientation before the push.
   void allow_steps(bool allowed) { steps_allowed_ = allowed; }
 
   static constexpr double kTiltLimitDeg = 2.0, kSlipLimit = 0.01, kPostureDistance = 0.01, kPostureAngleDeg = 1.0,
                           kSettleTime = 5.0, kRestSpeed = 0.01, kMinFlightTime = 0.02,
-                          kStepBaseAngleDeg = 5.0;
+                          kStepBaseAngleDeg = 5.0, kLiftWindow = 0.05;
 
  private:
   const model::RobotSpec* robot_;
@@ -179,6 +187,15 @@ class TrialEvaluator {
   double last_out_of_posture_ = -1.0;  ///< last time (after the push start) the posture was outside the band
   bool steps_allowed_ = false;
   std::array<double, 2> lift_time_{-1.0, -1.0};  ///< when each sole left the ground (−1: on it)
+  /// May steps: each sole's tilt [deg] and slip [m] at each tick, until judged (once older than
+  /// kLiftWindow and before every lift-off under way) or dropped (at the first step).
+  struct SoleSample {
+    double time, tilt_deg, slip;
+  };
+  std::array<std::deque<SoleSample>, 2> pending_;
+  double judged_tilt_deg_ = 0.0, judged_slip_ = 0.0;  ///< may step: the largest judged
+  bool stepped_ = false;                               ///< may step: the first step has landed
+  void judge_until(double horizon);
   std::array<double, 2> final_tilt_deg_{};
   bool evaluated_after_push_ = false;
 };
