@@ -9,7 +9,6 @@
 #include <filesystem>
 #include <vector>
 
-#include "hpr/common/config.hpp"
 #include "hpr/common/stats.hpp"
 #include "hpr/experiments/trial.hpp"
 #include "hpr/graph/closed_loop.hpp"
@@ -36,7 +35,9 @@ int main(int argc, char** argv) {
   if (!args) return 2;
   measure(args->robot, args->seconds, "holding the posture", 15.0, 65.0, {});
   const std::string overlay = std::string(HPR_SOURCE_DIR) + "/config/overlays/" + args->robot + "_stepping.yaml";
-  if (hpr::Config::load(config_file(args->robot)).section("balance").section("stepping").boolean_or("enabled", false)) {
+  hpr::experiments::TrialSpec configured;
+  configured.config = config_file(args->robot);
+  if (hpr::experiments::steps_enabled(configured)) {
     measure(args->robot, args->seconds, "stepping", 55.0, 130.0, {});
   } else if (std::filesystem::exists(overlay)) {
     measure(args->robot, args->seconds, "stepping", 55.0, 65.0, hpr::experiments::overlay_overrides(overlay));

@@ -24,6 +24,7 @@
 #include "hpr/msg/robot_io.hpp"
 #include "hpr/msg/state.hpp"
 #include "hpr/graph/closed_loop.hpp"
+#include "paper.hpp"
 #include "process_group.hpp"
 
 namespace {
@@ -117,7 +118,7 @@ TrialSpec experiment(Strategy strategy, double impulse) {
   }
   TrialSpec spec;
   spec.config = hpr::experiments::find_config("toro");
-  spec.overrides = hpr::experiments::overlay_overrides(hpr::test::source_dir() + "/config/overlays/paper.yaml");
+  spec.overrides = hpr::test::paper_and();
   spec.strategy = strategy;
   spec.direction_deg = 0.0;
   spec.peak = 65.0;
