@@ -32,7 +32,7 @@ EstimatorConfig EstimatorConfig::load(const Config& c) {
   c.reject_unknown({"sensor_timeout", "joint_accel_noise", "encoder_noise", "filter_joints", "gyro_noise", "gyro_bias_walk",
                     "gyro_bias_initial", "angular_accel_noise", "kinematic_orientation_noise", "kinematic_rate_noise",
                     "accel_orientation_noise", "level_ground", "accel_noise", "foot_contact_noise", "foot_swing_noise",
-                    "kinematic_position_noise", "kinematic_velocity_noise", "contact_on", "contact_off", "cop_edge_margin", "anchor_max_rate", "edge_velocity_noise", "edge_min_load", "settle_after_roll", "anchor_velocity_gate", "contact_max_height",
+                    "kinematic_position_noise", "kinematic_velocity_noise", "contact_on", "contact_off", "cop_edge_margin", "anchor_max_rate", "edge_velocity_noise", "edge_min_load", "settle_after_roll", "settle_at_start", "anchor_velocity_gate", "contact_max_height",
                     "cam_observer_gain", "initialisation_time", "max_position_std", "max_accel", "max_gyro",
                     "max_ft_force", "joint_limit_margin"});
   EstimatorConfig e;
@@ -62,6 +62,7 @@ EstimatorConfig EstimatorConfig::load(const Config& c) {
   e.edge_velocity_noise = c.real_or("edge_velocity_noise", e.edge_velocity_noise, 0.0, 10.0);
   e.edge_min_load = c.real_or("edge_min_load", e.edge_min_load, 0.0, 2.0);
   e.settle_after_roll = c.boolean_or("settle_after_roll", e.settle_after_roll);
+  e.settle_at_start = c.boolean_or("settle_at_start", e.settle_at_start);
   e.anchor_velocity_gate = c.real_or("anchor_velocity_gate", e.anchor_velocity_gate, 0.0, 100.0);
   e.contact_max_height = c.real_or("contact_max_height", e.contact_max_height, 0.0, 1.0);
   e.cam_observer_gain = c.real_or("cam_observer_gain", e.cam_observer_gain, 0.1, 1e4);
@@ -326,7 +327,7 @@ void Estimator::update_contacts(const SensorSample& s) {
     // A sole that turns (base rate plus the leg's, from the last tick) rolls about an edge or has
     // not settled: its centre is not at rest.
     const bool turning = pressed && config_.anchor_max_rate > 0.0 && (w_ + w_BS_[ku]).norm() > config_.anchor_max_rate;
-    if (contact_[ku] && !was && initialised_) touchdown_time_[ku] = s.time;  // (standing at the start is no touchdown)
+    if (contact_[ku] && !was && initialised_) touchdown_time_[ku] = s.time;  // (standing at the start: settle_at_start)
     // A sole that turned in contact (rolled on an edge) and stops with its CoP back inside has
     // landed on its face: the impact, like a touchdown's, is in the leg's filtered joint rates
     // (settle_after_roll).
@@ -447,6 +448,13 @@ void Estimator::initialise(const SensorSample& s) {
   P_.diagonal().segment<6>(6).array() += std::pow(config_.kinematic_position_noise, 2);
   w_ = R_BI_ * s.imu_gyro_B;
   P_w_ = std::pow(config_.gyro_bias_initial, 2);
+  // settle_at_start: standing at the start is taken as a touchdown. The soles settle
+  // (kTouchdownSettle) while the joint filter, started at rest, converges on the legs' rates: one
+  // tick's rates of a sole still seating itself, taken for the base's velocity and integrated until
+  // a sole is an anchor again, once put the G1's estimate 2.5 cm off its feet.
+  for (int k = 0; k < 2 && config_.settle_at_start; ++k) {
+    if (contact_[static_cast<size_t>(k)]) touchdown_time_[static_cast<size_t>(k)] = s.time;
+  }
   initialised_ = true;
   t0_ = last_time_ = s.time;
   l_hat_.setZero();  // set from the kinematic momentum in output()

@@ -1,6 +1,7 @@
 #include "hpr/balance/trajectories.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 namespace hpr::balance {
 
@@ -11,6 +12,11 @@ Vector3d quintic(double tau) {
   if (tau >= 1) return Vector3d(1, 0, 0);
   const double t2 = tau * tau, t3 = t2 * tau;
   return {t3 * (10 - 15 * tau + 6 * t2), 30 * t2 * (1 - 2 * tau + t2), 60 * tau * (1 - 3 * tau + 2 * t2)};
+}
+
+double quintic_shift_time(double travel, double z_c, double cop_reach, double fraction, double g) {
+  const double omega2 = g / z_c;
+  return std::sqrt(kQuinticPeakAcceleration * std::abs(travel) / (fraction * omega2 * cop_reach));
 }
 
 Vector3d quintic_to_rest(double p0, double v0, double a0, double p1, double T, double t) {

@@ -10,6 +10,7 @@
 #include <map>
 #include <set>
 
+#include "hpr/balance/trajectories.hpp"
 #include "hpr/model/algorithms.hpp"
 #include "hpr/model/robot.hpp"
 #include "text.hpp"
@@ -31,6 +32,11 @@ namespace {
 constexpr double kComOmega = 4.5, kComZeta = 0.6, kComZetaZ = 0.55, kBaseOmega = 7.5, kBaseZeta = 0.6;
 // Free-joint impedance of the configured robots (72 kg): 300 N m/rad, 30 N m s/rad, scaled by mass.
 constexpr double kFreeStiffnessPerKg = 300.0 / 72.0, kFreeDampingPerKg = 30.0 / 72.0;
+// The CoM's shift onto one foot: its quintic's peak acceleration asks the stance sole's CoP for at
+// most this fraction of its reach beyond the CoM (the rest is for tracking and the other foot's
+// least load); never quicker than the configured robots' 1.2 s. The reach is the sole's half
+// width less the template's wbc.contact.cop_margin.
+constexpr double kShiftFraction = 0.6, kMinShiftTime = 1.2, kCopMargin = 0.005;
 
 double clamp_to_limits(const Model& m, int j, double q) {
   const auto ju = static_cast<size_t>(j);
@@ -212,6 +218,18 @@ void gains(const Model& m, model::Data& data, const VectorXd& q, RobotDraft& r) 
                                 r.mass, r.I_com(0, 0), r.I_com(1, 1), r.I_com(2, 2), r.lightest_body, r.substeps));
 }
 
+/// The CoM shift's duration onto one foot (balance.shift_time) into `r`: from the soles' centres
+/// standing (right, left), the CoM height and the narrower sole (after the gains' mass).
+void shift_time(const Vector3d& p_right, const Vector3d& p_left, RobotDraft& r) {
+  const double travel = 0.5 * (p_left - p_right).head<2>().norm();
+  const double reach = 0.5 * std::min(r.feet[0].sole.width, r.feet[1].sole.width) - kCopMargin;
+  const double T = balance::quintic_shift_time(travel, r.com_height, std::max(reach, 1e-3), kShiftFraction);
+  r.shift_time = std::max(kMinShiftTime, std::ceil(T * 10.0 - 1e-9) / 10.0);
+  r.notes.push_back(fmt::format("CoM shift onto one foot over {:.1f} s: {:.3f} m at a peak acceleration of {:.0f} % of what "
+                                "the sole's CoP reaches beyond the CoM ({:.3f} m)",
+                                r.shift_time, travel, 100 * kShiftFraction * T * T / (r.shift_time * r.shift_time), reach));
+}
+
 }  // namespace
 
 RobotDraft draft_robot(const model::RobotDescription& d, const DraftOptions& o) {
@@ -292,6 +310,7 @@ RobotDraft draft_robot(const model::RobotDescription& d, const DraftOptions& o) 
   r.notes.push_back(fmt::format("standing: hips at {:.0f} % of the straight leg above the soles, base {:.3f} m and CoM "
                                 "{:.3f} m above the ground, CoM over the middle of the soles",
                                 100 * o.leg_height_fraction, r.base_height, r.com_height));
+  shift_time(data.oMf[static_cast<size_t>(sole[0])].p, data.oMf[static_cast<size_t>(sole[1])].p, r);
 
   segments_and_adjusted(m, data, leg, r);
   gains(m, data, q, r);
@@ -382,6 +401,7 @@ std::string write_config(const RobotDraft& r, const std::string& text, const std
   replace_all(out, "{{adjusted_double}}", list(r.adjusted_double, "            "));
   replace_all(out, "{{adjusted_single}}", list(r.adjusted_single, "            "));
   replace_all(out, "{{substeps}}", std::to_string(r.substeps));
+  replace_all(out, "{{shift_time}}", fmt::format("{:.1f}", r.shift_time));
   replace_all(out, "{{substeps_note}}", fmt::format("the lightest moving body is {:.3f} kg", r.lightest_body));
   replace_all(out, "{{fallen_height}}", fmt::format("{:.2f}", 0.6 * r.base_height));
   return out;

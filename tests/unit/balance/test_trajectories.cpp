@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 
 #include "hpr/balance/trajectories.hpp"
@@ -36,6 +37,25 @@ TEST(Trajectories, TheQuinticsMeetTheirEndsAndTheirDerivatives) {
   EXPECT_LT((q(T - 1e-12) - Vector3d(p1, 0, 0)).norm(), 1e-9);
   EXPECT_EQ(q(T + 0.1), Vector3d(p1, 0, 0));
   for (double t : {0.05, 0.13, 0.2, 0.31, 0.39}) expect_derivatives(q, t, 10.0, "quintic_to_rest");
+}
+
+TEST(Trajectories, AShiftOfTheQuinticShiftTimeAsksTheSoleForTheFractionOfItsReachAtItsPeak) {
+  // The peak of the quintic's second derivative, searched on a fine grid.
+  double peak = 0.0;
+  for (int i = 0; i <= 200000; ++i) peak = std::max(peak, std::abs(quintic(i / 200000.0)(2)));
+  EXPECT_NEAR(peak, kQuinticPeakAcceleration, 1e-8);
+  // A CoM shift x(t) = d s(t / T): its largest acceleration against the pendulum's ω² (c − p)
+  // with the CoP `reach` beyond the CoM.
+  const double d = 0.118, z_c = 0.65, reach = 0.02, fraction = 0.6, g = 9.81;
+  const double T = quintic_shift_time(d, z_c, reach, fraction, g);
+  double a_max = 0.0;
+  for (int i = 0; i <= 200000; ++i) a_max = std::max(a_max, std::abs(d * quintic(i / 200000.0)(2) / (T * T)));
+  EXPECT_NEAR(a_max, fraction * g / z_c * reach, 1e-9);
+  // Slower for a longer way, a taller pendulum, a narrower sole; the sign of the way is no matter.
+  EXPECT_GT(quintic_shift_time(2 * d, z_c, reach, fraction, g), T);
+  EXPECT_GT(quintic_shift_time(d, 2 * z_c, reach, fraction, g), T);
+  EXPECT_GT(quintic_shift_time(d, z_c, 0.5 * reach, fraction, g), T);
+  EXPECT_EQ(quintic_shift_time(-d, z_c, reach, fraction, g), T);
 }
 
 TEST(Trajectories, TheSwingHeightLiftsToItsPeakAndSetsDownBelowTheGroundAtRest) {

@@ -17,7 +17,8 @@
 ///    for 30 ms before its kinematics, which carry the impact, correct anything. A sole that is no
 ///    anchor (in the air, on an edge, turning, or just landed) follows the estimate; when it becomes
 ///    one it is seated where the estimate then puts it, so that a sole that turned or slid on its
-///    edge is not pulled back to where it stood before.
+///    edge is not pulled back to where it stood before. With `settle_at_start`, the soles standing
+///    when the estimator starts settle alike.
 ///  - Attitude: an error-state Kalman filter on (R_WB, gyro bias b), predicted with the gyro and
 ///    corrected by the orientation the legs in contact give (sole flat on level ground, its yaw held
 ///    since it became an anchor), and without contact by the accelerometer's gravity direction.
@@ -86,6 +87,9 @@ struct EstimatorConfig {
   double edge_min_load = 0.25;            ///< fraction of the robot's weight such a sole must carry for it (friction holds its CoP point)
   bool settle_after_roll = false;         ///< a sole that turned in contact faster than anchor_max_rate and drops back
                                           ///< flat settles as after a touchdown (the stepping overlays set it)
+  bool settle_at_start = false;           ///< the soles standing at the start settle as after a touchdown: while
+                                          ///< the joint filter, started at rest, converges and a sole still seats
+                                          ///< itself, their kinematics correct nothing (the position coasts on the IMU)
   double anchor_velocity_gate = 0.3;      ///< [m/s] a sole whose kinematic velocity measurement differs from the
                                           ///< estimate by more than this corrects nothing (0: no gate), unless no
                                           ///< sole agrees and it has been in contact 0.1 s: then the estimate is wrong

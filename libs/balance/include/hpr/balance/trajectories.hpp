@@ -12,6 +12,14 @@ namespace hpr::balance {
 /// Quintic blend s(τ) from 0 to 1 over [0, 1] with zero velocity and acceleration at both ends;
 /// returns (s, ds/dτ, d²s/dτ²).
 Eigen::Vector3d quintic(double tau);
+/// The largest |d²s/dτ²| of quintic(): 10/√3, at τ = 1/2 ± √3/6.
+inline constexpr double kQuinticPeakAcceleration = 5.773502691896258;
+
+/// The shortest duration [s] of a quintic CoM shift over `travel` [m] whose peak acceleration
+/// asks the stance sole for at most `fraction` of what its CoP can do: on the linear inverted
+/// pendulum of height z_c, c̈ = ω² (c − p), so a CoP that reaches `cop_reach` [m] beyond the CoM
+/// gives ω² cop_reach; T = sqrt(kQuinticPeakAcceleration · travel / (fraction · ω² · cop_reach)).
+double quintic_shift_time(double travel, double z_c, double cop_reach, double fraction, double g = 9.81);
 
 /// One axis of a quintic from (p0, v0, a0) to (p1, 0, 0) over T, at time t ∈ [0, T]; returns
 /// (p, v, a) at t.

@@ -47,6 +47,7 @@ struct RobotDraft {
   Eigen::Vector3d com_stiffness, com_damping, base_stiffness, base_damping;
   double free_stiffness = 0.0, free_damping = 0.0;
   int substeps = 1;
+  double shift_time = 1.2;               ///< CoM shift onto one foot (balance.shift_time) [s]
   std::vector<std::string> notes;        ///< what was decided and why, one line each
 };
 
