@@ -99,7 +99,7 @@ class EmulatorLoop {
   /// After each physics step: bus state, SIM_TRUTH, the drives' own timeout, what changed.
   void after_step(double now, double t0, bool close_tick, std::int64_t tick) {
     for (std::size_t b = 0; b < buses_.size(); ++b) {
-      emu_.report_bus_state(static_cast<int>(b), *buses_[b]);
+      emu_.report_periodic(static_cast<int>(b), now, *buses_[b]);
       if (close_tick) hal::DriveEmulator::report_tick(tick, *buses_[b]);
       buses_[b]->flush();
     }
@@ -107,7 +107,7 @@ class EmulatorLoop {
     rt_.spin_once(0.0);  // timers (HEALTH) run every period, with or without LCM traffic
     // The drives' own timeout, reported in HEALTH (the hal stopped talking to them).
     int timed_out = 0;
-    for (std::size_t i = 0; i < config_.drives.size(); ++i) timed_out += emu_.motor_mode(i) && emu_.timed_out(i, now) ? 1 : 0;
+    for (std::size_t i = 0; i < config_.drives.size(); ++i) timed_out += emu_.damping_by_itself(i, now) ? 1 : 0;
     if (timed_out > 0) {
       if (!rt_.has_fault("drive_timeout")) {
         log::warn("{} drives without commands for {} ms: damping by themselves", timed_out, options_.drive_timeout * 1e3);

@@ -10,6 +10,7 @@
 #include "hpr/common/log.hpp"
 #include "hpr/msg/channels.hpp"
 #include "hpr/common/time.hpp"
+#include "hpr/hal/bus_load.hpp"
 #include "hpr/hal/hal.hpp"
 #include "hpr/hal/ports.hpp"
 #include "hpr/model/robot.hpp"
@@ -178,7 +179,16 @@ int run(const node::CommandLine& cl, const Config& cfg) {
   const double duration = hal_cfg.real_or("duration", 0.0, 0.0, 1e7);
   node::Runtime rt(hal::kPorts, cl.name, node::lcm_url(cl, cfg), node::runtime_options(cfg, config.period));
   hal::Hal h(config, hal::open_buses(config, false), std::make_unique<hal::MitCodec>());
-  for (std::size_t b = 0; b < config.buses.size(); ++b) log::info("bus {}: {}", config.buses[b].name, h.buses()[b]->describe());
+  for (std::size_t b = 0; b < config.buses.size(); ++b) {
+    log::info("bus {}: {}", config.buses[b].name, h.buses()[b]->describe());
+    // The bus behind the transport (a cannelloni gateway's too) must carry one tick within a period.
+    const auto bus = static_cast<int>(b);
+    if (hal::tick_load(config, bus).busy.worst_case > config.period) {
+      log::warn("bus load {}: above the period with worst-case bit stuffing; move a drive to another bus", hal::describe_load(config, bus));
+    } else {
+      log::info("bus load {}", hal::describe_load(config, bus));
+    }
+  }
 
   msg::RobotNames names;
   names.joints = robot.model.joint_name;
@@ -213,7 +223,10 @@ int run(const node::CommandLine& cl, const Config& cfg) {
   double last_status = -1.0;
   std::int64_t tick = 0;
   hal::SafetyState last_state = h.safety().state();
-  if (enable_on_start) log::info("{}", h.operator_command(humanoid::operator_t::COMMAND_ENABLE, start, "configuration"));
+  // CiA 402 drives start up first (NMT, SDO configuration); an enable waits for them.
+  bool enable_pending = enable_on_start;
+  bool starting = !h.starting_drives().empty();
+  if (starting) log::info("CiA 402 drives starting: {}", h.starting_drives());
   log::info("hal: {} drives on {} buses, period {} ms, {}, command max age {} ms, state {}", config.drives.size(), config.buses.size(),
             config.period * 1e3,
             lockstep ? fmt::format("lockstep clock (waits up to {} s)", config.lockstep_timeout)
@@ -228,6 +241,14 @@ int run(const node::CommandLine& cl, const Config& cfg) {
     h.begin_tick(tick, t0);
     receive_replies(h, fds, config, t0, w0);
     h.end_tick(t0);
+    if (starting && h.starting_drives().empty()) {
+      starting = false;
+      log::info("CiA 402 drives started in {:.3f} s{}", t0 - start, h.fault_conditions().empty() ? "" : "; faults: " + h.fault_conditions());
+    }
+    if (enable_pending && !starting) {
+      enable_pending = false;
+      log::info("{}", h.operator_command(humanoid::operator_t::COMMAND_ENABLE, t0, "configuration"));
+    }
     // utime is the hal's clock (h.sensors().time = t0): monotonic in real time, tick × period in
     // lockstep. The estimator integrates over it, so it must advance as the drives' time does (a
     // wall-clock stamp ran ahead of a slow lockstep chain) and never jump (an NTP step would).

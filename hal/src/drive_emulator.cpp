@@ -1,5 +1,6 @@
 #include "hpr/hal/drive_emulator.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace hpr::hal {
@@ -13,7 +14,7 @@ EmulatorOptions EmulatorOptions::load(const Config& c) {
   o.drop_reply_probability = c.real_or("drop_reply_probability", 0.0, 0.0, 1.0);
   o.corrupt_probability = c.real_or("corrupt_probability", 0.0, 0.0, 1.0);
   o.fault_joint = c.string_or("fault_joint", "");
-  o.fault_code = static_cast<int>(c.integer_or("fault_code", 0, 0, 255));
+  o.fault_code = static_cast<int>(c.integer_or("fault_code", 0, 0, 0xFFFF));
   o.fault_at = c.real_or("fault_at", -1.0);
   o.bus_off_bus = c.string_or("bus_off_bus", "");
   o.bus_off_at = c.real_or("bus_off_at", -1.0);
@@ -34,6 +35,19 @@ DriveEmulator::DriveEmulator(const HalConfig& config, sim::Simulator& sim, std::
   for (std::size_t b = 0; b < config_.buses.size(); ++b) {
     if (config_.buses[b].name == options_.bus_off_bus) bus_off_bus_ = static_cast<int>(b);
   }
+  dictionaries_.resize(config_.drives.size());
+  devices_.resize(config_.drives.size());
+  for (std::size_t i = 0; i < config_.drives.size(); ++i) {
+    const auto& d = config_.drives[i];
+    if (d.protocol != DriveProtocol::kCia402) continue;
+    // The drive's own data sheet when the configuration names one, else the emulated drive's.
+    dictionaries_[i] = d.eds.empty()
+                           ? canopen::ObjectDictionary::parse(Cia402Device::default_eds(static_cast<std::uint32_t>(std::lround(d.cia402.rated_torque * 1e3))),
+                                                              "emulated drive of " + d.joint)
+                           : canopen::ObjectDictionary::load(d.eds);
+    devices_[i] = std::make_unique<Cia402Device>(d.id, dictionaries_[i]);
+  }
+  powered_.assign(config_.buses.size(), 0);
   applied_.resize(config_.controlled);
   applied_.mode = JointCommand::Mode::kRun;
   applied_held_.resize(static_cast<int>(config_.drives.size()) - config_.controlled);
@@ -46,6 +60,55 @@ bool DriveEmulator::bus_off(int bus) const {
 
 bool DriveEmulator::timed_out(std::size_t drive, double now) const {
   return now - drives_[drive].command_time > options_.drive_timeout;
+}
+
+bool DriveEmulator::motor_mode(std::size_t drive) const {
+  return devices_[drive] ? devices_[drive]->drive().enabled() : drives_[drive].motor_mode;
+}
+
+bool DriveEmulator::faulted(std::size_t i) const {
+  return static_cast<int>(i) == fault_drive_ && options_.fault_at >= 0 && sim_.time() >= options_.fault_at;
+}
+
+bool DriveEmulator::handle_canopen(int bus, const CanFrame& f, double now, CanTransport& out) {
+  const canopen::Cob cob = canopen::classify(f);
+  bool taken = false;
+  for (std::size_t i = 0; i < devices_.size(); ++i) {
+    if (!devices_[i] || config_.drives[i].bus != bus) continue;
+    Cia402Device& dev = *devices_[i];
+    const bool mine = cob.function == canopen::Function::kNmt || cob.function == canopen::Function::kSync || cob.node == dev.node();
+    if (!mine) continue;
+    taken = true;
+    tx_.clear();
+    if (cob.function == canopen::Function::kSync) {
+      requested_[i] = 1;
+      ++requests_;
+      if (faulted(i)) dev.fault(static_cast<std::uint16_t>(options_.fault_code), tx_);
+      const DriveConfig& d = config_.drives[i];
+      const auto j = static_cast<Eigen::Index>(i);
+      double p = 0, v = 0, t = 0;
+      if (d.held) {
+        const sim::TruthData& truth = sim_.truth();
+        p = truth.q_held(j - config_.controlled), v = truth.v_held(j - config_.controlled), t = truth.tau_held(j - config_.controlled);
+      } else {
+        const SensorSample& s = sim_.sensors();
+        p = s.q(j), v = s.qd(j), t = s.tau(j);
+      }
+      const Cia402Scaling& sc = d.cia402;
+      dev.set_actual(static_cast<std::int32_t>(std::lround(d.sign * (p - d.offset) / sc.rad_per_count())),
+                     static_cast<std::int32_t>(std::lround(d.sign * v / sc.rad_s_per_unit())), sc.torque_to_drive(d.sign * t));
+    } else if (cob.function == canopen::Function::kRpdo) {
+      drives_[i].command_time = now;
+    }
+    const std::size_t before = tx_.size();
+    dev.on_frame(f, now, tx_);
+    // Injected losses act on a running drive's TPDOs, one draw per SYNC.
+    const bool inject = cob.function == canopen::Function::kSync && dev.drive().enabled() && tx_.size() > before;
+    if (inject && options_.drop_reply_probability > 0 && uniform_(rng_) < options_.drop_reply_probability) tx_.resize(before);
+    if (inject && tx_.size() > before && options_.corrupt_probability > 0 && uniform_(rng_) < options_.corrupt_probability) tx_[before].len = 6;
+    for (const CanFrame& o : tx_) out.send(o);
+  }
+  return taken;
 }
 
 void DriveEmulator::reply(std::size_t i, CanTransport& out) {
@@ -70,9 +133,7 @@ void DriveEmulator::reply(std::size_t i, CanTransport& out) {
     r.t = d.sign * s.tau(j);
   }
   r.temperature = 35.0;
-  if (static_cast<int>(i) == fault_drive_ && options_.fault_at >= 0 && sim_.time() >= options_.fault_at) {
-    r.fault = static_cast<std::uint8_t>(options_.fault_code);
-  }
+  if (faulted(i)) r.fault = static_cast<std::uint8_t>(std::min(options_.fault_code, 255));
   CanFrame f = codec_->encode_reply(r, d.limits);
   if (inject && options_.corrupt_probability > 0 && uniform_(rng_) < options_.corrupt_probability) f.len = 6;
   out.send(f);
@@ -81,6 +142,7 @@ void DriveEmulator::reply(std::size_t i, CanTransport& out) {
 void DriveEmulator::handle(int bus, const CanFrame& f, double now, CanTransport& out) {
   if (bus_off(bus)) return;  // a bus-off controller neither hears nor answers
   const std::uint32_t id = f.id & kCanSffMask;
+  const bool canopen = handle_canopen(bus, f, now, out);
   if (bus == config_.sensor_bus && id == kSyncId) {
     sync_requested_ = true;
     ++requests_;
@@ -95,12 +157,13 @@ void DriveEmulator::handle(int bus, const CanFrame& f, double now, CanTransport&
     }
     return;
   }
-  if (id > static_cast<std::uint32_t>(MitCodec::kMaxDriveId)) {
+  if (canopen) return;
+  if (id > static_cast<std::uint32_t>(MitCodec::kMaxDriveId) || (f.id & (kCanEffFlag | kCanRtrFlag)) != 0) {
     ++ignored_;
     return;
   }
   const int i = drive_by_id_[static_cast<std::size_t>(bus)][id];
-  if (i < 0) {
+  if (i < 0 || devices_[static_cast<std::size_t>(i)]) {
     ++ignored_;
     return;
   }
@@ -125,12 +188,29 @@ void DriveEmulator::handle(int bus, const CanFrame& f, double now, CanTransport&
   reply(iu, out);
 }
 
-void DriveEmulator::report_bus_state(int bus, CanTransport& out) {
-  if (!bus_off(bus)) return;
-  CanFrame e;
-  e.id = kCanErrFlag | kCanErrBusOff;
-  e.len = 8;
-  out.send(e);
+void DriveEmulator::report_periodic(int bus, double now, CanTransport& out) {
+  // The CiA 402 devices run their timers whatever the bus does (a drive cut off by a bus-off
+  // misses its RPDOs and faults); what they send reaches a bus that is not off.
+  tx_.clear();
+  for (std::size_t i = 0; i < devices_.size(); ++i) {
+    if (!devices_[i] || config_.drives[i].bus != bus) continue;
+    if (powered_[static_cast<std::size_t>(bus)] == 0) devices_[i]->power_on(tx_);
+    devices_[i]->periodic(now, options_.drive_timeout, tx_);
+  }
+  powered_[static_cast<std::size_t>(bus)] = 1;
+  if (bus_off(bus)) {
+    CanFrame e;
+    e.id = kCanErrFlag | kCanErrBusOff;
+    e.len = 8;
+    out.send(e);
+    return;
+  }
+  for (const CanFrame& f : tx_) out.send(f);
+}
+
+bool DriveEmulator::damping_by_itself(std::size_t i, double now) const {
+  if (const Cia402Device* dev = devices_[i].get()) return dev->fault_reaction() && dev->error() == Cia402Device::kRpdoTimeout;
+  return drives_[i].motor_mode && timed_out(i, now);
 }
 
 bool DriveEmulator::tick_requested() const {
@@ -148,7 +228,7 @@ void DriveEmulator::step(double now) {
   requests_ = 0;
   // On a gantry until the first enable: the robot hangs in its settled posture, physics frozen.
   if (!released_) {
-    for (const Drive& d : drives_) released_ = released_ || d.motor_mode;
+    for (std::size_t i = 0; i < drives_.size(); ++i) released_ = released_ || motor_mode(i);
     if (!released_) return;
   }
   for (std::size_t i = 0; i < drives_.size(); ++i) {
@@ -156,8 +236,15 @@ void DriveEmulator::step(double now) {
     const Drive& d = drives_[i];
     const auto j = static_cast<Eigen::Index>(i);
     double kp = 0, kd = 0, q_des = 0, qd_des = 0, tau = 0;
-    const bool faulted = static_cast<int>(i) == fault_drive_ && options_.fault_at >= 0 && sim_.time() >= options_.fault_at;
-    if (d.motor_mode && !faulted) {
+    const bool faulted = this->faulted(i);
+    if (const Cia402Device* dev = devices_[i].get()) {
+      // Cyclic synchronous torque; a fault reaction brakes dynamically (the drive's own damping).
+      if (dev->fault_reaction()) {
+        kd = options_.drive_damping_kd;
+      } else {
+        tau = dc.sign * dev->target_torque() * dc.cia402.nm_per_permille();
+      }
+    } else if (d.motor_mode && !faulted) {
       if (timed_out(i, now) || bus_off(dc.bus)) {
         kd = options_.drive_damping_kd;  // the drive's own damping
       } else {

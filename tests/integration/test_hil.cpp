@@ -6,7 +6,9 @@
 // real-time simulation group (`supervisor up sim`) and the group split over two hosts; it needs a
 // machine that keeps 1 kHz deadlines. test_hil_lockstep (HPR_HIL_LOCKSTEP, label integration): the
 // same tests on the emulator's simulated clock (hal.clock=lockstep), where every deadline is a tick:
-// the same frames, codec, transport and safety rules, on any machine.
+// the same frames, codec, transport and safety rules, on any machine. test_hil_canopen_lockstep
+// (HPR_HIL_CANOPEN as well): every drive speaks CANopen CiA 402 (hal.protocol=cia402), the tests
+// whose subject is the drives.
 #include <gtest/gtest.h>
 
 #include <unistd.h>
@@ -24,7 +26,12 @@
 #ifndef HPR_HIL_LOCKSTEP
 #define HPR_HIL_LOCKSTEP 0
 #endif
-#if HPR_HIL_LOCKSTEP
+#ifndef HPR_HIL_CANOPEN
+#define HPR_HIL_CANOPEN 0
+#endif
+#if HPR_HIL_CANOPEN
+#define HIL_TEST(name) TEST(HardwareInTheLoopCanopenLockstep, name)
+#elif HPR_HIL_LOCKSTEP
 #define HIL_TEST(name) TEST(HardwareInTheLoopLockstep, name)
 #else
 #define HIL_TEST(name) TEST(HardwareInTheLoop, name)
@@ -50,6 +57,7 @@ struct Hil {
   // the port, and above the configured 21000 that the supervisor's hil groups use.
   std::string port = "hal.udp_base_port=" + std::to_string(22000 + 40 * (getpid() % 250));
   std::string clock = HPR_HIL_LOCKSTEP ? "hal.clock=lockstep" : "hal.clock=realtime";
+  std::string protocol = HPR_HIL_CANOPEN ? "hal.protocol=cia402" : "hal.protocol=mit";
   pid_t emulator = -1, hal = -1, wbc = -1;
 
   static hpr::launch::StartOptions rt(int priority) {
@@ -58,11 +66,11 @@ struct Hil {
     return o;
   }
   explicit Hil(const std::vector<std::string>& emulator_sets = {}) {
-    std::vector<std::string> emu_args = {"--config", cfg, "--set", port, "--set", clock};
+    std::vector<std::string> emu_args = {"--config", cfg, "--set", port, "--set", clock, "--set", protocol};
     for (const auto& s : emulator_sets) emu_args.insert(emu_args.end(), {"--set", s});
     // The priorities of the hil group in config/groups.yaml (where the system permits them).
     emulator = group.start("drive_emulator", emu_args, rt(85));
-    hal = group.start("hal", {"--config", cfg, "--set", port, "--set", clock}, rt(80));
+    hal = group.start("hal", {"--config", cfg, "--set", port, "--set", clock, "--set", protocol}, rt(80));
     group.start("estimator", {"--config", cfg}, rt(70));
     group.start("planner", {"--config", cfg}, rt(70));
     wbc = group.start("wbc", {"--config", cfg}, rt(70));
@@ -98,6 +106,7 @@ struct Hil {
   }
 };
 
+#if !HPR_HIL_CANOPEN  // what the drives speak does not matter here
 // Only the stack enables the drives: an OPERATOR enable without the deployment's code, or with another
 // key's, leaves them disabled and is counted in the hal's HEALTH; the same enable signed then enables.
 HIL_TEST(AnEnableWithoutTheDeploymentsCodeLeavesTheDrivesDisabled) {
@@ -125,6 +134,8 @@ HIL_TEST(AnEnableWithoutTheDeploymentsCodeLeavesTheDrivesDisabled) {
   hil.enable();  // signed with the deployment's key
   EXPECT_EQ(hil.hal_state(), int{humanoid::hal_status_t::STATE_ENABLED});
 }
+
+#endif
 
 HIL_TEST(StandsTenSecondsAndRecoversExperiment1OverUdp) {
   Hil hil;
@@ -170,6 +181,7 @@ HIL_TEST(StandsTenSecondsAndRecoversExperiment1OverUdp) {
   }
 }
 
+#if !HPR_HIL_CANOPEN
 HIL_TEST(EveryRefusedJointCommandIsCountedInHalStatus) {
   Hil hil;
   hil.enable();
@@ -202,6 +214,8 @@ HIL_TEST(EveryRefusedJointCommandIsCountedInHalStatus) {
   EXPECT_EQ(hil.hal_state(), int{humanoid::hal_status_t::STATE_ENABLED}) << hil.status->back().state_reason;
   EXPECT_FALSE(hil.fallen());
 }
+
+#endif
 
 HIL_TEST(KilledControllerDampsEveryDriveWithin10msThenTorqueOff) {
   Hil hil;
@@ -271,6 +285,26 @@ HIL_TEST(BusOffOnOneBusDampsAllDrivesAndKilledHalLetsTheDrivesTimeOut) {
       },
       3s));
 }
+
+#if HPR_HIL_CANOPEN
+// A drive's emergency (EMCY 0x2310, overcurrent) faults the hal, which names the joint, the code
+// and its meaning; the other drives damp and the faulted one brakes by itself.
+HIL_TEST(AnEmergencyFromOneDriveFaultsTheHalAndNamesIt) {
+  Hil hil({"emulator.fault_joint=l_knee", "emulator.fault_code=8976", "emulator.fault_at=2.0"});
+  hil.enable();
+  ASSERT_TRUE(hil.within_sim(4.0, [&] { return hil.hal_state() == humanoid::hal_status_t::STATE_FAULT; }));
+  const std::string reason = hil.status->back().state_reason;
+  EXPECT_NE(reason.find("l_knee: node 1: EMCY 0x2310 (current"), std::string::npos) << reason;
+  hil.lcm.spin_for(100ms);
+  const auto& last = hil.sensors->back();
+  int faulted = 0;
+  for (const auto b : last.drive_status) {
+    EXPECT_NE(b & humanoid::robot_sensors_t::DRIVE_DAMPING, 0);
+    faulted += (b & humanoid::robot_sensors_t::DRIVE_FAULT) != 0 ? 1 : 0;
+  }
+  EXPECT_EQ(faulted, 1);
+}
+#endif
 
 #if !HPR_HIL_LOCKSTEP
 TEST(HardwareInTheLoop, RealTimeSimGroupIsUpAndStandsTenSeconds) {

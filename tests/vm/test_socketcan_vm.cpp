@@ -44,4 +44,35 @@ TEST(SocketCanVm, HalAndDriveEmulatorTalkOverVcanAndCandumpSeesTheFrames) {
   EXPECT_EQ(std::stol(m[4]), std::stol(m[1]) * 27) << "27 drives every tick";
 }
 
+// The same with every drive speaking CANopen CiA 402: the start-up (NMT, SDO configuration) and the
+// cyclic frames on the wire as candump sees them, through the SocketCAN receive filters of both ends.
+TEST(SocketCanVm, Cia402DrivesStartAndRunOverVcan) {
+  const std::string work = hpr::test::temp_dir("can-vm-cia402");
+  const auto r = hpr::test::run_command(
+      {hpr::test::source_dir() + "/tests/vm/can-vm", hpr::test::bin_dir(), hpr::test::source_dir(), work, "0.4", "cia402"});
+  if (r.exit_code == 77) GTEST_SKIP() << r.out;
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  const std::string& out = r.out;
+  ASSERT_NE(out.find("VM: done"), std::string::npos) << "the VM did not finish:\n" << out;
+  EXPECT_EQ(number_after(out, "VM: hal exit "), 0) << out;
+  EXPECT_EQ(number_after(out, "VM: candump commands "), 0) << "no MIT-mode frame";
+  // Start-up: NMT reset communication and NMT start for the bus (one each per node: 3 drives on
+  // can0), the 23 SDO writes of the configuration per drive (docs/CAN.md), each answered.
+  EXPECT_EQ(number_after(out, "VM: candump nmt "), 6) << out;
+  EXPECT_EQ(number_after(out, "VM: candump sdo requests "), 3 * 23) << out;
+  EXPECT_EQ(number_after(out, "VM: candump sdo answers "), 3 * 23) << out;
+  const long rpdo = number_after(out, "VM: candump rpdo1 "), tpdo1 = number_after(out, "VM: candump tpdo1 "),
+             tpdo2 = number_after(out, "VM: candump tpdo2 ");
+  EXPECT_GT(rpdo, 100) << out;
+  EXPECT_GE(tpdo1, rpdo) << "each drive answers every SYNC once operational";
+  EXPECT_EQ(tpdo1, tpdo2) << out;
+  EXPECT_NE(out.find("CiA 402 drives started in"), std::string::npos) << out;
+  EXPECT_NE(out.find("enabled by configuration"), std::string::npos) << out;
+  const std::regex stop("hal stopped after ([0-9]+) ticks.*malformed frames ([0-9]+); replies missed ([0-9]+) of ([0-9]+)");
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(out, m, stop)) << out;
+  EXPECT_EQ(std::stol(m[2]), 0) << "malformed frames";
+  EXPECT_EQ(std::stol(m[3]), 0) << "replies missed:\n" << out;
+}
+
 }  // namespace

@@ -44,7 +44,7 @@ std::vector<std::string> names(const hpr::launch::GroupSpec& g) {
 TEST(Groups, EveryRobotGroupIsAClosedDataFlow) {
   const GroupsFile f = GroupsFile::load(std::string(HPR_SOURCE_DIR) + "/config/groups.yaml");
   for (const char* g : {"sim", "sim-lockstep", "sim-truth-lockstep", "sim-composed", "sim-composed-lockstep", "hil", "hil-lockstep",
-                        "hardware", "hardware-composed", "sim-view"}) {
+                        "hil-canopen", "hil-canopen-lockstep", "hardware", "hardware-composed", "sim-view"}) {
     std::vector<std::string> commands;
     for (const auto& p : f.group(g).processes) commands.push_back(p.command);
     EXPECT_EQ(hpr::graph::unmet_inputs(commands), std::vector<std::string>{}) << g;
@@ -87,7 +87,7 @@ TEST(Groups, ShippedFileHasEveryBackendWithTheSameControlProcesses) {
   EXPECT_NE(f.group("sim").find("sim_bullet"), nullptr);
   // The lockstep groups override the control processes' real-time priorities, the real-time ones keep them.
   EXPECT_EQ(f.group("sim").find("wbc")->rt_priority, 70);
-  for (const char* g : {"sim-lockstep", "hil-lockstep"}) {
+  for (const char* g : {"sim-lockstep", "hil-lockstep", "hil-canopen-lockstep"}) {
     for (const auto& p : f.group(g).processes) EXPECT_EQ(p.rt_priority, 0) << g << "/" << p.name;
   }
   EXPECT_NE(f.group("hil").find("drive_emulator"), nullptr);

@@ -68,6 +68,8 @@ class SdoServer {
   std::optional<CanFrame> on_frame(const CanFrame& f);
   /// The value an object holds now.
   [[nodiscard]] std::optional<std::uint64_t> value(std::uint16_t index, std::uint8_t subindex) const;
+  /// The device's own update of an object it holds (an actual value, the statusword).
+  void set(std::uint16_t index, std::uint8_t subindex, std::uint64_t value) { values_[{index, subindex}] = value; }
 
  private:
   int node_;

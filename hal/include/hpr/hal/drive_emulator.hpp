@@ -2,7 +2,9 @@
 /// \file
 /// A drive emulator: answers the drive protocol for every joint over the same transports as the
 /// real drives, backed by the Bullet simulation. The drives keep their last command and fall back
-/// to their own damping when commands stop (drive timeout); faults can be injected.
+/// to their own damping when commands stop (drive timeout); faults can be injected. A drive
+/// configured for CiA 402 is a `Cia402Device` (NMT, SDO, PDOs at each SYNC, heartbeat, EMCY) whose
+/// target torque drives its joint; its fault reaction is a dynamic brake (the drive's damping).
 #include <memory>
 #include <random>
 #include <string>
@@ -19,7 +21,7 @@ struct EmulatorOptions {
   double drop_reply_probability = 0; ///< per reply of a drive in motor mode (seeded: reproducible)
   double corrupt_probability = 0;    ///< per reply of a drive in motor mode: sent with a wrong length
   std::string fault_joint;           ///< this drive reports `fault_code` from `fault_at` [s sim time]
-  int fault_code = 0;
+  int fault_code = 0;                ///< MIT mode: the reply's fault byte (1-255); CiA 402: the EMCY error code
   double fault_at = -1;
   std::string bus_off_bus;           ///< this bus goes bus-off at `bus_off_at` [s sim time]
   double bus_off_at = -1;
@@ -35,8 +37,9 @@ class DriveEmulator {
   void handle(int bus, const CanFrame& f, double now, CanTransport& out);
   /// Advances the physics one period with what each drive is doing at `now`.
   void step(double now);
-  /// Queues what a bus in bus-off reports (an error frame) on it; call once per period per bus.
-  void report_bus_state(int bus, CanTransport& out);
+  /// Queues what a bus's devices send by themselves on it: an error frame while the bus is off,
+  /// CiA 402 boot-up and heartbeat messages and EMCY. Call once per period per bus.
+  void report_periodic(int bus, double now, CanTransport& out);
 
   /// Lockstep: every drive on a bus that is not bus-off, and the sensors' SYNC, has had its frame
   /// since the last step (the hal's tick is complete), or at least one has (`any_requested`).
@@ -45,8 +48,14 @@ class DriveEmulator {
   /// Lockstep: queues the simulated clock's frame for `tick` on `out` (after the tick's replies).
   static void report_tick(std::int64_t tick, CanTransport& out);
 
-  [[nodiscard]] bool motor_mode(std::size_t drive) const { return drives_[drive].motor_mode; }
+  /// The drive applies torque (MIT: motor mode; CiA 402: Operation enabled).
+  [[nodiscard]] bool motor_mode(std::size_t drive) const;
+  /// The CiA 402 device of a drive (nullptr for MIT mode).
+  [[nodiscard]] const Cia402Device* cia402(std::size_t drive) const { return devices_[drive].get(); }
   [[nodiscard]] bool timed_out(std::size_t drive, double now) const;
+  /// The drive damps by itself because the hal stopped talking to it (MIT: motor mode and timed
+  /// out; CiA 402: its fault reaction to an RPDO timeout).
+  [[nodiscard]] bool damping_by_itself(std::size_t drive, double now) const;
   [[nodiscard]] std::int64_t frames_ignored() const { return ignored_; }
   [[nodiscard]] const JointCommand& applied() const { return applied_; }
   /// False until a drive first enters motor mode: the robot hangs on its gantry (physics frozen).
@@ -60,6 +69,9 @@ class DriveEmulator {
   };
   void reply(std::size_t i, CanTransport& out);
   bool bus_off(int bus) const;
+  [[nodiscard]] bool faulted(std::size_t i) const;
+  /// A CANopen frame for the CiA 402 devices on `bus`; false when none of them takes it.
+  bool handle_canopen(int bus, const CanFrame& f, double now, CanTransport& out);
 
   const HalConfig& config_;
   sim::Simulator& sim_;
@@ -75,6 +87,10 @@ class DriveEmulator {
   std::int64_t ignored_ = 0;
   bool released_ = false;
   std::vector<char> requested_;  ///< per drive, since the last step
+  std::vector<canopen::ObjectDictionary> dictionaries_;   ///< per drive (empty for MIT mode)
+  std::vector<std::unique_ptr<Cia402Device>> devices_;    ///< per drive (null for MIT mode)
+  std::vector<char> powered_;    ///< per bus: the CiA 402 devices sent their boot-up
+  std::vector<CanFrame> tx_;
   bool sync_requested_ = false;
   int requests_ = 0;
 };

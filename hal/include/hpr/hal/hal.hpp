@@ -14,17 +14,25 @@
 #include "hpr/common/config.hpp"
 #include "hpr/common/robot_io.hpp"
 #include "hpr/hal/can.hpp"
+#include "hpr/hal/cia402.hpp"
 #include "hpr/hal/mit_codec.hpp"
 #include "hpr/hal/safety.hpp"
 #include "hpr/model/robot.hpp"
 
 namespace hpr::hal {
 
+/// The protocol a drive speaks (docs/CAN.md): "MIT mode" impedance frames, or CANopen CiA 402 in
+/// cyclic synchronous torque.
+enum class DriveProtocol { kMit, kCia402 };
+
 struct BusConfig {
   std::string name;
+  DriveProtocol protocol = DriveProtocol::kMit;  ///< its drives' default
   std::string transport;  ///< "socketcan" or "udp"
   std::string interface;  ///< socketcan
   bool fd = false;        ///< CAN FD frames
+  double bitrate = 1e6;       ///< [bit/s] (arbitration phase for CAN FD)
+  double data_bitrate = 5e6;  ///< [bit/s] CAN FD data phase
   std::string local, remote;  ///< udp "host:port" (hal side; the emulator swaps them)
 };
 
@@ -38,6 +46,9 @@ struct DriveConfig {
   double q_lower = -1e9, q_upper = 1e9;  ///< hard joint limits [rad] (soft-limit damping near them)
   bool held = false;      ///< a held joint (robot.held_joints): outside the commands, held by the hal
   double held_q = 0.0;    ///< its position [rad]
+  DriveProtocol protocol = DriveProtocol::kMit;
+  Cia402Scaling cia402;   ///< CiA 402: units (from hal.canopen, the drive's EDS, its `cia402` block)
+  std::string eds;        ///< CiA 402: the drive's EDS/DCF file, if one is given
 };
 
 struct HalConfig {
@@ -58,6 +69,7 @@ struct HalConfig {
   double held_kd = 1.0;             ///< [Nm s/rad]
   int sensor_bus = -1;              ///< bus of the IMU and F/T sensors (-1: none)
   SafetyConfig safety;
+  CanOpenTiming canopen;            ///< CiA 402 drives: start-up and supervision times
   double damping_kd = 10.0;         ///< [Nm s/rad] damping mode, capped at each drive's kd_max
   double soft_limit_margin = 0.05;  ///< [rad] inside the hard limits where damping is added
   double soft_limit_kd = 20.0;      ///< [Nm s/rad] added at the hard limit, ramping from 0 at the margin
@@ -141,10 +153,22 @@ class Hal {
   [[nodiscard]] const std::vector<DriveCommand>& sent() const { return sent_; }
   /// A short description of the active fault conditions (empty if none).
   [[nodiscard]] std::string fault_conditions() const;
+  /// The drives still starting up (CiA 402: boot-up, SDO configuration, NMT start), empty once
+  /// every drive runs cyclically; an enable is refused until then.
+  [[nodiscard]] std::string starting_drives() const;
+  /// The CiA 402 side of drive `i` (nullptr for an MIT-mode drive).
+  [[nodiscard]] const Cia402Master* cia402(std::size_t i) const { return cia402_[i].get(); }
 
  private:
   void handle_frame(int bus, const CanFrame& f);
+  /// A CiA 402 node's frame; false when it is no frame of a CiA 402 drive on that bus.
+  bool handle_canopen(int bus, const CanFrame& f);
+  /// Drive i's sample (drive units) into the sensors or the held positions.
+  void take_reply(std::size_t i, double p, double v, double t);
   DriveCommand damping_command(std::size_t i) const;
+  /// The joint torque a CiA 402 drive is sent for impedance command `c` [drive units, N m].
+  double cia402_torque(std::size_t i, const DriveCommand& c) const;
+  [[nodiscard]] bool expects_reply(std::size_t i) const { return !cia402_[i] || cia402_[i]->cyclic(); }
 
   HalConfig config_;
   std::vector<std::unique_ptr<CanTransport>> buses_;
@@ -162,6 +186,10 @@ class Hal {
   std::vector<CanFrame> rx_;
   int sensor_frames_ = 0, sensor_frames_expected_ = 0;
   std::vector<char> tick_closed_;  ///< lockstep: per bus, the clock frame arrived this tick
+  std::vector<std::unique_ptr<Cia402Master>> cia402_;  ///< per drive (null: MIT mode)
+  std::vector<char> sync_bus_;     ///< per bus: SYNC every tick (sensors or CiA 402 drives on it)
+  std::vector<CanFrame> tx_;
+  double now_ = 0.0;               ///< the tick's start [s]
 };
 
 }  // namespace hpr::hal
