@@ -55,6 +55,7 @@ const char* Cia402Master::to_string(Phase p) {
   switch (p) {
     case Phase::kReset: return "resetting";
     case Phase::kBooting: return "waiting for its boot-up message";
+    case Phase::kIdentifying: return "reading its identity";
     case Phase::kConfiguring: return "configuring";
     case Phase::kStarting: return "starting (waiting for an operational heartbeat)";
     case Phase::kCyclic: return "cyclic";
@@ -81,6 +82,81 @@ void Cia402Master::latch(int code, std::string text) {
   fault_text_ = std::move(text);
 }
 
+void Cia402Master::fail(std::string text) {
+  latch(kFaultStartUp, std::move(text));
+  phase_ = Phase::kFailed;
+}
+
+namespace {
+
+struct Read {
+  std::uint16_t index;
+  const char* what;
+};
+constexpr Read kReads[] = {{kDeviceType, "device type"}, {kSupportedModes, "supported drive modes"}, {kRatedTorque, "motor rated torque"}};
+
+}  // namespace
+
+void Cia402Master::identify(double now, std::vector<CanFrame>& out) {
+  if (read_ >= std::size(kReads)) {
+    sdo_.emplace(node_, cst_configuration(node_, timing_.heartbeat_ms), timing_.sdo_timeout);
+    phase_ = Phase::kConfiguring;
+    if (const auto f = sdo_->poll(now)) out.push_back(*f);
+    return;
+  }
+  if (read_sent_) {
+    if (now - *read_sent_ > timing_.sdo_timeout) {
+      fail(fmt::format("node {}: SDO read 0x{:04X}:00 ({}): no answer within {:.3f} s", node_, kReads[read_].index, kReads[read_].what,
+                       timing_.sdo_timeout));
+    }
+    return;
+  }
+  read_sent_ = now;
+  out.push_back(sdo_upload(node_, SdoAddress{kReads[read_].index, 0}));
+}
+
+void Cia402Master::judge(const SdoMessage& m) {
+  const Read& r = kReads[read_];
+  if (m.address.index != r.index || m.address.subindex != 0) return;  // not the answer awaited
+  const bool absent = m.kind == SdoMessage::Kind::kAbort;
+  if (!absent && m.kind != SdoMessage::Kind::kUploadData) return;
+  read_sent_.reset();
+  ++read_;
+  const std::uint32_t v = m.value;
+  switch (r.index) {
+    case kDeviceType:
+      if (absent) return fail(fmt::format("node {}: SDO read 0x1000 (device type) refused: abort 0x{:08X} ({})", node_, v, sdo_abort_meaning(v)));
+      if ((v & 0xFFFF) != 402) return fail(fmt::format("node {}: device type 0x{:08X} is profile {}, not a CiA 402 drive", node_, v, v & 0xFFFF));
+      return;
+    case kSupportedModes:
+      if (!absent && (v & (1U << 9)) == 0) {
+        return fail(fmt::format("node {}: supported drive modes 0x6502 = 0x{:08X}: no cyclic synchronous torque (bit 9)", node_, v));
+      }
+      return;  // a drive without 0x6502 is judged by its answer to mode 10
+    case kRatedTorque: {
+      if (absent) {
+        if (!scaling_.rated_torque_given) {
+          return fail(fmt::format("node {}: the drive has no motor rated torque (0x6076: abort 0x{:08X}, {}) and the configuration gives none "
+                                  "(hal.canopen.rated_torque or the drive's cia402.rated_torque)",
+                                  node_, v, sdo_abort_meaning(v)));
+        }
+        return;
+      }
+      const double drive = 1e-3 * v;
+      if (!scaling_.rated_torque_given) {
+        if (drive <= 0) return fail(fmt::format("node {}: motor rated torque 0x6076 = {} mN m", node_, v));
+        scaling_.rated_torque = drive;
+      } else if (std::abs(drive - scaling_.rated_torque) > 0.01 * scaling_.rated_torque) {
+        return fail(fmt::format("node {}: the drive's motor rated torque 0x6076 = {} mN m disagrees with the configuration's {} N m: every "
+                                "torque would be scaled wrongly",
+                                node_, v, scaling_.rated_torque));
+      }
+      return;
+    }
+    default: return;
+  }
+}
+
 void Cia402Master::reset_fault() {
   reset_requested_ = true;
   fault_code_ = 0;
@@ -96,6 +172,8 @@ void Cia402Master::tick(double now, bool enable, double torque, std::vector<CanF
       phase_ = Phase::kBooting;
       phase_since_ = now;
       sdo_.reset();
+      read_ = 0;
+      read_sent_.reset();
       state_.reset();
       nmt_.reset();
       return;
@@ -104,6 +182,9 @@ void Cia402Master::tick(double now, bool enable, double torque, std::vector<CanF
         latch(kFaultStartUp, fmt::format("node {}: no boot-up message within {:.3f} s of NMT reset communication", node_, timing_.boot_timeout));
         phase_ = Phase::kFailed;
       }
+      return;
+    case Phase::kIdentifying:
+      identify(now, out);
       return;
     case Phase::kConfiguring:
       if (const auto f = sdo_->poll(now)) out.push_back(*f);
@@ -183,9 +264,11 @@ bool Cia402Master::on_frame(const CanFrame& f, double now) {
       if (*s == NmtState::kBootUp) {
         // A boot-up while booting or configuring (a drive powering up as it is reset) starts
         // the configuration over; once started, the drive has lost its configuration.
-        if (phase_ == Phase::kBooting || phase_ == Phase::kConfiguring) {
-          sdo_.emplace(node_, cst_configuration(node_, timing_.heartbeat_ms), timing_.sdo_timeout);
-          phase_ = Phase::kConfiguring;
+        if (phase_ == Phase::kBooting || phase_ == Phase::kIdentifying || phase_ == Phase::kConfiguring) {
+          sdo_.reset();
+          read_ = 0;
+          read_sent_.reset();
+          phase_ = Phase::kIdentifying;
           phase_since_ = now;
         } else if (phase_ != Phase::kReset && phase_ != Phase::kFailed) {
           latch(kFaultRestarted, fmt::format("node {}: the drive restarted (boot-up message) and lost its configuration", node_));
@@ -203,7 +286,13 @@ bool Cia402Master::on_frame(const CanFrame& f, double now) {
       return true;
     }
     case Function::kSdoTx:
-      if (sdo_) sdo_->on_frame(f, now);
+      if (phase_ == Phase::kIdentifying && read_sent_) {
+        const auto m = decode_sdo(f, node_);
+        if (!m) return false;
+        judge(*m);
+      } else if (sdo_) {
+        sdo_->on_frame(f, now);
+      }
       return true;
     default: return false;
   }

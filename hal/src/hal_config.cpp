@@ -148,8 +148,9 @@ void load_scaling(const Config& c, Cia402Scaling& s) {
 }
 
 /// The drive's EDS: the objects cyclic synchronous torque needs, mappable where a PDO carries them,
-/// and the mode supported; its rated torque (0x6076) unless the configuration gives one.
-void apply_eds(const std::string& path, const Config& where, bool rated_given, DriveConfig& dc) {
+/// and the mode supported; its rated torque (0x6076) unless the configuration gives one (true when
+/// the EDS gave it).
+bool apply_eds(const std::string& path, const Config& where, bool rated_given, DriveConfig& dc) {
   using namespace canopen;
   ObjectDictionary od;
   try {
@@ -179,8 +180,12 @@ void apply_eds(const std::string& path, const Config& where, bool rated_given, D
                                   e.line, *modes));
   }
   if (!rated_given) {
-    if (const auto rated = od.value(kRatedTorque, 0, dc.id); rated && *rated > 0) dc.cia402.rated_torque = static_cast<double>(*rated) * 1e-3;
+    if (const auto rated = od.value(kRatedTorque, 0, dc.id); rated && *rated > 0) {
+      dc.cia402.rated_torque = static_cast<double>(*rated) * 1e-3;
+      return true;
+    }
   }
+  return false;
 }
 
 /// Identifiers the sensor devices use (docs/CAN.md) that a CiA 402 node's TPDO1 would take.
@@ -254,8 +259,9 @@ HalConfig HalConfig::load(const Config& c, const model::RobotSpec& robot) {
         rated_given = rated_given || own->has("rated_torque");
       }
       if (d.has("eds")) dc.eds = d.file_path("eds");
-      if (!dc.eds.empty()) apply_eds(dc.eds, d.has("eds") ? d : *canopen, rated_given, dc);
+      if (!dc.eds.empty()) rated_given = apply_eds(dc.eds, d.has("eds") ? d : *canopen, rated_given, dc) || rated_given;
       if (own) load_scaling(*own, dc.cia402);
+      dc.cia402.rated_torque_given = rated_given;
       if (dc.bus == h.sensor_bus && collides_with_sensors(dc.id)) {
         throw ConfigError(d.file() + ": " + d.full_key("id") + ": CiA 402 node " + std::to_string(dc.id) +
                           " on the sensor bus: its TPDO1 would use an identifier of the IMU or F/T frames (nodes 1, 2, 16-19 are taken there)");

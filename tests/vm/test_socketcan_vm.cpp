@@ -57,10 +57,10 @@ TEST(SocketCanVm, Cia402DrivesStartAndRunOverVcan) {
   EXPECT_EQ(number_after(out, "VM: hal exit "), 0) << out;
   EXPECT_EQ(number_after(out, "VM: candump commands "), 0) << "no MIT-mode frame";
   // Start-up: NMT reset communication and NMT start for the bus (one each per node: 3 drives on
-  // can0), the 23 SDO writes of the configuration per drive (docs/CAN.md), each answered.
+  // can0), the 3 SDO reads and 23 writes of the start-up per drive (docs/CAN.md), each answered.
   EXPECT_EQ(number_after(out, "VM: candump nmt "), 6) << out;
-  EXPECT_EQ(number_after(out, "VM: candump sdo requests "), 3 * 23) << out;
-  EXPECT_EQ(number_after(out, "VM: candump sdo answers "), 3 * 23) << out;
+  EXPECT_EQ(number_after(out, "VM: candump sdo requests "), 3 * 26) << out;
+  EXPECT_EQ(number_after(out, "VM: candump sdo answers "), 3 * 26) << out;
   const long rpdo = number_after(out, "VM: candump rpdo1 "), tpdo1 = number_after(out, "VM: candump tpdo1 "),
              tpdo2 = number_after(out, "VM: candump tpdo2 ");
   EXPECT_GT(rpdo, 100) << out;

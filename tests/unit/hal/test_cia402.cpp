@@ -68,8 +68,8 @@ TEST(Cia402Master, StartsADriveTheWayCia301AndCia402Ask) {
   const int ticks = l.start();
   ASSERT_TRUE(l.master.cyclic()) << l.master.fault_text();
   EXPECT_LT(ticks, 100);
-  // The order on the bus: NMT reset communication, the drive's boot-up, the SDO writes each
-  // answered before the next, NMT start, then an operational heartbeat.
+  // The order on the bus: NMT reset communication, the drive's boot-up, the SDO reads and writes
+  // each answered before the next, NMT start, then an operational heartbeat.
   ASSERT_GE(l.wire.size(), 4u);
   std::vector<const CanFrame*> bus;
   for (const CanFrame& f : l.wire) {
@@ -81,8 +81,18 @@ TEST(Cia402Master, StartsADriveTheWayCia301AndCia402Ask) {
   EXPECT_EQ(bus[1]->data[1], 5);
   EXPECT_EQ(bus[2]->id, kHeartbeatBase + 5);
   EXPECT_EQ(bus[2]->data[0], 0) << "boot-up after the reset";
-  const auto writes = cst_configuration(5, CanOpenTiming{}.heartbeat_ms);
+  // What the drive is: device type, supported modes, rated torque, each read and answered.
   std::size_t k = 3;
+  for (const std::uint16_t index : {kDeviceType, kSupportedModes, kRatedTorque}) {
+    ASSERT_LT(k + 1, bus.size());
+    const auto req = decode_sdo(*bus[k], 5), answer = decode_sdo(*bus[k + 1], 5);
+    ASSERT_TRUE(req.has_value() && answer.has_value());
+    EXPECT_EQ(req->kind, SdoMessage::Kind::kUploadRequest);
+    EXPECT_EQ(req->address.index, index);
+    EXPECT_EQ(answer->kind, SdoMessage::Kind::kUploadData);
+    k += 2;
+  }
+  const auto writes = cst_configuration(5, CanOpenTiming{}.heartbeat_ms);
   for (const SdoWrite& w : writes) {
     ASSERT_LT(k + 1, bus.size());
     const auto req = decode_sdo(*bus[k], 5);
@@ -235,6 +245,37 @@ TEST(Cia402Master, ARefusedConfigurationNamesTheObjectAndTheAbortCode) {
   silent.start(static_cast<int>(t.boot_timeout * 1e3) + 10);
   EXPECT_EQ(silent.master.phase(), Cia402Master::Phase::kFailed);
   EXPECT_NE(silent.master.fault_text().find("no boot-up message"), std::string::npos) << silent.master.fault_text();
+}
+
+TEST(Cia402Master, ReadsWhatTheDriveIsBeforeConfiguringIt) {
+  // The rated torque scales every torque: the drive's own 0x6076 is taken when the configuration
+  // gives none, and a disagreement with the configuration stops the start-up.
+  Cia402Scaling unset;
+  Link adopt(Cia402Device::default_eds(1200), unset);
+  adopt.start();
+  ASSERT_TRUE(adopt.master.cyclic()) << adopt.master.fault_text();
+  EXPECT_DOUBLE_EQ(adopt.master.scaling().rated_torque, 1.2);
+  Cia402Scaling given;
+  given.rated_torque = 0.5;
+  given.rated_torque_given = true;
+  Link mismatch(Cia402Device::default_eds(1200), given);
+  mismatch.start();
+  EXPECT_EQ(mismatch.master.phase(), Cia402Master::Phase::kFailed);
+  EXPECT_NE(mismatch.master.fault_text().find("0x6076 = 1200 mN m disagrees with the configuration's 0.5 N m"), std::string::npos)
+      << mismatch.master.fault_text();
+  // Not a drive: another device profile.
+  std::string eds = Cia402Device::default_eds(500);
+  eds.replace(eds.find("0x00020192"), 10, "0x00000191");
+  Link io(eds);
+  io.start();
+  EXPECT_EQ(io.master.phase(), Cia402Master::Phase::kFailed);
+  EXPECT_NE(io.master.fault_text().find("profile 401, not a CiA 402 drive"), std::string::npos) << io.master.fault_text();
+  // A drive without cyclic synchronous torque.
+  eds = Cia402Device::default_eds(500);
+  eds.replace(eds.find("0x00000380"), 10, "0x00000080");
+  Link csp(eds);
+  csp.start();
+  EXPECT_NE(csp.master.fault_text().find("no cyclic synchronous torque (bit 9)"), std::string::npos) << csp.master.fault_text();
 }
 
 TEST(Cia402Device, AnswersOnlyWhatItsMappingSaysAndRejectsAWrongLengthRpdo) {

@@ -460,7 +460,7 @@ TEST(HalCia402, DrivesStartUpEnableAndCloseTheLoopWithSensorsMatchingTheSimulati
       << "no enable before the drives are configured";
   const int ticks = start_up(r);
   ASSERT_GE(ticks, 0) << r.h->starting_drives() << " / " << r.h->fault_conditions();
-  EXPECT_LT(ticks, 100) << "reset, 23 SDO writes, NMT start and a heartbeat per drive, the drives in parallel";
+  EXPECT_LT(ticks, 100) << "reset, 26 SDO transfers, NMT start and a heartbeat per drive, the drives in parallel";
   EXPECT_EQ(r.h->fault_conditions(), "");
   EXPECT_FALSE(r.emu->released());
   for (std::size_t i = 0; i < r.config.drives.size(); ++i) {

@@ -4,9 +4,10 @@
 /// cyclic synchronous torque, supervision), `Cia402Device` is a drive (the emulator's, and the
 /// tests'). Frames only: nothing here owns a bus or a clock; time is the caller's [s].
 ///
-/// Start-up (master): NMT reset communication → the boot-up message → the SDO writes of
-/// `cst_configuration` (PDO mapping, mode 10, heartbeat producer) one at a time → NMT start → the
-/// first heartbeat saying operational. Cyclic, each tick: RPDO1 (controlword, target torque) then
+/// Start-up (master): NMT reset communication → the boot-up message → SDO reads of what the drive
+/// is (0x1000 device type: profile 402; 0x6502: cyclic synchronous torque supported; 0x6076: its
+/// rated torque, which scales every torque) → the SDO writes of `cst_configuration` (PDO mapping,
+/// mode 10, heartbeat producer) one at a time → NMT start → the first heartbeat saying operational. Cyclic, each tick: RPDO1 (controlword, target torque) then
 /// SYNC on the bus; the drive answers TPDO1 (statusword, torque, position) and TPDO2 (velocity),
 /// sampled at the SYNC. Supervision: an EMCY latches its error code as the drive's fault; the
 /// heartbeat is consumed (silence for `heartbeat_timeout`, a boot-up or a state other than
@@ -35,6 +36,9 @@ struct Cia402Scaling {
   double gear_ratio = 100.0;               ///< motor revolutions per joint revolution
   bool velocity_rpm = false;               ///< 0x606C in motor rpm (else increments/s)
   double rated_torque = 0.5;               ///< [N m] the motor's rated torque (0x6076)
+  /// The configuration (or the drive's EDS) gives the rated torque: the drive's own 0x6076 must
+  /// agree (within 1 %); otherwise the drive's value is taken at start-up.
+  bool rated_torque_given = false;
 
   [[nodiscard]] double rad_per_count() const;
   [[nodiscard]] double rad_s_per_unit() const;
@@ -56,7 +60,7 @@ struct CanOpenTiming {
 /// The hal's side of one CiA 402 drive.
 class Cia402Master {
  public:
-  enum class Phase { kReset, kBooting, kConfiguring, kStarting, kCyclic, kFailed };
+  enum class Phase { kReset, kBooting, kIdentifying, kConfiguring, kStarting, kCyclic, kFailed };
   static const char* to_string(Phase p);
 
   Cia402Master(int node, Cia402Scaling scaling, CanOpenTiming timing);
@@ -82,6 +86,8 @@ class Cia402Master {
   [[nodiscard]] double position() const { return p_; }
   [[nodiscard]] double velocity() const { return v_; }
   [[nodiscard]] double torque() const { return t_; }
+  /// The units in use (the rated torque as the drive reported it, when the configuration gave none).
+  [[nodiscard]] const Cia402Scaling& scaling() const { return scaling_; }
   [[nodiscard]] std::optional<canopen::DriveState> state() const { return state_; }
   [[nodiscard]] std::uint16_t statusword() const { return statusword_; }
   [[nodiscard]] bool enabled() const { return state_ == canopen::DriveState::kOperationEnabled; }
@@ -100,7 +106,13 @@ class Cia402Master {
 
  private:
   void latch(int code, std::string text);
+  void fail(std::string text);
+  /// The identification reads: the next one to send, or an answer to judge.
+  void identify(double now, std::vector<CanFrame>& out);
+  void judge(const canopen::SdoMessage& m);
   int node_;
+  std::size_t read_ = 0;                  ///< identification read in progress
+  std::optional<double> read_sent_;
   Cia402Scaling scaling_;
   CanOpenTiming timing_;
   Phase phase_ = Phase::kReset;
