@@ -17,26 +17,11 @@ CanFrame frame(std::uint32_t id, std::uint8_t len) {
 
 bool valid_node(int node) { return node >= 1 && node <= kMaxNode; }
 
-void put_u16(CanFrame& f, int at, std::uint16_t v) {
-  f.data[static_cast<size_t>(at)] = static_cast<std::uint8_t>(v & 0xFF);
-  f.data[static_cast<size_t>(at + 1)] = static_cast<std::uint8_t>(v >> 8);
-}
-
-std::uint16_t get_u16(const CanFrame& f, int at) {
-  return static_cast<std::uint16_t>(f.data[static_cast<size_t>(at)] | (f.data[static_cast<size_t>(at + 1)] << 8));
-}
-
-std::uint32_t get_u32(const CanFrame& f, int at) {
-  std::uint32_t v = 0;
-  for (int k = 3; k >= 0; --k) v = (v << 8) | f.data[static_cast<size_t>(at + k)];
-  return v;
-}
-
 /// An SDO frame: command byte, index, subindex, 4 data bytes (little-endian).
 CanFrame sdo(std::uint32_t base, int node, std::uint8_t command, SdoAddress a, std::uint32_t value) {
   CanFrame f = frame(base + static_cast<std::uint32_t>(node), 8);
   f.data[0] = command;
-  put_u16(f, 1, a.index);
+  put_le(f, 1, a.index, 2);
   f.data[3] = a.subindex;
   for (int k = 0; k < 4; ++k) f.data[static_cast<size_t>(4 + k)] = static_cast<std::uint8_t>((value >> (8 * k)) & 0xFF);
   return f;
@@ -46,6 +31,16 @@ CanFrame sdo(std::uint32_t base, int node, std::uint8_t command, SdoAddress a, s
 std::uint32_t masked(std::uint32_t value, int size) { return size >= 4 ? value : value & ((1U << (8 * size)) - 1U); }
 
 }  // namespace
+
+std::uint64_t get_le(const CanFrame& f, int at, int bytes) {
+  std::uint64_t v = 0;
+  for (int k = bytes - 1; k >= 0; --k) v = (v << 8) | f.data[static_cast<std::size_t>(at + k)];
+  return v;
+}
+
+void put_le(CanFrame& f, int at, std::uint64_t v, int bytes) {
+  for (int k = 0; k < bytes; ++k) f.data[static_cast<std::size_t>(at + k)] = static_cast<std::uint8_t>((v >> (8 * k)) & 0xFF);
+}
 
 Cob classify(const CanFrame& f) {
   Cob c;
@@ -142,8 +137,8 @@ std::optional<SdoMessage> decode_sdo(const CanFrame& f, int node) {
   if (!to_server && !to_client) return std::nullopt;
   SdoMessage m;
   const std::uint8_t cmd = f.data[0];
-  m.address = {get_u16(f, 1), f.data[3]};
-  const std::uint32_t data = get_u32(f, 4);
+  m.address = {static_cast<std::uint16_t>(get_le(f, 1, 2)), f.data[3]};
+  const auto data = static_cast<std::uint32_t>(get_le(f, 4, 4));
   const bool expedited = (cmd & 0x02) != 0, size_indicated = (cmd & 0x01) != 0;
   const int size = size_indicated ? 4 - ((cmd >> 2) & 0x03) : 0;
   switch (cmd >> 5) {
@@ -216,14 +211,14 @@ const char* sdo_abort_meaning(std::uint32_t code) {
 
 CanFrame emergency(int node, Emergency e) {
   CanFrame f = frame(kEmcyBase + static_cast<std::uint32_t>(node), 8);
-  put_u16(f, 0, e.code);
+  put_le(f, 0, e.code, 2);
   f.data[2] = e.error_register;
   return f;
 }
 
 std::optional<Emergency> decode_emergency(const CanFrame& f, int node) {
   if (!valid_node(node) || f.id != kEmcyBase + static_cast<std::uint32_t>(node) || f.len != 8) return std::nullopt;
-  return Emergency{get_u16(f, 0), f.data[2]};
+  return Emergency{static_cast<std::uint16_t>(get_le(f, 0, 2)), f.data[2]};
 }
 
 std::string emergency_meaning(std::uint16_t code) {

@@ -20,6 +20,10 @@ inline constexpr std::uint32_t kNmtId = 0x000, kSyncId = 0x080, kEmcyBase = 0x08
                                kRpdo4 = 0x500, kSdoTxBase = 0x580, kSdoRxBase = 0x600, kHeartbeatBase = 0x700;
 inline constexpr int kMaxNode = 127;
 
+/// Little-endian fields of a payload (CANopen's byte order), `bytes` of 1..8 from byte `at`.
+std::uint64_t get_le(const CanFrame& f, int at, int bytes);
+void put_le(CanFrame& f, int at, std::uint64_t v, int bytes);
+
 /// What a standard identifier carries, from the predefined connection set.
 enum class Function { kNmt, kSync, kEmcy, kTpdo, kRpdo, kSdoTx, kSdoRx, kHeartbeat, kOther };
 struct Cob {
