@@ -55,9 +55,14 @@ std::string Cia402Master::not_ready() const {
   return fmt::format("node {} {}", node_, to_string(phase_));
 }
 
-void Cia402Master::latch(int code, std::string text) {
+bool Cia402Master::takes(int code) const {
+  // The first fault stays; an EMCY explains (and replaces) a state change the master saw first.
   const bool replace_own = fault_code_ == kFaultDriveState || fault_code_ == kFaultEnable;
-  if (fault_code_ != 0 && !(replace_own && code < 0xFF00)) return;  // the first fault stays (an EMCY explains a state change)
+  return fault_code_ == 0 || (replace_own && code < 0xFF00);
+}
+
+void Cia402Master::latch(int code, std::string text) {
+  if (!takes(code)) return;
   fault_code_ = code;
   fault_text_ = std::move(text);
 }
@@ -159,8 +164,7 @@ void Cia402Master::tick(double now, bool enable, double torque, std::vector<CanF
       return;
     case Phase::kBooting:
       if (now - phase_since_ > timing_.boot_timeout) {
-        latch(kFaultStartUp, fmt::format("node {}: no boot-up message within {:.3f} s of NMT reset communication", node_, timing_.boot_timeout));
-        phase_ = Phase::kFailed;
+        fail(fmt::format("node {}: no boot-up message within {:.3f} s of NMT reset communication", node_, timing_.boot_timeout));
       }
       return;
     case Phase::kIdentifying:
@@ -169,8 +173,7 @@ void Cia402Master::tick(double now, bool enable, double torque, std::vector<CanF
     case Phase::kConfiguring:
       if (const auto f = sdo_->poll(now)) out.push_back(*f);
       if (sdo_->failed()) {
-        latch(kFaultStartUp, sdo_->error());
-        phase_ = Phase::kFailed;
+        fail(sdo_->error());
       } else if (sdo_->done()) {
         out.push_back(nmt(NmtCommand::kStart, node_));
         phase_ = Phase::kStarting;
@@ -179,8 +182,7 @@ void Cia402Master::tick(double now, bool enable, double torque, std::vector<CanF
       return;
     case Phase::kStarting:
       if (now - phase_since_ > timing_.boot_timeout) {
-        latch(kFaultStartUp, fmt::format("node {}: no operational heartbeat within {:.3f} s of NMT start", node_, timing_.boot_timeout));
-        phase_ = Phase::kFailed;
+        fail(fmt::format("node {}: no operational heartbeat within {:.3f} s of NMT start", node_, timing_.boot_timeout));
       }
       return;
     case Phase::kFailed: return;
@@ -261,7 +263,7 @@ bool Cia402Master::on_frame(const CanFrame& f, double now) {
         enable_ = false;
         was_enabled_ = false;
       } else if (phase_ == Phase::kCyclic && *s != NmtState::kOperational) {
-        latch(kFaultNmtState, fmt::format("node {}: heartbeat says {}, not operational", node_, canopen::to_string(*s)));
+        if (takes(kFaultNmtState)) latch(kFaultNmtState, fmt::format("node {}: heartbeat says {}, not operational", node_, canopen::to_string(*s)));
       }
       return true;
     }
@@ -281,20 +283,20 @@ bool Cia402Master::on_frame(const CanFrame& f, double now) {
 void Cia402Master::supervise(double now) {
   if (phase_ != Phase::kCyclic && phase_ != Phase::kStarting) return;
   if (timing_.heartbeat_ms > 0 && now - last_heartbeat_ > timing_.heartbeat_timeout) {
-    latch(kFaultHeartbeat, fmt::format("node {}: no heartbeat for {:.3f} s (producer time {} ms)", node_, now - last_heartbeat_,
+    if (takes(kFaultHeartbeat)) latch(kFaultHeartbeat, fmt::format("node {}: no heartbeat for {:.3f} s (producer time {} ms)", node_, now - last_heartbeat_,
                                        timing_.heartbeat_ms));
   }
   if (phase_ != Phase::kCyclic || !state_) return;
   const DriveState s = *state_;
   if ((s == DriveState::kFault || s == DriveState::kFaultReactionActive) && !reset_requested_) {
-    latch(kFaultDriveState, fmt::format("node {}: statusword 0x{:04X} reports {}", node_, statusword_, canopen::to_string(s)));
+    if (takes(kFaultDriveState)) latch(kFaultDriveState, fmt::format("node {}: statusword 0x{:04X} reports {}", node_, statusword_, canopen::to_string(s)));
   }
   if (enable_ && was_enabled_ && !enabled()) {
-    latch(kFaultDriveState, fmt::format("node {}: left Operation enabled unasked, now {} (statusword 0x{:04X})", node_, canopen::to_string(s),
+    if (takes(kFaultDriveState)) latch(kFaultDriveState, fmt::format("node {}: left Operation enabled unasked, now {} (statusword 0x{:04X})", node_, canopen::to_string(s),
                                         statusword_));
   }
   if (enable_ && !enabled() && !was_enabled_ && now - enable_since_ > timing_.enable_timeout) {
-    latch(kFaultEnable, fmt::format("node {}: not in Operation enabled {:.3f} s after the enable: {} (statusword 0x{:04X}, controlword 0x{:04X})",
+    if (takes(kFaultEnable)) latch(kFaultEnable, fmt::format("node {}: not in Operation enabled {:.3f} s after the enable: {} (statusword 0x{:04X}, controlword 0x{:04X})",
                                     node_, now - enable_since_, canopen::to_string(s), statusword_, controlword_));
   }
   was_enabled_ = enable_ && enabled();

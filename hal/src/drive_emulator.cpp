@@ -84,19 +84,10 @@ bool DriveEmulator::handle_canopen(int bus, const CanFrame& f, double now, CanTr
       requested_[i] = 1;
       ++requests_;
       if (faulted(i)) dev.fault(static_cast<std::uint16_t>(options_.fault_code), tx_);
-      const DriveConfig& d = config_.drives[i];
-      const auto j = static_cast<Eigen::Index>(i);
-      double p = 0, v = 0, t = 0;
-      if (d.held) {
-        const sim::TruthData& truth = sim_.truth();
-        p = truth.q_held(j - config_.controlled), v = truth.v_held(j - config_.controlled), t = truth.tau_held(j - config_.controlled);
-      } else {
-        const SensorSample& s = sim_.sensors();
-        p = s.q(j), v = s.qd(j), t = s.tau(j);
-      }
-      const Cia402Scaling& sc = d.cia402;
-      dev.set_actual(static_cast<std::int32_t>(std::lround(d.sign * (p - d.offset) / sc.rad_per_count())),
-                     static_cast<std::int32_t>(std::lround(d.sign * v / sc.rad_s_per_unit())), sc.torque_to_drive(d.sign * t));
+      const DriveReply m = measured(i);
+      const Cia402Scaling& sc = config_.drives[i].cia402;
+      dev.set_actual(static_cast<std::int32_t>(std::lround(m.p / sc.rad_per_count())), static_cast<std::int32_t>(std::lround(m.v / sc.rad_s_per_unit())),
+                     sc.torque_to_drive(m.t));
     } else if (cob.function == canopen::Function::kRpdo) {
       drives_[i].command_time = now;
     }
@@ -111,16 +102,10 @@ bool DriveEmulator::handle_canopen(int bus, const CanFrame& f, double now, CanTr
   return taken;
 }
 
-void DriveEmulator::reply(std::size_t i, CanTransport& out) {
+DriveReply DriveEmulator::measured(std::size_t i) const {
   const DriveConfig& d = config_.drives[i];
-  // Injected losses act on running drives only, one draw per reply from the seed: a lockstep run
-  // drops the same replies every time, however long the hal took to enable.
-  const bool inject = drives_[i].motor_mode;
-  if (inject && options_.drop_reply_probability > 0 && uniform_(rng_) < options_.drop_reply_probability) return;
   const auto j = static_cast<Eigen::Index>(i);
-  const SensorSample& s = sim_.sensors();
   DriveReply r;
-  r.drive_id = d.id;
   if (d.held) {
     const auto k = j - config_.controlled;
     const sim::TruthData& t = sim_.truth();
@@ -128,10 +113,22 @@ void DriveEmulator::reply(std::size_t i, CanTransport& out) {
     r.v = d.sign * t.v_held(k);
     r.t = d.sign * t.tau_held(k);
   } else {
+    const SensorSample& s = sim_.sensors();
     r.p = d.sign * (s.q(j) - d.offset);
     r.v = d.sign * s.qd(j);
     r.t = d.sign * s.tau(j);
   }
+  return r;
+}
+
+void DriveEmulator::reply(std::size_t i, CanTransport& out) {
+  const DriveConfig& d = config_.drives[i];
+  // Injected losses act on running drives only, one draw per reply from the seed: a lockstep run
+  // drops the same replies every time, however long the hal took to enable.
+  const bool inject = drives_[i].motor_mode;
+  if (inject && options_.drop_reply_probability > 0 && uniform_(rng_) < options_.drop_reply_probability) return;
+  DriveReply r = measured(i);
+  r.drive_id = d.id;
   r.temperature = 35.0;
   if (faulted(i)) r.fault = static_cast<std::uint8_t>(std::min(options_.fault_code, 255));
   CanFrame f = codec_->encode_reply(r, d.limits);

@@ -119,6 +119,12 @@ double Hal::cia402_torque(std::size_t i, const DriveCommand& c) const {
   return std::isfinite(t) ? std::clamp(t, l.t_min, l.t_max) : 0.0;
 }
 
+void Hal::send_cia402(Cia402Master& m, CanTransport& bus, double now, bool enable, double torque) {
+  tx_.clear();
+  m.tick(now, enable, torque, tx_);
+  for (const CanFrame& f : tx_) bus.send(f);
+}
+
 void Hal::begin_tick(std::int64_t tick, double now) {
   now_ = now;
   const double age = have_command_ ? now - command_time_ : 1e9;
@@ -136,9 +142,7 @@ void Hal::begin_tick(std::int64_t tick, double now) {
     if (mode == DriveMode::kOff) {
       sent_[i] = DriveCommand{};
       if (co != nullptr) {
-        tx_.clear();
-        co->tick(now, false, 0.0, tx_);
-        for (const CanFrame& f : tx_) bus.send(f);
+        send_cia402(*co, bus, now, false, 0.0);
       } else {
         bus.send(codec_->encode_special(d.id, SpecialCommand::kExitMotorMode));
       }
@@ -189,9 +193,7 @@ void Hal::begin_tick(std::int64_t tick, double now) {
     }
     sent_[i] = c;
     if (co != nullptr) {
-      tx_.clear();
-      co->tick(now, true, cia402_torque(i, c), tx_);
-      for (const CanFrame& f : tx_) bus.send(f);
+      send_cia402(*co, bus, now, true, cia402_torque(i, c));
     } else {
       bus.send(codec_->encode_command(d.id, c, d.limits));
     }

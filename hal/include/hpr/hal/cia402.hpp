@@ -105,7 +105,10 @@ class Cia402Master {
                        kFaultDriveState = 0xFF05, kFaultEnable = 0xFF06;
 
  private:
+  /// Whether a fault of `code` would be latched now (nothing is formatted for one that would not).
+  [[nodiscard]] bool takes(int code) const;
   void latch(int code, std::string text);
+  /// The start-up failed: latched, and the drive waits for a reset request.
   void fail(std::string text);
   /// The identification reads: the next one to send, or an answer to judge.
   void identify(double now, std::vector<CanFrame>& out);

@@ -68,6 +68,8 @@ class DriveEmulator {
     double command_time = -1e9;
   };
   void reply(std::size_t i, CanTransport& out);
+  /// What drive i measures now, in drive units (sign and offset applied): p, v, t.
+  [[nodiscard]] DriveReply measured(std::size_t i) const;
   bool bus_off(int bus) const;
   [[nodiscard]] bool faulted(std::size_t i) const;
   /// A CANopen frame for the CiA 402 devices on `bus`; false when none of them takes it.

@@ -166,6 +166,8 @@ class Hal {
   /// Drive i's sample (drive units) into the sensors or the held positions.
   void take_reply(std::size_t i, double p, double v, double t);
   DriveCommand damping_command(std::size_t i) const;
+  /// A CiA 402 drive's frames of this tick (start-up, or RPDO1 with `torque`) onto its bus.
+  void send_cia402(Cia402Master& m, CanTransport& bus, double now, bool enable, double torque);
   /// The joint torque a CiA 402 drive is sent for impedance command `c` [drive units, N m].
   double cia402_torque(std::size_t i, const DriveCommand& c) const;
   [[nodiscard]] bool expects_reply(std::size_t i) const { return !cia402_[i] || cia402_[i]->cyclic(); }
