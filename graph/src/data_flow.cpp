@@ -77,6 +77,7 @@ const Ports& controllers_ports() {
 
 std::span<const Ports> data_flow() {
   static const std::array kFlow = {sim::kPorts,
+                                   sim::kMujocoPorts,
                                    hal::kPorts,
                                    hal::kEmulatorPorts,
                                    estimator::Estimator::kPorts,

@@ -1,5 +1,5 @@
 #pragma once
-/// \file The sim_bullet process: the Simulator behind LCM.
+/// \file The simulation process (sim_bullet, sim_mujoco): the Simulator behind LCM.
 ///
 /// Lockstep: publish ROBOT_SENSORS and SIM_TRUTH for tick k, wait (bounded) for the JOINT_COMMAND of
 /// tick k, step. Realtime: step on a 1 kHz absolute-time clock with the latest command, counting late
@@ -27,6 +27,10 @@ struct SimNodeOptions {
   std::string scenario;           ///< push scenario file
   static SimNodeOptions load(const Config& sim_section);
 };
+
+/// The simulation process of `engine` (its main): loads the configuration, builds the simulator
+/// and runs its node. The engine is the process's whatever `sim.engine` says.
+int run_sim_process(int argc, char** argv, EngineKind engine);
 
 class SimNode {
  public:

@@ -1,19 +1,33 @@
 // What the simulator reports each tick: the truth (SIM_TRUTH: state, contacts, momentum) and the
 // sensors (ROBOT_SENSORS: encoders, IMU, ankle force/torque, with their noise).
-#include "simulator_impl.hpp"
+#include <algorithm>
+#include <cmath>
+
+#include "hpr/sim/simulator.hpp"
 
 namespace hpr::sim {
 
+using Eigen::Matrix3d;
+using Eigen::Vector3d;
 using Eigen::VectorXd;
+using model::SE3;
+using model::Vector6d;
+
+namespace {
+Eigen::Vector4d quat_wxyz(const Matrix3d& R) {
+  const Eigen::Quaterniond q(R);
+  return {q.w(), q.x(), q.y(), q.z()};
+}
+}  // namespace
+
+void Simulator::refresh_motion() { engine_->body_motions(motion_); }
 
 void Simulator::compute_truth() {
-  Impl& I = *impl_;
   const model::Model& m = full_;
-  btMultiBody* mb = I.bullet->multibody();
   TruthData& t = truth_;
   t.tick = tick_;
   t.time = time_;
-  I.bullet->get_state(q_full_, v_full_);
+  engine_->get_state(q_full_, v_full_);
   const int nj = robot_->model.nj;
   t.q.resize(7 + nj);
   t.v.resize(6 + nj);
@@ -36,51 +50,37 @@ void Simulator::compute_truth() {
     }
   }
   t.tau_held = held_tau_;
-  const SE3 X_WB = I.bullet->body_placement(0);
+  const SE3 X_WB = engine_->body_placement(0);
   t.p_WB = X_WB.p;
   t.quat_WB = quat_wxyz(X_WB.R);
   t.v_WB = X_WB.R * t.v.head<3>();
   t.omega_WB = X_WB.R * t.v.segment<3>(3);
-  // Centre of mass, momentum and CAM from Bullet's link states (CoM frames, local velocities).
-  mb->compTreeLinkVelocities(I.omega.data(), I.vel.data());
+  // Centre of mass, momentum and CAM from the engine's link states.
+  refresh_motion();
   double mass = 0;
   Vector3d mc = Vector3d::Zero(), p = Vector3d::Zero();
-  std::vector<Vector3d>& c = I.c_W;
-  std::vector<Vector3d>& v = I.v_W;
-  std::vector<Vector3d>& w = I.omega_W;
-  std::vector<Matrix3d>& R = I.R_W;
-  for (int b = 0; b < m.nb; ++b) {
-    const SE3 X = I.link_frame(b);
-    const auto bu = static_cast<size_t>(b);
-    const double mi = b == 0 ? mb->getBaseMass() : mb->getLink(b - 1).m_mass;
-    R[bu] = X.R;
-    c[bu] = X.p;
-    v[bu] = X.R * from_bt(I.vel[bu]);
-    w[bu] = X.R * from_bt(I.omega[bu]);
-    mass += mi;
-    mc += mi * c[bu];
-    p += mi * v[bu];
+  for (const BodyMotion& b : motion_) {
+    mass += b.m;
+    mc += b.m * b.c_W;
+    p += b.m * b.v_W;
   }
   t.p_WCom = mc / mass;
   t.v_WCom = p / mass;
   t.h_lin_W = p;
   Vector3d l = Vector3d::Zero();
-  for (int b = 0; b < m.nb; ++b) {
-    const auto bu = static_cast<size_t>(b);
-    const double mi = b == 0 ? mb->getBaseMass() : mb->getLink(b - 1).m_mass;
-    const Vector3d Id = b == 0 ? from_bt(mb->getBaseInertia()) : from_bt(mb->getLink(b - 1).m_inertiaLocal);
-    l += mi * (c[bu] - t.p_WCom).cross(v[bu]) + R[bu] * Id.asDiagonal() * R[bu].transpose() * w[bu];
+  for (const BodyMotion& b : motion_) {
+    l += b.m * (b.c_W - t.p_WCom).cross(b.v_W) + b.R_WI * b.I_principal.asDiagonal() * b.R_WI.transpose() * b.omega_W;
   }
   t.l_WCom = l;
   for (int k = 0; k < 2; ++k) {
     const auto ku = static_cast<size_t>(k);
     const int frame = sole_frame_[ku];
     const int body = m.frames[static_cast<size_t>(frame)].body;
-    const SE3 X_WS = I.bullet->body_placement(body) * m.frames[static_cast<size_t>(frame)].X_BF;
+    const SE3 X_WS = engine_->body_placement(body) * m.frames[static_cast<size_t>(frame)].X_BF;
     t.p_WF[ku] = X_WS.p;
     t.quat_WF[ku] = quat_wxyz(X_WS.R);
     t.foot_tilt[ku] = std::acos(std::clamp(X_WS.R(2, 2), -1.0, 1.0));
-    Vector6d wrench = I.contact_impulse_O[ku] / config_.dt;
+    Vector6d wrench = contact_impulse_O_[ku] / config_.dt;
     wrench.tail<3>() -= X_WS.p.cross(wrench.head<3>());
     t.contact_wrench_W[ku] = wrench;
     t.foot_contact[ku] = wrench(2) > 1.0;
@@ -90,9 +90,7 @@ void Simulator::compute_truth() {
 }
 
 void Simulator::compute_sensors() {
-  Impl& I = *impl_;
   const model::Model& m = robot_->model;  // the controlled joints; bodies and frames of full_
-  const btMultiBody* mb = I.bullet->multibody();
   const NoiseConfig& nc = config_.noise;
   const bool noisy = nc.enabled;
   std::normal_distribution<double> nd(0.0, 1.0);
@@ -103,14 +101,14 @@ void Simulator::compute_sensors() {
   const double res = noisy && nc.encoder_bits > 0 ? 2.0 * M_PI / std::ldexp(1.0, nc.encoder_bits) : 0.0;
   VectorXd qm(m.nj);
   for (int j = 0; j < m.nj; ++j) {
-    const double q = mb->getJointPos(joint_of_[static_cast<size_t>(j)]);
+    const double q = engine_->joint_position(joint_of_[static_cast<size_t>(j)]);
     qm(j) = res > 0 ? res * std::round(q / res) : q;
   }
   for (int j = 0; j < m.nj; ++j) {
     if (res > 0 && q_meas_prev_.size() == m.nj) {
       s.qd(j) = (qm(j) - q_meas_prev_(j)) / config_.dt;
     } else {
-      s.qd(j) = mb->getJointVel(joint_of_[static_cast<size_t>(j)]);
+      s.qd(j) = engine_->joint_velocity(joint_of_[static_cast<size_t>(j)]);
     }
     s.tau(j) = applied_(j) + (noisy ? nc.joint_torque_noise * nd(rng_) : 0.0);
     std::int32_t st = 0;
@@ -126,12 +124,10 @@ void Simulator::compute_sensors() {
   // IMU: orientation, angular rate and specific force of the IMU frame.
   const model::Frame& imu = full_.frames[static_cast<size_t>(imu_frame_)];
   const int body = imu.body;
-  const SE3 X_WL = I.link_frame(body);
-  const SE3 X_WI = I.bullet->body_placement(body) * imu.X_BF;
-  mb->compTreeLinkVelocities(I.omega.data(), I.vel.data());
-  const Vector3d w = X_WL.R * from_bt(I.omega[static_cast<size_t>(body)]);
-  const Vector3d v_com = X_WL.R * from_bt(I.vel[static_cast<size_t>(body)]);
-  const Vector3d v_imu = v_com + w.cross(X_WI.p - X_WL.p);
+  const BodyMotion& bm = motion_[static_cast<size_t>(body)];  // refreshed by compute_truth
+  const SE3 X_WI = engine_->body_placement(body) * imu.X_BF;
+  const Vector3d& w = bm.omega_W;
+  const Vector3d v_imu = bm.v_W + w.cross(X_WI.p - bm.c_W);
   const Vector3d a_imu = have_v_imu_prev_ ? Vector3d((v_imu - v_imu_prev_) / config_.dt) : Vector3d::Zero();
   v_imu_prev_ = v_imu;
   have_v_imu_prev_ = true;
@@ -152,21 +148,18 @@ void Simulator::compute_sensors() {
     const auto ku = static_cast<size_t>(k);
     const model::Frame& ft = full_.frames[static_cast<size_t>(ft_frame_[ku])];
     const int fb = ft.body;
-    const SE3 X_WS = I.bullet->body_placement(fb) * ft.X_BF;
-    const SE3 X_WF = I.link_frame(fb);
-    const double mf = fb == 0 ? mb->getBaseMass() : mb->getLink(fb - 1).m_mass;
-    const Vector3d If = fb == 0 ? from_bt(mb->getBaseInertia()) : from_bt(mb->getLink(fb - 1).m_inertiaLocal);
-    const Vector3d wf = X_WF.R * from_bt(I.omega[static_cast<size_t>(fb)]);
-    const Vector3d vf = X_WF.R * from_bt(I.vel[static_cast<size_t>(fb)]);
+    const SE3 X_WS = engine_->body_placement(fb) * ft.X_BF;
+    const BodyMotion& f = motion_[static_cast<size_t>(fb)];
+    const double mf = f.m;
     // Momentum of the foot about the world origin.
     Vector6d h;
-    h.head<3>() = mf * vf;
-    h.tail<3>() = X_WF.p.cross(h.head<3>()) + X_WF.R * If.asDiagonal() * X_WF.R.transpose() * wf;
+    h.head<3>() = mf * f.v_W;
+    h.tail<3>() = f.c_W.cross(h.head<3>()) + f.R_WI * f.I_principal.asDiagonal() * f.R_WI.transpose() * f.omega_W;
     const Vector6d hdot = have_foot_momentum_prev_ ? Vector6d((h - foot_momentum_prev_[ku]) / config_.dt) : Vector6d::Zero();
     foot_momentum_prev_[ku] = h;
-    Vector6d w_O = I.contact_impulse_O[ku] / config_.dt;  // ground on foot, about O
+    Vector6d w_O = contact_impulse_O_[ku] / config_.dt;  // ground on foot, about O
     w_O.head<3>() += mf * config_.gravity;
-    w_O.tail<3>() += X_WF.p.cross(mf * config_.gravity);
+    w_O.tail<3>() += f.c_W.cross(mf * config_.gravity);
     w_O -= hdot;
     // About the sensor origin, in the sensor frame.
     Vector6d w_S;

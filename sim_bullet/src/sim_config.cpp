@@ -21,6 +21,22 @@ Eigen::Vector3d Push::impulse() const {
 
 SimConfig SimConfig::load(const Config& c) {
   SimConfig s;
+  s.engine = c.choice_or("engine", "bullet", {"bullet", "mujoco"}) == "mujoco" ? EngineKind::kMujoco : EngineKind::kBullet;
+  if (c.has("mujoco")) {
+    const Config mj = c.section("mujoco");
+    MujocoConfig& m = s.mujoco;
+    m.timeconst = mj.real_or("timeconst", m.timeconst, 1e-4, 1.0);
+    m.dampratio = mj.real_or("dampratio", m.dampratio, 0.1, 10.0);
+    m.condim = static_cast<int>(mj.integer_or("condim", m.condim, 1, 6));
+    if (m.condim != 1 && m.condim != 3 && m.condim != 4 && m.condim != 6) mj.fail("condim", "must be 1, 3, 4 or 6");
+    m.elliptic_cone = mj.choice_or("cone", m.elliptic_cone ? "elliptic" : "pyramidal", {"pyramidal", "elliptic"}) == "elliptic";
+    m.implicit = mj.choice_or("integrator", "euler", {"euler", "implicit"}) == "implicit";
+    m.torsional_friction = mj.real_or("torsional_friction", m.torsional_friction, 0.0, 1.0);
+    m.rolling_friction = mj.real_or("rolling_friction", m.rolling_friction, 0.0, 1.0);
+    m.impratio = mj.real_or("impratio", m.impratio, 1.0, 1000.0);
+    m.noslip_iterations = static_cast<int>(mj.integer_or("noslip_iterations", m.noslip_iterations, 0, 1000));
+    m.write_model = mj.string_or("write_model", "");
+  }
   s.dt = c.real_or("dt", s.dt, 1e-4, 0.01);
   s.substeps = static_cast<int>(c.integer_or("substeps", s.substeps, 1, 20));
   s.gravity = c.vec3_or("gravity", s.gravity, -100.0, 100.0);
@@ -85,6 +101,12 @@ SimConfig SimConfig::load(const Config& c) {
     nc.joint_torque_noise = n.real_or("joint_torque_noise", nc.joint_torque_noise, 0.0, 100.0);
     nc.ft_force_noise = n.real_or("ft_force_noise", nc.ft_force_noise, 0.0, 100.0);
     nc.ft_torque_noise = n.real_or("ft_torque_noise", nc.ft_torque_noise, 0.0, 10.0);
+  }
+  if (s.engine == EngineKind::kMujoco && s.mujoco.timeconst < 2.0 * s.dt / s.substeps - 1e-12) {
+    const std::string what = fmt::format("mujoco.timeconst {} s is below two physics steps, 2 dt / substeps = {} s", s.mujoco.timeconst,
+                                         2.0 * s.dt / s.substeps);
+    if (c.has("mujoco")) c.section("mujoco").fail("timeconst", what);
+    c.fail("engine", what);
   }
   return s;
 }

@@ -1,9 +1,19 @@
-// The simulator: building the Bullet multibody and its colliders from the robot's description,
-// commands through the drive model, pushes and the physics step (its readings in readings.cpp).
-#include "simulator_impl.hpp"
+// The simulator, whichever engine steps it: commands through the drive model, the held joints,
+// pushes and the physics step (its readings in readings.cpp; the engines in bullet_engine.cpp and
+// sim_mujoco).
+#include <fmt/format.h>
+
+#include <Eigen/Cholesky>
+#include <algorithm>
+#include <cmath>
+
+#include "hpr/common/log.hpp"
+#include "hpr/model/algorithms.hpp"
+#include "hpr/sim/simulator.hpp"
 
 namespace hpr::sim {
 
+using Eigen::Vector3d;
 using Eigen::VectorXd;
 
 void hold_gains(const model::RobotSpec& robot, const VectorXd& q, double kp, double kd, double dt, VectorXd& kp_out,
@@ -44,73 +54,12 @@ void apply_model_error(model::Model& m, const std::vector<SimConfig::BodyError>&
   }
 }
 
-/// The Bullet shape of a collision geometry of `link`; `X_BG` (the geometry in its body's frame) is
-/// moved to the shape's centre where the shape needs it (a mesh's bounding box).
-std::unique_ptr<btCollisionShape> collision_shape(const model::Geometry& g, const model::RobotSpec& robot, const model::Model& m,
-                                                  const model::LinkDesc* link, SE3& X_BG) {
-  std::unique_ptr<btCollisionShape> shape;
-  switch (g.type) {
-    case model::Geometry::Type::kBox:
-      shape = std::make_unique<btBoxShape>(to_bt(Vector3d(0.5 * g.size)));
-      break;
-    case model::Geometry::Type::kCylinder:
-      shape = std::make_unique<btCylinderShapeZ>(btVector3(g.size.x(), g.size.x(), 0.5 * g.size.y()));
-      break;
-    case model::Geometry::Type::kSphere:
-      shape = std::make_unique<btSphereShape>(g.size.x());
-      break;
-    case model::Geometry::Type::kMesh: {
-      std::vector<Vector3d> points;
-      try {
-        points = mesh::load(g.mesh, g.mesh_scale).vertices;
-      } catch (const mesh::MeshError& e) {
-        throw model::ModelError(fmt::format("{}: link '{}': {}", m.source, link->name, e.what()));
-      }
-      if (robot.mesh_collision == model::MeshCollision::kBox) {
-        Vector3d lo = points.front(), hi = points.front();
-        for (const auto& p : points) {
-          lo = lo.cwiseMin(p);
-          hi = hi.cwiseMax(p);
-        }
-        shape = std::make_unique<btBoxShape>(to_bt(Vector3d(0.5 * (hi - lo))));
-        SE3 X_GC;
-        X_GC.p = 0.5 * (hi + lo);
-        X_BG = X_BG * X_GC;
-      } else {
-        auto hull = std::make_unique<btConvexHullShape>();
-        for (const auto& p : mesh::hull_points(points, robot.mesh_hull_points)) hull->addPoint(sim::to_bt(p), false);
-        hull->recalcLocalAabb();
-        hull->setMargin(0.001);
-        shape = std::move(hull);
-      }
-      break;
-    }
-  }
-  return shape;
-}
-
-/// A foot's configured sole as its collision shape: a box of the sole's rectangle, 2 cm thick, its
-/// bottom face on the sole (`X_LS`: the sole frame in the Bullet link frame).
-void add_sole_box(const model::FootSpec& foot, const char* side, const SE3& X_LS, btCompoundShape& compound,
-                  std::vector<std::unique_ptr<btCollisionShape>>& shapes) {
-  constexpr double kThickness = 0.02;
-  SE3 X_SC;
-  X_SC.p = Vector3d(0.0, 0.0, 0.5 * kThickness);
-  auto box = std::make_unique<btBoxShape>(to_bt(Vector3d(0.5 * foot.length, 0.5 * foot.width, 0.5 * kThickness)));
-  compound.addChildShape(to_bt(X_LS * X_SC), box.get());
-  shapes.push_back(std::move(box));
-  log::info("the {} foot link '{}' has no collision geometry: it collides with its configured sole, a box of {:.3f} x {:.3f} x {:.3f} m",
-            side, foot.link, foot.length, foot.width, kThickness);
-}
-
 }  // namespace
 
 Simulator::Simulator(const model::RobotSpec& robot, SimConfig config)
-    : robot_(&robot), config_(config), full_(robot.full_model(config.held_rigid)), impl_(std::make_unique<Impl>()), rng_(config.noise.seed) {
+    : robot_(&robot), config_(config), full_(robot.full_model(config.held_rigid)), rng_(config.noise.seed) {
   apply_model_error(full_, config_.model_error);
   const model::Model& m = full_;
-  const model::RobotDescription& description = robot.description;
-  Impl& I = *impl_;
   for (const auto& name : robot.model.joint_name) joint_of_.push_back(m.joint_index(name));
   held_q_.resize(static_cast<Eigen::Index>(robot.model.held_joint_name.size()));
   held_tau_ = VectorXd::Zero(held_q_.size());
@@ -118,82 +67,14 @@ Simulator::Simulator(const model::RobotSpec& robot, SimConfig config)
     if (!config_.held_rigid) held_joint_.push_back(m.joint_index(robot.model.held_joint_name[k]));
     held_q_(static_cast<Eigen::Index>(k)) = robot.model.held_q[k];
   }
-  for (int k = 0; k < 2; ++k) {
-    const auto ku = static_cast<size_t>(k);
-    sole_frame_[ku] = m.frame_index(robot.model.frames[static_cast<size_t>(robot.feet[ku].sole_frame)].name);
-    ft_frame_[ku] = m.frame_index(robot.model.frames[static_cast<size_t>(robot.feet[ku].ft_frame)].name);
+  for (size_t k = 0; k < 2; ++k) {
+    sole_frame_[k] = m.frame_index(robot.model.frames[static_cast<size_t>(robot.feet[k].sole_frame)].name);
+    ft_frame_[k] = m.frame_index(robot.model.frames[static_cast<size_t>(robot.feet[k].ft_frame)].name);
+    foot_body_[k] = m.frames[static_cast<size_t>(sole_frame_[k])].body;
   }
   imu_frame_ = m.frame_index(robot.model.frames[static_cast<size_t>(robot.imu_frame)].name);
-  I.world->setGravity(to_bt(config_.gravity));
-  btContactSolverInfo& info = I.world->getSolverInfo();
-  info.m_numIterations = config_.solver_iterations;
-  if (config_.friction_directions == 2) info.m_solverMode |= SOLVER_USE_2_FRICTION_DIRECTIONS;
-  info.m_erp2 = config_.contact_erp;
-  info.m_globalCfm = config_.contact_cfm;
-  info.m_timeStep = config_.dt / config_.substeps;
-  if (config_.ground_multipoint) I.collision_config.setPlaneConvexMultipointIterations(3, 3);
-
-  I.bullet = std::make_unique<MultiBodyRobot>(m);
-  btMultiBody* mb = I.bullet->multibody();
-  I.world->addMultiBody(mb, kRobotGroup, kGroundGroup);
-
-  // Collision shapes: every URDF link's geometries, merged per body, in the Bullet link frame.
-  I.body_collider.assign(static_cast<size_t>(m.nb), nullptr);
-  std::array<int, 2> foot_bodies{};
-  for (int k = 0; k < 2; ++k) foot_bodies[static_cast<size_t>(k)] = m.frames[static_cast<size_t>(sole_frame_[static_cast<size_t>(k)])].body;
-  for (int b = 0; b < m.nb; ++b) {
-    if (config_.feet_only_collisions && b != foot_bodies[0] && b != foot_bodies[1]) continue;
-    auto compound = std::make_unique<btCompoundShape>();
-    const SE3 X_LB = I.bullet->bodies()[static_cast<size_t>(b)].X_BL.inverse();
-    for (const auto& frame : m.frames) {
-      if (frame.body != b) continue;
-      const model::LinkDesc* link = description.find_link(frame.name);
-      if (link == nullptr) continue;
-      for (const auto& g : link->collisions) {
-        SE3 X_BG = frame.X_BF * g.X_LG;
-        std::unique_ptr<btCollisionShape> shape = collision_shape(g, robot, m, link, X_BG);
-        compound->addChildShape(to_bt(X_LB * X_BG), shape.get());
-        I.shapes.push_back(std::move(shape));
-      }
-    }
-    for (int k = 0; k < 2; ++k) {
-      // A foot without collision geometry (a description with inertias only) stands on its sole.
-      const auto ku = static_cast<size_t>(k);
-      if (b == foot_bodies[ku] && compound->getNumChildShapes() == 0) {
-        add_sole_box(robot.feet[ku], model::kFootNames[ku], X_LB * m.frames[static_cast<size_t>(sole_frame_[ku])].X_BF, *compound, I.shapes);
-      }
-    }
-    if (compound->getNumChildShapes() == 0) continue;
-    auto collider = std::make_unique<btMultiBodyLinkCollider>(mb, b - 1);
-    collider->setCollisionShape(compound.get());
-    collider->setFriction(config_.ground_friction);
-    // Friction anchors: static friction holds the contact point in place instead of letting the
-    // iterative solver's residual creep the sole along the ground.
-    collider->setCollisionFlags(collider->getCollisionFlags() | btCollisionObject::CF_HAS_FRICTION_ANCHOR);
-    collider->setRestitution(config_.ground_restitution);
-    if (config_.contact_stiffness > 0) {
-      collider->setContactStiffnessAndDamping(config_.contact_stiffness, config_.contact_damping);
-    }
-    I.world->addCollisionObject(collider.get(), kRobotGroup, kGroundGroup);
-    if (b == 0) {
-      mb->setBaseCollider(collider.get());
-    } else {
-      mb->getLink(b - 1).m_collider = collider.get();
-    }
-    I.body_collider[static_cast<size_t>(b)] = collider.get();
-    I.shapes.push_back(std::move(compound));
-    I.colliders.push_back(std::move(collider));
-  }
-  for (int k = 0; k < 2; ++k) I.foot_body[static_cast<size_t>(k)] = foot_bodies[static_cast<size_t>(k)];
-  if (config_.joint_limits) I.add_joint_limits(m);
-  I.add_ground(config_.ground_friction, config_.ground_restitution);
-
-  I.omega.resize(static_cast<size_t>(m.nb));
-  I.vel.resize(static_cast<size_t>(m.nb));
-  I.c_W.resize(static_cast<size_t>(m.nb));
-  I.v_W.resize(static_cast<size_t>(m.nb));
-  I.omega_W.resize(static_cast<size_t>(m.nb));
-  I.R_W.resize(static_cast<size_t>(m.nb));
+  engine_ = make_engine(robot, m, config_, foot_body_);
+  motion_.resize(static_cast<size_t>(m.nb));
   applied_ = VectorXd::Zero(robot.model.nj);
   sensors_.resize(robot.model.nj);
   q_full_.resize(m.nq);
@@ -218,8 +99,7 @@ void Simulator::expand_state(const VectorXd& q, const VectorXd& v) {
 
 void Simulator::set_state(const VectorXd& q, const VectorXd& v) {
   expand_state(q, v);
-  impl_->bullet->set_state(q_full_, v_full_);
-  impl_->refresh_kinematics();
+  engine_->set_state(q_full_, v_full_);
   have_v_imu_prev_ = false;
   have_foot_momentum_prev_ = false;
   compute_truth();
@@ -228,39 +108,50 @@ void Simulator::set_state(const VectorXd& q, const VectorXd& v) {
 
 VectorXd Simulator::settle_torque() const {
   const model::Model& m = robot_->model;
-  const btMultiBody* mb = impl_->bullet->multibody();
   VectorXd tau(m.nj);
   for (int j = 0; j < m.nj; ++j) {
     const int b = joint_of_[static_cast<size_t>(j)];
-    tau(j) = settle_kp_(j) * (robot_->q_joints_stand(j) - mb->getJointPos(b)) - settle_kd_(j) * mb->getJointVel(b);
+    tau(j) = settle_kp_(j) * (robot_->q_joints_stand(j) - engine_->joint_position(b)) - settle_kd_(j) * engine_->joint_velocity(b);
   }
   return tau;
 }
 
+double Simulator::drive(int j, double tau, double kd, double qd, double lim, double friction) {
+  const double applied = std::clamp(tau, -lim, lim);
+  if (engine_->integrates_damping() && kd > 0.0 && applied == tau) {
+    // τ = (τ − (−kd q̇)) − kd q̇: the engine integrates the −kd q̇ part implicitly.
+    engine_->add_joint_torque(j, tau + kd * qd + friction);
+    engine_->add_joint_damping(j, kd);
+  } else {
+    engine_->add_joint_torque(j, applied + friction);
+  }
+  return applied;
+}
+
 void Simulator::apply_hold(JointCommand::Mode mode) {
-  btMultiBody* mb = impl_->bullet->multibody();
   for (size_t k = 0; k < held_joint_.size(); ++k) {
     const int b = held_joint_[k];
     const auto ku = static_cast<Eigen::Index>(k);
-    const double q = mb->getJointPos(b), qd = mb->getJointVel(b);
-    double tau = 0.0;
+    const double q = engine_->joint_position(b), qd = engine_->joint_velocity(b);
+    double tau = 0.0, kd = 0.0;
     if (held_external_) {
       // The drives of the held joints as the hal commands them.
       const JointCommand& c = held_command_;
       if (c.mode == JointCommand::Mode::kRun) {
         tau = c.tau_ff(ku) + c.kp(ku) * (c.q_des(ku) - q) + c.kd(ku) * (c.qd_des(ku) - qd);
+        kd = c.kd(ku);
       } else if (c.mode == JointCommand::Mode::kDamp) {
         tau = -c.kd(ku) * qd;
+        kd = c.kd(ku);
       }
     } else if (mode == JointCommand::Mode::kRun) {
       tau = held_kp_(ku) * (held_q_(ku) - q) - held_kd_(ku) * qd;
+      kd = held_kd_(ku);
     } else if (mode == JointCommand::Mode::kDamp) {
       tau = -held_kd_(ku) * qd;
+      kd = held_kd_(ku);
     }
-    const double lim = full_.tau_max[static_cast<size_t>(b)];
-    tau = std::clamp(tau, -lim, lim);
-    held_tau_(ku) = tau;
-    mb->addJointTorque(b, tau);
+    held_tau_(ku) = drive(b, tau, kd, qd, full_.tau_max[static_cast<size_t>(b)]);
   }
 }
 
@@ -307,21 +198,19 @@ void Simulator::reset() {
       held_kd_(static_cast<Eigen::Index>(k)) = std::min(config_.held_kd, 0.5 * I_j / h);
     }
   }
-  impl_->bullet->set_state(q_full_, v_full_);
-  impl_->refresh_kinematics();
+  engine_->set_state(q_full_, v_full_);
   // Settle: hold the standing posture with stiff joint springs.
   const int settle_steps = static_cast<int>(std::round(config_.settle_time / config_.dt));
   const double h = config_.dt / config_.substeps;
   for (int k = 0; k < settle_steps * config_.substeps; ++k) {
     // The contact impulses of the last control period of the settling are tick 0's contact forces.
     if (k % config_.substeps == 0) {
-      for (auto& w : impl_->contact_impulse_O) w.setZero();
+      for (auto& w : contact_impulse_O_) w.setZero();
     }
     const VectorXd tau = settle_torque();
-    btMultiBody* mb = impl_->bullet->multibody();
     for (int j = 0; j < m.nj; ++j) {
-      const double lim = m.tau_max[static_cast<size_t>(j)];
-      mb->addJointTorque(joint_of_[static_cast<size_t>(j)], std::clamp(tau(j), -lim, lim));
+      const int b = joint_of_[static_cast<size_t>(j)];
+      (void)drive(b, tau(j), settle_kd_(j), engine_->joint_velocity(b), m.tau_max[static_cast<size_t>(j)]);
     }
     apply_hold(JointCommand::Mode::kRun);
     physics_substep(h);
@@ -366,90 +255,47 @@ void Simulator::add_push(Push push) {
 
 void Simulator::apply_actuation() {
   const model::Model& m = robot_->model;
-  btMultiBody* mb = impl_->bullet->multibody();
   // The oldest command of the delay line (the newest one without a delay).
   const JointCommand& c = delay_line_[(delay_head_ + 1) % delay_line_.size()];
   stale_ = time_ - command_time_ > config_.command_timeout + 1e-9;
   JointCommand::Mode mode = stale_ ? JointCommand::Mode::kDamp : c.mode;
   for (int j = 0; j < m.nj; ++j) {
     const int b = joint_of_[static_cast<size_t>(j)];
-    const double q = mb->getJointPos(b), qd = mb->getJointVel(b);
-    double tau = 0.0;
+    const double q = engine_->joint_position(b), qd = engine_->joint_velocity(b);
+    double tau = 0.0, kd = 0.0;
     if (mode == JointCommand::Mode::kRun) {
       tau = c.tau_ff(j) + c.kp(j) * (c.q_des(j) - q) + c.kd(j) * (c.qd_des(j) - qd);
+      kd = c.kd(j);
     } else if (mode == JointCommand::Mode::kDamp) {
-      const double kd = stale_ ? config_.damping_kd : c.kd(j);
+      kd = stale_ ? config_.damping_kd : c.kd(j);
       tau = -kd * qd;
     }
-    const double lim = m.tau_max[static_cast<size_t>(j)];
-    tau = std::clamp(tau, -lim, lim);
-    applied_(j) = tau;
     // Joint friction acts in the joint on top of the motor torque.
     double fric = -config_.joint_friction_viscous * qd;
     if (config_.joint_friction_coulomb > 0) fric -= config_.joint_friction_coulomb * std::tanh(qd / 0.01);
-    mb->addJointTorque(b, tau + fric);
+    applied_(j) = drive(b, tau, kd, qd, m.tau_max[static_cast<size_t>(j)], fric);
   }
   apply_hold(mode);
 }
 
 void Simulator::physics_substep(double h) {
-  Impl& I = *impl_;
-  btMultiBody* mb = I.bullet->multibody();
   const model::Model& m = full_;
-  // Pushes.
   for (const Push& p : pushes_) {
     const Vector3d F = p.force_at(time_);
     if (F.isZero()) continue;
-    const int frame = m.frame_index(p.link);
-    const int body = m.frames[static_cast<size_t>(frame)].body;
-    const SE3 X_WL = I.link_frame(body);  // Bullet link frame (CoM)
-    const SE3 X_WB = X_WL * I.bullet->bodies()[static_cast<size_t>(body)].X_BL.inverse();
-    const Vector3d point = (X_WB * m.frames[static_cast<size_t>(frame)].X_BF).act(p.point_L);
-    const Vector3d torque = (point - X_WL.p).cross(F);
-    if (body == 0) {
-      mb->addBaseForce(to_bt(F));
-      mb->addBaseTorque(to_bt(torque));
-    } else {
-      mb->addLinkForce(body - 1, to_bt(F));
-      mb->addLinkTorque(body - 1, to_bt(torque));
-    }
+    const model::Frame& frame = m.frames[static_cast<size_t>(m.frame_index(p.link))];
+    const Vector3d point = (engine_->body_placement(frame.body) * frame.X_BF).act(p.point_L);
+    engine_->add_force(frame.body, F, point);
     truth_.push_impulse_W += F * h;
     truth_.push_point_W = point;
   }
-  I.world->stepSimulation(h, 0, h);
-  I.refresh_kinematics();
-  static const bool debug = std::getenv("HPR_SIM_DEBUG") != nullptr;
-  if (debug && tick_ % 1000 == 0) {
-    int pts = 0;
-    for (int i = 0; i < I.dispatcher.getNumManifolds(); ++i) pts += I.dispatcher.getManifoldByIndexInternal(i)->getNumContacts();
-    log::info("t {:.3f}: {} manifolds, {} contact points", time_, I.dispatcher.getNumManifolds(), pts);
-  }
-  // Contact impulses on the feet (ground on foot), about the world origin.
-  const int nm = I.dispatcher.getNumManifolds();
-  for (int i = 0; i < nm; ++i) {
-    const btPersistentManifold* man = I.dispatcher.getManifoldByIndexInternal(i);
-    for (int k = 0; k < 2; ++k) {
-      const btCollisionObject* foot = I.body_collider[static_cast<size_t>(I.foot_body[static_cast<size_t>(k)])];
-      const bool foot_is_a = man->getBody0() == foot, foot_is_b = man->getBody1() == foot;
-      if (!foot_is_a && !foot_is_b) continue;
-      for (int c = 0; c < man->getNumContacts(); ++c) {
-        const btManifoldPoint& pt = man->getContactPoint(c);
-        // Impulse on body A: normal (from B to A) and the two friction directions.
-        const btVector3 imp = pt.m_normalWorldOnB * pt.m_appliedImpulse + pt.m_lateralFrictionDir1 * pt.m_appliedImpulseLateral1 +
-                              pt.m_lateralFrictionDir2 * pt.m_appliedImpulseLateral2;
-        const Vector3d J = (foot_is_a ? 1.0 : -1.0) * from_bt(imp);
-        const Vector3d p = 0.5 * (from_bt(pt.getPositionWorldOnA()) + from_bt(pt.getPositionWorldOnB()));
-        I.contact_impulse_O[static_cast<size_t>(k)].head<3>() += J;
-        I.contact_impulse_O[static_cast<size_t>(k)].tail<3>() += p.cross(J);
-      }
-    }
-  }
+  engine_->step(h, contact_impulse_O_);
 }
 
 void Simulator::step() {
   const double h = config_.dt / config_.substeps;
   truth_.push_force_W.setZero();
-  for (auto& w : impl_->contact_impulse_O) w.setZero();
+  for (auto& w : contact_impulse_O_) w.setZero();
   // Push bookkeeping: the active or most recent push.
   for (const Push& p : pushes_) {
     if (time_ >= p.start && time_ < p.start + p.duration) {

@@ -26,6 +26,7 @@
 #include "hpr/common/config.hpp"
 #include "hpr/model/algorithms.hpp"
 #include "hpr/model/robot.hpp"
+#include "paper.hpp"
 #include "process_group.hpp"
 
 namespace {
@@ -164,6 +165,35 @@ TEST(PaperExperiments, Experiment2SingleSupportPushFromTheFront22_5Ns) {
   EXPECT_LT(total, 0.0) << "pushed from the front: CAM about -y";
   EXPECT_LT(swing, 0.0);
   EXPECT_GT(std::abs(swing), 0.1 * std::abs(total)) << "the swing leg takes part";
+}
+
+// The paper's two experiments with MuJoCo in Bullet's place (the sim_mujoco process, the same
+// controllers and estimator): both recovered, the CAM about the axis that counteracts the push; and
+// the recorded run re-runs exactly (replay_check), as a Bullet run does.
+TEST(SecondEngine, MujocoRecoversExperiments1And2AndItsLogReplaysExactly) {
+  const std::string dir = hpr::test::temp_dir("mujoco-experiment1");
+  const json e1 = trial("--engine mujoco --robot toro --support double --strategy cam --direction 0 --peak 65 --impulse 18" + kPaper, dir,
+                        "Experiment 1 in MuJoCo: double support, 18 N s from behind, CAM strategy");
+  EXPECT_TRUE(e1["recovered"].get<bool>()) << e1.dump();
+  EXPECT_NEAR(e1["applied_impulse_Ns"].get<double>(), 18.0, 0.1);
+  EXPECT_GT(e1["peak_cam_commanded_Nms"][1].get<double>(), 0.2);
+  const json e2 = trial("--in-process --engine mujoco --robot toro --support right --strategy cam --direction 180 --peak 75 --impulse 22.5" + kPaper);
+  EXPECT_TRUE(e2["recovered"].get<bool>()) << e2.dump();
+  EXPECT_NEAR(e2["applied_impulse_Ns"].get<double>(), 22.5, 0.1);
+  std::printf("MuJoCo: experiment 1 min CoP margin %.1f mm, peak CAM %.2f N m s; experiment 2 min CoP margin %.1f mm\n",
+              e1["min_cop_margin_m"].get<double>() * 1e3, e1["peak_cam_Nms"][1].get<double>(), e2["min_cop_margin_m"].get<double>() * 1e3);
+  std::string sets = " --set balance.support=double";
+  for (const std::string& o : hpr::test::paper_and()) sets += " --set '" + o + "'";  // the overrides the log was recorded with
+  std::string out;
+  EXPECT_EQ(run(hpr::test::source_dir() + "/tools/replay " + dir + "/run.lcm --rerun estimator,planner,wbc,reference_gen,motion_opt" + sets +
+                    " --json " + dir + "/replay.json --work-dir " + dir + "/replay",
+                &out),
+            0)
+      << out;
+  const json r = json::parse(std::ifstream(dir + "/replay.json"), nullptr, false);
+  ASSERT_FALSE(r.is_discarded());
+  EXPECT_TRUE(r["match"].get<bool>()) << r.dump(2);
+  EXPECT_GT(r["channels"]["JOINT_COMMAND"]["compared"].get<int>(), 5000);
 }
 
 TEST(SingleSupport, PushedTowardsTheLiftedFootTheHipStrategyHoldsWhatTheAnkleStrategyLoses) {

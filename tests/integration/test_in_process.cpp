@@ -250,6 +250,15 @@ TEST(InProcess, TheDefaultControllerSteppingGivesTheProcessesMessagesBitForBit) 
 
 TEST(InProcess, AnkleStrategyGivesTheProcessesMessagesBitForBit) { expect_same_messages(experiment(Strategy::kAnkle, 18.0), "ankle"); }
 
+// MuJoCo in Bullet's place (sim.engine: the sim_mujoco process, the in-process simulator over
+// MuJoCo): the same messages bit for bit, so a MuJoCo run is as deterministic and replayable as a
+// Bullet one.
+TEST(InProcess, MujocoGivesTheProcessesMessagesBitForBit) {
+  TrialSpec spec = experiment(Strategy::kCam, 18.0);
+  spec.overrides.emplace_back("sim.engine=mujoco");
+  expect_same_messages(spec, "mujoco");
+}
+
 TEST(InProcess, JudgesPushesAsTheProcessesDo) {
   // Each strategy on both sides of its largest recovered impulse from behind (docs/RESULTS.md:
   // ankle 32.70, CAM 28.12 N s), both ways.

@@ -44,13 +44,14 @@ std::vector<std::string> names(const hpr::launch::GroupSpec& g) {
 TEST(Groups, EveryRobotGroupIsAClosedDataFlow) {
   const GroupsFile f = GroupsFile::load(std::string(HPR_SOURCE_DIR) + "/config/groups.yaml");
   for (const char* g : {"sim", "sim-lockstep", "sim-truth-lockstep", "sim-composed", "sim-composed-lockstep", "hil", "hil-lockstep",
-                        "hil-canopen", "hil-canopen-lockstep", "hardware", "hardware-composed", "sim-view"}) {
+                        "hil-canopen", "hil-canopen-lockstep", "hardware", "hardware-composed", "sim-view", "sim-mujoco",
+                        "sim-mujoco-lockstep", "sim-mujoco-composed", "sim-mujoco-composed-lockstep"}) {
     std::vector<std::string> commands;
     for (const auto& p : f.group(g).processes) commands.push_back(p.command);
     EXPECT_EQ(hpr::graph::unmet_inputs(commands), std::vector<std::string>{}) << g;
   }
   // The composed groups run the controllers in one process, critical and watched as the wbc is.
-  for (const char* g : {"sim-composed", "sim-composed-lockstep", "hardware-composed"}) {
+  for (const char* g : {"sim-composed", "sim-composed-lockstep", "hardware-composed", "sim-mujoco-composed", "sim-mujoco-composed-lockstep"}) {
     const auto* c = f.group(g).find("controllers");
     ASSERT_NE(c, nullptr) << g;
     EXPECT_TRUE(c->critical);
@@ -67,7 +68,7 @@ TEST(Groups, EveryRobotGroupIsAClosedDataFlow) {
 
 TEST(Groups, ShippedFileHasEveryBackendWithTheSameControlProcesses) {
   const GroupsFile f = GroupsFile::load(std::string(HPR_SOURCE_DIR) + "/config/groups.yaml");
-  for (const char* g : {"sim", "hil", "hardware"}) {
+  for (const char* g : {"sim", "sim-mujoco", "hil", "hardware"}) {
     const auto& group = f.group(g);
     for (const char* c : {"estimator", "planner", "wbc", "reference_gen", "motion_opt"}) {
       const auto* p = group.find(c);
@@ -85,9 +86,11 @@ TEST(Groups, ShippedFileHasEveryBackendWithTheSameControlProcesses) {
     }
   }
   EXPECT_NE(f.group("sim").find("sim_bullet"), nullptr);
+  EXPECT_NE(f.group("sim-mujoco").find("sim_mujoco"), nullptr);
+  EXPECT_EQ(f.group("sim-mujoco").find("sim_bullet"), nullptr);
   // The lockstep groups override the control processes' real-time priorities, the real-time ones keep them.
   EXPECT_EQ(f.group("sim").find("wbc")->rt_priority, 70);
-  for (const char* g : {"sim-lockstep", "hil-lockstep", "hil-canopen-lockstep"}) {
+  for (const char* g : {"sim-lockstep", "hil-lockstep", "hil-canopen-lockstep", "sim-mujoco-lockstep", "sim-mujoco-composed-lockstep"}) {
     for (const auto& p : f.group(g).processes) EXPECT_EQ(p.rt_priority, 0) << g << "/" << p.name;
   }
   EXPECT_NE(f.group("hil").find("drive_emulator"), nullptr);

@@ -1,6 +1,10 @@
-// The Bullet simulator: conservation of momentum under a push, ground truth against the model
-// library, standing with stiff joint impedance, determinism, and refusal of bad commands.
+// The simulator in each engine (Bullet, MuJoCo): conservation of momentum under a push, ground
+// truth against the model library, the sensors at rest, standing with stiff joint impedance,
+// joint limits, determinism; and, engine-neutral, the refusal of bad commands.
 #include <gtest/gtest.h>
+
+#include <fstream>
+#include <iterator>
 
 #include "hpr/model/algorithms.hpp"
 #include "hpr/model/urdf.hpp"
@@ -14,10 +18,11 @@ using Eigen::Vector3d;
 using Eigen::VectorXd;
 
 struct Robot {
-  explicit Robot(const std::string& name) {
+  explicit Robot(const std::string& name, sim::EngineKind engine = sim::EngineKind::kBullet) {
     cfg = std::make_unique<Config>(Config::load(test::source_dir() + "/config/" + name + ".yaml"));
     spec = std::make_unique<model::RobotSpec>(model::RobotSpec::load(cfg->section("robot")));
     sim_config = sim::SimConfig::load(cfg->section("sim"));
+    sim_config.engine = engine;
   }
   std::unique_ptr<Config> cfg;
   std::unique_ptr<model::RobotSpec> spec;
@@ -34,6 +39,11 @@ sim::JointCommand hold_command(const Robot& r, double kp = 1500, double kd = 30)
   return c;
 }
 
+/// The simulator's tests that depend on the physics run in each engine.
+class SimulatorEngine : public ::testing::TestWithParam<sim::EngineKind> {};
+INSTANTIATE_TEST_SUITE_P(Engines, SimulatorEngine, ::testing::Values(sim::EngineKind::kBullet, sim::EngineKind::kMujoco),
+                         [](const auto& info) { return std::string(sim::to_string(info.param)); });
+
 /// The standing robot 5 m up, without gravity: a free-floating body at rest.
 VectorXd float_at_rest(Robot& r, sim::Simulator& s) {
   VectorXd q = r.spec->standing_configuration();
@@ -42,8 +52,8 @@ VectorXd float_at_rest(Robot& r, sim::Simulator& s) {
   return q;
 }
 
-TEST(Simulator, PushedFreeFloatingBodyGainsTheImpulse) {
-  Robot r("toro");
+TEST_P(SimulatorEngine, PushedFreeFloatingBodyGainsTheImpulse) {
+  Robot r("toro", GetParam());
   r.sim_config.gravity.setZero();
   sim::Simulator s(*r.spec, r.sim_config);
   float_at_rest(r, s);
@@ -65,12 +75,12 @@ TEST(Simulator, PushedFreeFloatingBodyGainsTheImpulse) {
   }
 }
 
-TEST(Simulator, JointsStopAtTheirLimitsWhicheverLinksCollide) {
+TEST_P(SimulatorEngine, JointsStopAtTheirLimitsWhicheverLinksCollide) {
   // Free-floating and without gravity, each joint below is driven towards its lower limit by a
   // torque it would otherwise turn several radians with in 0.5 s: it stops at the URDF's limit,
   // with only the feet colliding (the configured default) as with every link colliding.
   for (const char* collisions : {"feet", "all"}) {
-    Robot r("toro");
+    Robot r("toro", GetParam());
     r.sim_config.gravity.setZero();
     r.sim_config.feet_only_collisions = std::string(collisions) == "feet";
     sim::Simulator s(*r.spec, r.sim_config);
@@ -96,8 +106,8 @@ TEST(Simulator, JointsStopAtTheirLimitsWhicheverLinksCollide) {
 
 // SIM_TRUTH's point of application is the pushed link's point, placed by the model library's
 // forward kinematics from the truth's own configuration.
-TEST(Simulator, TruthPushPointIsThePushedPointOfTheLink) {
-  Robot r("toro");
+TEST_P(SimulatorEngine, TruthPushPointIsThePushedPointOfTheLink) {
+  Robot r("toro", GetParam());
   r.sim_config.gravity.setZero();
   sim::Simulator s(*r.spec, r.sim_config);
   const VectorXd q = float_at_rest(r, s);
@@ -126,10 +136,10 @@ TEST(Simulator, TruthPushPointIsThePushedPointOfTheLink) {
   EXPECT_GT((expected_W - start_W).norm(), 0.05) << "the body moved";
 }
 
-// SIM_TRUTH's momentum comes from Bullet's link states; the model library computes A_G v.
-TEST(Simulator, TruthMomentumMatchesTheModelLibrary) {
+// SIM_TRUTH's momentum comes from the engine's link states; the model library computes A_G v.
+TEST_P(SimulatorEngine, TruthMomentumMatchesTheModelLibrary) {
   for (const char* name : {"toro", "h1_2"}) {
-    Robot r(name);
+    Robot r(name, GetParam());
     sim::Simulator s(*r.spec, r.sim_config);
     test::RandomState rs(21);
     model::Data data(r.spec->model);
@@ -149,9 +159,9 @@ TEST(Simulator, TruthMomentumMatchesTheModelLibrary) {
 
 // Stiff joint impedance around the standing posture, no balance controller: upright for 10 s, the
 // soles neither slide nor sink.
-TEST(Simulator, StandsWithStiffJointImpedance) {
+TEST_P(SimulatorEngine, StandsWithStiffJointImpedance) {
   for (const char* name : {"toro", "h1_2"}) {
-    Robot r(name);
+    Robot r(name, GetParam());
     sim::Simulator s(*r.spec, r.sim_config);
     const auto c = hold_command(r);
     const auto p0 = s.truth().p_WF;
@@ -177,8 +187,8 @@ TEST(Simulator, StandsWithStiffJointImpedance) {
   }
 }
 
-TEST(Simulator, SensorsAtRestAreConsistent) {
-  Robot r("toro");
+TEST_P(SimulatorEngine, SensorsAtRestAreConsistent) {
+  Robot r("toro", GetParam());
   sim::Simulator s(*r.spec, r.sim_config);
   const auto c = hold_command(r);
   for (int k = 0; k < 3000; ++k) {  // let the hand-over from the settling gains die out
@@ -205,8 +215,8 @@ TEST(Simulator, SensorsAtRestAreConsistent) {
   EXPECT_NEAR(fz, (r.spec->model.mass - feet) * 9.81, 5.0);
 }
 
-TEST(Simulator, IsDeterministic) {
-  Robot r("toro");
+TEST_P(SimulatorEngine, IsDeterministic) {
+  Robot r("toro", GetParam());
   sim::Simulator a(*r.spec, r.sim_config), b(*r.spec, r.sim_config);
   auto c = hold_command(r, 800, 20);
   sim::Push p;
@@ -270,11 +280,12 @@ TEST(Simulator, BadCommandsAreRefusedThenStaleCommandsDamp) {
 }
 
 // Held joints: out of the commands and sensors, held at their positions by the simulator.
-TEST(Simulator, HeldJointsStayAtTheirPositionsOutsideTheCommands) {
+TEST_P(SimulatorEngine, HeldJointsStayAtTheirPositionsOutsideTheCommands) {
   auto cfg = Config::load(test::source_dir() + "/config/toro.yaml",
                           {"robot.held_joints={r_wrist_yaw: 0.4, l_wrist_pitch: -0.6, neck_yaw: -0.2}"});
   const auto spec = model::RobotSpec::load(cfg.section("robot"));
-  const auto sim_config = sim::SimConfig::load(cfg.section("sim"));
+  auto sim_config = sim::SimConfig::load(cfg.section("sim"));
+  sim_config.engine = GetParam();
   ASSERT_EQ(spec.model.nj, 24);
   sim::Simulator s(spec, sim_config);
   EXPECT_EQ(s.simulated_model().nj, 27);
@@ -304,12 +315,13 @@ TEST(Simulator, HeldJointsStayAtTheirPositionsOutsideTheCommands) {
 // held links fixed at their held positions, so the simulated CoM and momentum are the controllers'
 // model's (held joints fixed there too) for any state; the held drives' commands are accepted and
 // change nothing.
-TEST(Simulator, RigidHeldJointsAreWeldedAtTheirPositions) {
+TEST_P(SimulatorEngine, RigidHeldJointsAreWeldedAtTheirPositions) {
   auto cfg = Config::load(test::source_dir() + "/config/toro.yaml",
                           {"robot.held_joints={r_wrist_yaw: 0.4, l_wrist_pitch: -0.6, neck_yaw: -0.2}",
                            "sim.held_joints.rigid=true"});
   const auto spec = model::RobotSpec::load(cfg.section("robot"));
-  const auto sim_config = sim::SimConfig::load(cfg.section("sim"));
+  auto sim_config = sim::SimConfig::load(cfg.section("sim"));
+  sim_config.engine = GetParam();
   ASSERT_TRUE(sim_config.held_rigid);
   sim::Simulator s(spec, sim_config);
   EXPECT_EQ(s.simulated_model().nj, 24);
@@ -357,8 +369,8 @@ namespace {
 // Model uncertainty: a body simulated heavier, with its centre of mass moved, as the configuration
 // says; the simulator's momentum and CoM (from Bullet's link states) then match the model library
 // on the same changed body and differ from the controllers' model by the expected amounts.
-TEST(Simulator, ModelErrorChangesTheSimulatedBodyOnly) {
-  Robot r("toro");
+TEST_P(SimulatorEngine, ModelErrorChangesTheSimulatedBodyOnly) {
+  Robot r("toro", GetParam());
   r.sim_config.model_error = {{"torso", 1.1, Vector3d(0.02, 0.0, 0.0)}};
   sim::Simulator s(*r.spec, r.sim_config);
   model::Model changed = r.spec->model;
@@ -383,7 +395,7 @@ TEST(Simulator, ModelErrorChangesTheSimulatedBodyOnly) {
   const auto& t = s.truth();
   EXPECT_NEAR(t.h_lin_W.norm() / t.v_WCom.norm(), changed.mass, 1e-6 * changed.mass);
   // An unknown body is refused, naming the bodies there are.
-  Robot bad("toro");
+  Robot bad("toro", GetParam());
   bad.sim_config.model_error = {{"trunk", 1.1, Vector3d::Zero()}};
   try {
     sim::Simulator unused(*bad.spec, bad.sim_config);
@@ -395,9 +407,9 @@ TEST(Simulator, ModelErrorChangesTheSimulatedBodyOnly) {
 }
 
 // An actuation delay of N ticks: a torque step commanded at tick k acts from tick k + N on.
-TEST(Simulator, ActuationDelayAppliesTheCommandOfNTicksAgo) {
+TEST_P(SimulatorEngine, ActuationDelayAppliesTheCommandOfNTicksAgo) {
   for (const int delay : {0, 1, 3}) {
-    Robot r("toro");
+    Robot r("toro", GetParam());
     r.sim_config.actuation_delay_ticks = delay;
     r.sim_config.gravity.setZero();
     sim::Simulator s(*r.spec, r.sim_config);
@@ -423,6 +435,63 @@ TEST(Simulator, ActuationDelayAppliesTheCommandOfNTicksAgo) {
       }
     }
   }
+}
+
+}  // namespace
+
+namespace {
+
+// The engine and MuJoCo's settings are validated on load, the error naming the key and its value.
+TEST(SimConfig, TheEngineAndMujocoSettingsAreValidatedNamingTheKey) {
+  const auto error_of = [](const std::string& yaml) -> std::string {
+    try {
+      (void)sim::SimConfig::load(Config::parse(yaml, "robot.yaml").section("sim"));
+    } catch (const ConfigError& e) {
+      return e.what();
+    }
+    return "";
+  };
+  EXPECT_EQ(error_of("sim: {engine: mujoco, mujoco: {condim: 4, cone: pyramidal}}"), "");
+  EXPECT_NE(error_of("sim: {engine: physx}").find("sim.engine"), std::string::npos);
+  const std::string condim = error_of("sim: {engine: mujoco, mujoco: {condim: 2}}");
+  EXPECT_NE(condim.find("sim.mujoco.condim"), std::string::npos) << condim;
+  EXPECT_NE(condim.find("1, 3, 4 or 6"), std::string::npos) << condim;
+  const std::string soft = error_of("sim: {engine: mujoco, dt: 0.001, substeps: 1, mujoco: {timeconst: 0.001}}");
+  EXPECT_NE(soft.find("sim.mujoco.timeconst"), std::string::npos) << soft;
+  EXPECT_NE(soft.find("two physics steps"), std::string::npos) << soft;
+  EXPECT_NE(error_of("sim: {mujoco: {cone: round}}").find("sim.mujoco.cone"), std::string::npos);
+  const auto c = sim::SimConfig::load(Config::parse("sim: {engine: mujoco, mujoco: {impratio: 5, integrator: implicit}}", "x.yaml").section("sim"));
+  EXPECT_EQ(c.engine, sim::EngineKind::kMujoco);
+  EXPECT_EQ(c.mujoco.impratio, 5.0);
+  EXPECT_TRUE(c.mujoco.implicit);
+  EXPECT_TRUE(c.mujoco.elliptic_cone);
+}
+
+// The MuJoCo model is written from the simulated model: every body with its mass, and the
+// implicit integrator and condim 4 and 6 load as well as the defaults.
+TEST(SimConfig, EveryMujocoVariantBuildsAndStands) {
+  for (const char* variant : {"integrator: implicit", "condim: 4", "condim: 6", "cone: pyramidal, impratio: 1"}) {
+    Robot r("toro", sim::EngineKind::kMujoco);
+    const auto c = sim::SimConfig::load(Config::parse(std::string("sim: {engine: mujoco, substeps: 2, mujoco: {") + variant + "}}", "x.yaml").section("sim"));
+    r.sim_config.mujoco = c.mujoco;
+    sim::Simulator s(*r.spec, r.sim_config);
+    const auto hold = hold_command(r);
+    for (int k = 0; k < 1000; ++k) {
+      ASSERT_TRUE(s.set_command(hold));
+      s.step();
+    }
+    EXPECT_FALSE(s.truth().fallen) << variant;
+    const double fz = s.truth().contact_wrench_W[0](2) + s.truth().contact_wrench_W[1](2);
+    EXPECT_NEAR(fz, s.simulated_model().mass * 9.81, 0.02 * s.simulated_model().mass * 9.81) << variant;
+  }
+  // The model as MuJoCo got it, written for its own tools: every body of the simulated model.
+  Robot r("toro", sim::EngineKind::kMujoco);
+  r.sim_config.mujoco.write_model = test::temp_dir("mujoco-model") + "/toro.xml";
+  sim::Simulator s(*r.spec, r.sim_config);
+  std::ifstream in(r.sim_config.mujoco.write_model);
+  const std::string xml((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(xml.find("<freejoint"), std::string::npos);
+  for (const auto& body : s.simulated_model().body_name) EXPECT_NE(xml.find("<body name=\"" + body + "\""), std::string::npos) << body;
 }
 
 }  // namespace

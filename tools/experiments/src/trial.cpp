@@ -165,6 +165,7 @@ TrialPlan plan_trial(const TrialSpec& spec) {
   const Config cfg = Config::load(plan.config, spec.overrides);
   plan.robot = std::make_shared<const model::RobotSpec>(model::RobotSpec::load(cfg.section("robot")));
   const model::RobotSpec& robot = *plan.robot;
+  if (cfg.section("sim").string_or("engine", "bullet") == "mujoco") plan.sim_process = "sim_mujoco";
   if (spec.support != "double" && spec.support != "left" && spec.support != "right") {
     throw std::invalid_argument("support '" + spec.support + "': expected double, left or right");
   }
@@ -319,10 +320,10 @@ TrialResult run_trial(const TrialSpec& spec, const std::function<void(const std:
     group.start("wbc", with({"--set", "wbc.wait_for_wholebody=false"}), {}, work + "/wbc.log");
   }
   wait_for_controllers(lcm, listener, nodes, work);
-  const pid_t sim = group.start("sim_bullet",
+  const pid_t sim = group.start(plan.sim_process,
                                 with({"--set", "sim.mode=lockstep", "--set", fmt::format("sim.duration={:.6f}", plan.sim_duration),
                                       "--set", "sim.scenario=" + scenario}),
-                                {}, work + "/sim_bullet.log");
+                                {}, work + "/" + plan.sim_process + ".log");
   TrialWatch watch(spec, eval, t_push, t_end, progress, wall0);
   while (group.running(sim)) {
     lcm.handleTimeout(50);
@@ -348,6 +349,8 @@ const char* const kPushOptionsUsage =
   --overlay FILE         configuration overrides from a YAML file in the configuration's layout
                         (e.g. push_tune's tuned.yaml, config/overlays/paper.yaml); repeated, a later
                         file wins over an earlier one and every --set over them all
+  --engine bullet|mujoco  the physics engine of the simulation (sets sim.engine; default: the
+                        configuration's, bullet unless it says otherwise)
   --in-process          the stack's libraries stepping in one thread (the in-process pipeline)
                         instead of the processes over LCM: many times faster, no log
   --truth-state         (with --in-process) every controller sees the simulator's true state
@@ -373,6 +376,10 @@ bool read_push_option(ArgReader& args, TrialSpec& spec) {
     spec.after = args.number();
   } else if (args.is("--set")) {
     spec.overrides.push_back(args.value());
+  } else if (args.is("--engine")) {
+    const std::string engine = args.value();
+    if (engine != "bullet" && engine != "mujoco") throw UsageError("--engine " + engine + ": expected bullet or mujoco");
+    spec.overrides.push_back("sim.engine=" + engine);
   } else if (args.is("--in-process")) {
     spec.in_process = true;
   } else if (args.is("--truth-state")) {

@@ -1,5 +1,5 @@
 #pragma once
-/// \file The sim_bullet process's ports (hpr/common/ports.hpp).
+/// \file The simulation processes' ports (hpr/common/ports.hpp).
 
 #include <string_view>
 
@@ -12,5 +12,7 @@ inline constexpr Read kReads[] = {
     {channel::kPush, 0, false, true, "pushes to apply"}};
 inline constexpr std::string_view kWrites[] = {channel::kRobotSensors, channel::kSimTruth};
 inline constexpr Ports kPorts{"sim_bullet", kReads, kWrites};
+/// The same simulation over MuJoCo (sim_mujoco).
+inline constexpr Ports kMujocoPorts{"sim_mujoco", kReads, kWrites};
 
 }  // namespace hpr::sim

@@ -1,16 +1,17 @@
 #pragma once
 /// \file
-/// The Bullet physics stand-in for the robot (no LCM here; the node does the I/O).
+/// The physics stand-in for the robot (no LCM here; the node does the I/O), over either engine
+/// (engine.hpp: Bullet's btMultiBody or MuJoCo, `sim.engine`).
 ///
-/// A btMultiBody of the whole description (RobotSpec::full_model(): physically consistent inertias)
-/// stands on a flat ground; commands and sensors carry the controlled joints only. The held joints
+/// The whole description (RobotSpec::full_model(): physically consistent inertias) stands on a flat
+/// ground; commands and sensors carry the controlled joints only. The held joints
 /// are welded at their held positions (SimConfig::held_rigid) or free and held by a stiff joint
 /// impedance (or, behind a drive emulator, by what the hal commands them). Every physics sub-step each
 /// joint gets the torque of a torque-controlled drive,
 ///     τ = sat(τ_ff + kp (q_des − q) + kd (q̇_des − q̇)),
 /// saturated at the joint's effort limit (modes: run, damp = kd only towards rest, off). Sensors are
 /// those of a real robot (joint encoders and torques, a pelvis IMU, ankle force/torque sensors) with
-/// optional noise, bias and quantization. Ground truth is computed from Bullet's own link states.
+/// optional noise, bias and quantization. Ground truth is computed from the engine's own link states.
 
 #include <Eigen/Core>
 #include <array>
@@ -23,6 +24,7 @@
 #include "hpr/common/config.hpp"
 #include "hpr/common/robot_io.hpp"
 #include "hpr/model/robot.hpp"
+#include "hpr/sim/engine.hpp"
 
 namespace hpr::sim {
 
@@ -45,11 +47,32 @@ struct NoiseConfig {
 inline const std::vector<std::string> kSimProcessKeys = {"mode", "lockstep_timeout", "startup_timeout", "duration",
                                                          "publish_truth", "scenario"};
 
+/// MuJoCo's contact and integration settings (`sim.mujoco`).
+struct MujocoConfig {
+  /// Contact softness: solref (time constant [s], damping ratio). The time constant must be at
+  /// least two physics steps.
+  double timeconst = 0.005, dampratio = 1.0;
+  int condim = 3;             ///< 3: sliding friction; 4: + torsional; 6: + rolling
+  bool elliptic_cone = true;  ///< friction cone: elliptic (default) or pyramidal
+  bool implicit = false;      ///< integrator: Euler (default) or implicit in the velocity
+  double torsional_friction = 0.005, rolling_friction = 0.0001;  ///< [m], with condim 4 and 6
+  /// Ratio of the frictional to the normal constraints' impedance (MuJoCo's impratio): above 1,
+  /// static friction holds more firmly. With MuJoCo's 1 and the pyramidal cone, the H1-2's loaded
+  /// box soles crept 2.6 mm in 10 s standing; with 10 and the elliptic cone, 0.14 mm.
+  double impratio = 10.0;
+  /// Iterations of MuJoCo's no-slip post-solver (0: none): removes the creep of soft friction.
+  int noslip_iterations = 0;
+  /// Where to write the MJCF model the engine builds (empty: nowhere), for MuJoCo's own tools.
+  std::string write_model;
+};
+
 struct SimConfig {
+  EngineKind engine = EngineKind::kBullet;  ///< the physics engine (`sim.engine`: bullet | mujoco)
+  MujocoConfig mujoco;
   double dt = 0.001;                ///< control period [s]
   Eigen::Vector3d gravity{0.0, 0.0, -9.81};  ///< [m/s²]
   int substeps = 1;                 ///< physics steps per control period
-  int solver_iterations = 20;
+  int solver_iterations = 20;       ///< the contact solver's iterations (either engine)
   double ground_friction = 0.9;
   /// Contact points a flat polyhedral sole (box, mesh hull) keeps on the ground plane: Bullet adds
   /// one point per step, so after a change of load a sole may stand on one or two corners and turn
@@ -171,6 +194,8 @@ class Simulator {
   [[nodiscard]] bool command_stale() const { return stale_; }
   [[nodiscard]] const SimConfig& config() const { return config_; }
   [[nodiscard]] const model::RobotSpec& robot() const { return *robot_; }
+  /// The engine stepping the simulated model.
+  [[nodiscard]] const Engine& engine() const { return *engine_; }
   /// The simulated model: every joint of the description, physically consistent inertias.
   [[nodiscard]] const model::Model& simulated_model() const { return full_; }
   /// Index in simulated_model() of each controlled joint.
@@ -179,12 +204,16 @@ class Simulator {
   [[nodiscard]] const Eigen::VectorXd& applied_torque() const { return applied_; }
 
  private:
-  struct Impl;
   void apply_actuation();
   void physics_substep(double h);
+  void refresh_motion();
   void compute_truth();
   void compute_sensors();
   void apply_hold(JointCommand::Mode mode);
+  /// Drives joint j (of the simulated model) with τ saturated at ±lim, plus `friction`: with an
+  /// engine that integrates joint damping implicitly (Engine::integrates_damping) and τ within its
+  /// limit, τ's −kd q̇ part goes to the engine as damping. Returns the applied (saturated) τ.
+  double drive(int j, double tau, double kd, double qd, double lim, double friction = 0.0);
   void expand_state(const Eigen::VectorXd& q, const Eigen::VectorXd& v);
   Eigen::VectorXd settle_torque() const;
 
@@ -199,7 +228,10 @@ class Simulator {
   std::array<int, 2> sole_frame_{}, ft_frame_{};  ///< in full_
   int imu_frame_ = -1;                ///< in full_
   Eigen::VectorXd q_full_, v_full_;   ///< get_state workspace
-  std::unique_ptr<Impl> impl_;
+  std::array<int, 2> foot_body_{};    ///< in full_
+  std::unique_ptr<Engine> engine_;
+  std::array<model::Vector6d, 2> contact_impulse_O_{};  ///< Σ (J, p × J) on each foot over the control period, world origin
+  std::vector<BodyMotion> motion_;    ///< the engine's body motions at the current step (refresh_motion)
   SensorData sensors_;
   TruthData truth_;
   std::vector<JointCommand> delay_line_;  ///< the last actuation_delay_ticks + 1 commands, a ring

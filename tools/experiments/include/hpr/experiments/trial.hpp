@@ -233,6 +233,7 @@ struct TrialPlan {
   std::shared_ptr<const model::RobotSpec> robot;  ///< the robot as the configuration gives it
   sim::Push push;                       ///< the push, its numbers as the simulator receives them
   double sim_duration = 0.0;            ///< [s] simulated in all
+  std::string sim_process = "sim_bullet";  ///< the simulation process of the configured engine (sim.engine)
 };
 TrialPlan plan_trial(const TrialSpec& spec);
 
