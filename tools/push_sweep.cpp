@@ -38,6 +38,8 @@ void usage(std::FILE* out) {
                           cam,cam-standing,ankle-standing, peaks 65,130,260 N, 8 directions in double
                           support and sideways (90, 270 deg) on either foot; --max-impulse 120 unless
                           given; checks and prints the table (dominance.md beside sweep.json)
+  --engines LIST          every case in each physics engine: bullet,mujoco (default: the
+                          configuration's); with two, the limits side by side with their ratio
   --directions N          N directions evenly spaced from 0 deg (default 8)
   --angles LIST           explicit directions in degrees (instead of --directions)
   --start NS              first impulse tried [N s] (default 15)
@@ -59,6 +61,7 @@ Where the cases run:
 }
 
 struct Case {
+  std::string engine;            ///< "" (the configuration's) or an engine of --engines
   std::string support;
   std::string strategy = "cam";  ///< a strategy name of --strategies (Variant)
   double peak = 65.0;            ///< [N]
@@ -80,6 +83,7 @@ struct Case {
 struct SweepOptions {
   TrialSpec base;
   std::vector<std::string> supports = {"double"}, strategies = {"cam", "ankle"};
+  std::vector<std::string> engines;  ///< --engines: every case in each (empty: the configuration's engine)
   std::vector<double> angles, peaks;
   int directions = 8;
   bool dominance = false;
@@ -105,6 +109,11 @@ std::optional<int> read_options(int argc, char** argv, SweepOptions& o) {
       for (const auto& a : args.list()) o.peaks.push_back(hpr::parse_number(a, "--peaks"));
     } else if (args.is("--dominance")) {
       o.dominance = true;
+    } else if (args.is("--engines")) {
+      o.engines = args.list();
+      for (const auto& e : o.engines) {
+        if (e != "bullet" && e != "mujoco") throw hpr::UsageError("--engines: '" + e + "': expected bullet or mujoco");
+      }
     } else if (args.is("--angles")) {
       for (const auto& a : args.list()) o.angles.push_back(hpr::parse_number(a, "--angles"));
     } else if (args.is("--start")) {
@@ -158,19 +167,32 @@ std::vector<Case> cases_of(const SweepOptions& o) {
     }
   }
   std::vector<Case> cases;
+  const std::vector<std::string> engines = o.engines.empty() ? std::vector<std::string>{""} : o.engines;
   for (double peak : o.peaks) {
     for (const auto& [support, direction] : cells) {
       for (const auto& st : o.strategies) {
-        Case c;
-        c.support = support;
-        c.strategy = st;
-        c.peak = peak;
-        c.direction = direction;
-        cases.push_back(c);
+        for (const auto& engine : engines) {
+          Case c;
+          c.engine = engine;
+          c.support = support;
+          c.strategy = st;
+          c.peak = peak;
+          c.direction = direction;
+          cases.push_back(c);
+        }
       }
     }
   }
   return cases;
+}
+
+/// The engine a search's overrides ask for, with a space after it ("" when they ask for none).
+std::string engine_tag(const SearchSpec& s) {
+  std::string engine;
+  for (const auto& o : s.base.overrides) {
+    if (o.rfind("sim.engine=", 0) == 0) engine = o.substr(11) + " ";
+  }
+  return engine;
 }
 
 /// The progress lines: one per trial, one per finished search (k of `searches`).
@@ -178,8 +200,8 @@ ExecutorEvents progress_lines(int& trials_done, int& searches_done, size_t searc
   ExecutorEvents events;
   events.trial = [&trials_done, t0](const SearchSpec& s, const TrialOutcome& t, bool stored) {
     const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    std::fprintf(stderr, "[%4d, %6.0f s] %-6s %-14s %3.0f N %5.1f deg %6.2f N s: %s%s\n", ++trials_done, elapsed,
-                 s.base.support.c_str(), variant_name(s.base).c_str(), s.base.peak, s.base.direction_deg, t.impulse,
+    std::fprintf(stderr, "[%4d, %6.0f s] %s%-6s %-14s %3.0f N %5.1f deg %6.2f N s: %s%s\n", ++trials_done, elapsed,
+                 engine_tag(s).c_str(), s.base.support.c_str(), variant_name(s.base).c_str(), s.base.peak, s.base.direction_deg, t.impulse,
                  t.result.recovered ? "recovered" : ("not recovered (" + t.result.failure + ")").c_str(), stored ? " [stored]" : "");
   };
   events.search = [&searches_done, searches](const SearchSpec& s, const SearchResult& r) {
@@ -188,8 +210,8 @@ ExecutorEvents progress_lines(int& trials_done, int& searches_done, size_t searc
       std::fprintf(stderr, "  => [%d/%zu] %s: FAILED, %s\n", searches_done, searches, s.label().c_str(), r.failure.c_str());
       return;
     }
-    std::fprintf(stderr, "  => [%d/%zu] %s %s %.0f N %.0f deg: largest recovered impulse %.2f N s%s\n", searches_done, searches,
-                 s.base.support.c_str(),
+    std::fprintf(stderr, "  => [%d/%zu] %s%s %s %.0f N %.0f deg: largest recovered impulse %.2f N s%s\n", searches_done, searches,
+                 engine_tag(s).c_str(), s.base.support.c_str(),
                  variant_name(s.base).c_str(), s.base.peak, s.base.direction_deg, r.bracket.max_recovered,
                  r.bracket.reached_max ? " (the maximum tried)" : "");
   };
@@ -214,6 +236,7 @@ nlohmann::ordered_json sweep_json(const SweepOptions& o, const std::vector<Case>
   j["results"] = ojson::array();
   for (const auto& c : cases) {
     ojson r;
+    if (!c.engine.empty()) r["engine"] = c.engine;
     r["support"] = c.support;
     r["strategy"] = c.strategy;
     r["peak_force_N"] = c.peak;
@@ -241,8 +264,10 @@ nlohmann::ordered_json sweep_json(const SweepOptions& o, const std::vector<Case>
 
 /// The table on stdout.
 void print_table(const std::vector<Case>& cases) {
-  std::printf("%-7s %-14s %6s %9s %14s\n", "support", "strategy", "peak", "direction", "max impulse");
+  const bool engines = !cases.empty() && !cases.front().engine.empty();
+  std::printf("%s%-7s %-14s %6s %9s %14s\n", engines ? "engine  " : "", "support", "strategy", "peak", "direction", "max impulse");
   for (const auto& c : cases) {
+    if (engines) std::printf("%-7s ", c.engine.c_str());
     if (c.failed) {
       std::printf("%-7s %-14s %4.0f N %5.0f deg %14s  (%s)\n", c.support.c_str(), c.strategy.c_str(), c.peak, c.direction, "failed",
                   c.failure.c_str());
@@ -250,6 +275,22 @@ void print_table(const std::vector<Case>& cases) {
     }
     std::printf("%-7s %-14s %4.0f N %5.0f deg %10.2f N s%s%s\n", c.support.c_str(), c.strategy.c_str(), c.peak, c.direction, c.max_recovered,
                 c.reached_max ? "+" : "", c.inconclusive ? "  (a trial stayed inconclusive: may be low)" : "");
+  }
+}
+
+/// With two engines: each cell's limits side by side, the second engine's against the first's, a
+/// difference above 15 % marked.
+void print_engine_comparison(const SweepOptions& o, const std::vector<Case>& cases) {
+  if (o.engines.size() != 2) return;
+  std::printf("\n%-7s %-14s %6s %9s %10s %10s %7s\n", "support", "strategy", "peak", "direction", o.engines[0].c_str(), o.engines[1].c_str(), "ratio");
+  for (size_t i = 0; i + 1 < cases.size(); i += 2) {
+    const Case& a = cases[i];
+    const Case& b = cases[i + 1];
+    if (a.failed || b.failed) continue;
+    const double ratio = a.max_recovered > 0 ? b.max_recovered / a.max_recovered : 0.0;
+    std::printf("%-7s %-14s %4.0f N %5.0f deg %8.2f%s %8.2f%s %7.3f%s\n", a.support.c_str(), a.strategy.c_str(), a.peak, a.direction,
+                a.max_recovered, a.reached_max ? "+" : " ", b.max_recovered, b.reached_max ? "+" : " ", ratio,
+                std::abs(ratio - 1.0) > 0.15 ? "  (differ by more than 15 %)" : "");
   }
 }
 
@@ -286,6 +327,7 @@ int main(int argc, char** argv) {
     search.base.peak = cases[i].peak;
     search.base.direction_deg = cases[i].direction;
     apply(variant_from_string(cases[i].strategy), search.base);
+    if (!cases[i].engine.empty()) search.base.overrides.push_back("sim.engine=" + cases[i].engine);
     search.start = o.start;
     search.max_impulse = o.max_impulse;
     search.resolution = o.resolution;
@@ -326,6 +368,7 @@ int main(int argc, char** argv) {
   const std::string json_path = o.out_dir + "/sweep.json";
   std::ofstream(json_path) << sweep_json(o, cases, executor_text).dump(2) << "\n";
   print_table(cases);
+  print_engine_comparison(o, cases);
   std::printf("table: %s\n", json_path.c_str());
   plot(json_path, o.out_dir);
   if (o.dominance) {

@@ -11,10 +11,15 @@
 // SimStep/ROBOT/no_limits        without the joint-limit constraints (sim.joint_limits off)
 // SimStep/g1/held_impedance      the G1's 14 held finger joints simulated, held by joint impedance,
 //                                instead of welded (sim.held_joints.rigid off)
+// SimStep/ROBOT/mujoco           the same step in MuJoCo (sim.engine: mujoco), the configuration's
+//                                physics step; .../substepsN and .../iterationsN the same at N
+//                                physics steps per 1 ms or N solver iterations (either engine)
 // The counter realtime_factor is simulated seconds per wall second; for the hull variants,
 // hull_gap_max_mm and hull_gap_mean_mm say how far inside the exact convex hull of each collision
 // mesh the simplified hull lies at worst (over 2000 directions), the largest and the mean over the
-// meshes.
+// meshes. The contact counters say what the step computes standing, for the convergence of the
+// contact forces: fz_over_weight (both soles' normal force over the weight) and cop_x_mm, cop_y_mm
+// (the right sole's centre of pressure in the world, relative to its sole frame's origin).
 #include <benchmark/benchmark.h>
 
 #include <map>
@@ -77,6 +82,13 @@ void sim_step(benchmark::State& st, const std::string& robot, const std::vector<
   st.counters["realtime_factor"] = benchmark::Counter(static_cast<double>(st.iterations()) * s.sim_config.dt,
                                                       benchmark::Counter::kIsRate);
   st.counters["joints"] = static_cast<double>(sim.simulated_model().nj);
+  const auto& t = sim.truth();
+  st.counters["fz_over_weight"] = (t.contact_wrench_W[0](2) + t.contact_wrench_W[1](2)) / (sim.simulated_model().mass * 9.81);
+  const model::Vector6d& w = t.contact_wrench_W[0];  // about the sole frame's origin
+  if (w(2) > 1.0) {
+    st.counters["cop_x_mm"] = -1e3 * w(4) / w(2);
+    st.counters["cop_y_mm"] = 1e3 * w(3) / w(2);
+  }
 }
 
 }  // namespace
@@ -111,6 +123,22 @@ int main(int argc, char** argv) {
                                std::vector<std::string>{"sim.collisions=all", "robot.mesh_hull_points=64", "sim.ground.multipoint=false"})
       ->Unit(benchmark::kMicrosecond)
       ->MinTime(2.0);
+  for (const char* robot : {"toro", "h1_2", "g1"}) {
+    benchmark::RegisterBenchmark((std::string("SimStep/") + robot + "/mujoco").c_str(), sim_step, robot, std::vector<std::string>{"sim.engine=mujoco"})
+        ->Unit(benchmark::kMicrosecond)
+        ->MinTime(2.0);
+  }
+  // Convergence: the TORO-like robot at other physics steps and solver iterations, in each engine.
+  for (const char* engine : {"bullet", "mujoco"}) {
+    for (const char* variant : {"substeps=1", "substeps=4", "substeps=8", "solver_iterations=5", "solver_iterations=50"}) {
+      std::string name = std::string(variant);
+      name.erase(name.find('='), 1);
+      benchmark::RegisterBenchmark((std::string("SimStep/toro/") + engine + "/" + name).c_str(), sim_step, "toro",
+                                   std::vector<std::string>{std::string("sim.engine=") + engine, std::string("sim.") + variant})
+          ->Unit(benchmark::kMicrosecond)
+          ->MinTime(1.0);
+    }
+  }
   benchmark::Initialize(&argc, argv);
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
   benchmark::RunSpecifiedBenchmarks();
