@@ -42,7 +42,7 @@ sim::JointCommand hold_command(const Robot& r, double kp = 1500, double kd = 30)
 /// The simulator's tests that depend on the physics run in each engine.
 class SimulatorEngine : public ::testing::TestWithParam<sim::EngineKind> {};
 INSTANTIATE_TEST_SUITE_P(Engines, SimulatorEngine, ::testing::Values(sim::EngineKind::kBullet, sim::EngineKind::kMujoco),
-                         [](const auto& info) { return std::string(sim::to_string(info.param)); });
+                         [](const ::testing::TestParamInfo<sim::EngineKind>& p) { return std::string(sim::to_string(p.param)); });
 
 /// The standing robot 5 m up, without gravity: a free-floating body at rest.
 VectorXd float_at_rest(Robot& r, sim::Simulator& s) {
