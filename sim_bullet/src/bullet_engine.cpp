@@ -158,7 +158,7 @@ class BulletEngine final : public Engine {
   void add_joint_torque(int j, double tau) override { bullet_->multibody()->addJointTorque(j, tau); }
   void add_force(int b, const Vector3d& F_W, const Vector3d& p_W) override {
     btMultiBody* mb = bullet_->multibody();
-    const Vector3d torque = (p_W - link_frame(b).p).cross(F_W);  // about the link's centre of mass
+    const Vector3d torque = (p_W - bullet_->link_frame(b).p).cross(F_W);  // about the link's centre of mass
     if (b == 0) {
       mb->addBaseForce(sim::to_bt(F_W));
       mb->addBaseTorque(sim::to_bt(torque));
@@ -198,7 +198,7 @@ class BulletEngine final : public Engine {
     mb->compTreeLinkVelocities(omega_.data(), vel_.data());
     for (int b = 0; b < model_->nb; ++b) {
       const auto bu = static_cast<size_t>(b);
-      const SE3 X = link_frame(b);  // Bullet's link frame: centre of mass, principal axes
+      const SE3 X = bullet_->link_frame(b);  // Bullet's link frame: centre of mass, principal axes
       BodyMotion& o = out[bu];
       o.m = b == 0 ? mb->getBaseMass() : mb->getLink(b - 1).m_mass;
       o.I_principal = b == 0 ? from_bt(mb->getBaseInertia()) : from_bt(mb->getLink(b - 1).m_inertiaLocal);
@@ -236,20 +236,6 @@ class BulletEngine final : public Engine {
     btMultiBody* mb = bullet_->multibody();
     mb->forwardKinematics(world_to_local_, local_origin_);
     mb->updateCollisionObjectWorldTransforms(world_to_local_, local_origin_);
-  }
-  // World placement of the Bullet link of model body `body` (the base for 0).
-  SE3 link_frame(int body) const {
-    const btMultiBody* mb = bullet_->multibody();
-    SE3 X;
-    if (body == 0) {
-      X.R = from_bt(mb->getWorldToBaseRot().inverse());
-      X.p = from_bt(mb->getBasePos());
-    } else {
-      const btTransform& t = mb->getLink(body - 1).m_cachedWorldTransform;
-      X.R = from_bt(t.getRotation());
-      X.p = from_bt(t.getOrigin());
-    }
-    return X;
   }
 
   const model::Model* model_;

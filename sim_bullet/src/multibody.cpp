@@ -138,8 +138,7 @@ Eigen::VectorXd MultiBodyRobot::to_model_acceleration(const Eigen::VectorXd& acc
   return a;
 }
 
-SE3 MultiBodyRobot::body_placement(int body) const {
-  const BulletBody& b = bodies_[static_cast<size_t>(body)];
+SE3 MultiBodyRobot::link_frame(int body) const {
   SE3 X_WL;
   if (body == 0) {
     X_WL.R = from_bt(mb_->getWorldToBaseRot().inverse());
@@ -149,7 +148,11 @@ SE3 MultiBodyRobot::body_placement(int body) const {
     X_WL.R = from_bt(t.getRotation());
     X_WL.p = from_bt(t.getOrigin());
   }
-  return X_WL * b.X_BL.inverse();
+  return X_WL;
+}
+
+SE3 MultiBodyRobot::body_placement(int body) const {
+  return link_frame(body) * bodies_[static_cast<size_t>(body)].X_BL.inverse();
 }
 
 }  // namespace hpr::sim

@@ -12,6 +12,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "hpr/common/text.hpp"
 #include "hpr/sim/engine.hpp"
 #include "hpr/sim/simulator.hpp"
 
@@ -22,20 +23,6 @@ using Eigen::Matrix3d;
 using Eigen::Vector3d;
 using model::SE3;
 using model::Vector6d;
-
-std::string xml_escape(const std::string& s) {
-  std::string out;
-  for (const char c : s) {
-    switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      default: out += c;
-    }
-  }
-  return out;
-}
 
 std::string vec(const Vector3d& v) { return fmt::format("{:.17g} {:.17g} {:.17g}", v.x(), v.y(), v.z()); }
 

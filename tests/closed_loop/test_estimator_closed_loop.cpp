@@ -234,7 +234,7 @@ TEST_P(EstimatorInTheLoop, Stands30sAndRecoversThe5NsPushAsWithTruth) {
 /// fires now and then on the sensor noise, the sole is re-seated where the estimate puts it, and
 /// the controller's answer to that jump, sharper in MuJoCo (base rate peaks of 0.086 rad/s against
 /// 0.020 in Bullet), makes the next one likelier. Without that check, or with exact encoders, the
-/// error is 0.5 mm as in Bullet (docs/RESULTS.md, "Two physics engines").
+/// error is 0.5 mm as in Bullet (docs/notes/2026-11-30-mujoco-estimator.md).
 TEST(EstimatorInTheLoop, MujocoStands30sAndRecoversThe5NsPush) {
   const LoopResult truth = stand_and_push("toro", false, {"sim.engine=mujoco"});
   const LoopResult est = stand_and_push("toro", true, {"sim.engine=mujoco"});

@@ -12,6 +12,7 @@
 
 #include <Eigen/Eigenvalues>
 
+#include "hpr/common/text.hpp"
 #include "hpr/mesh/mesh.hpp"
 
 namespace hpr::viewer {
@@ -24,20 +25,6 @@ using model::SE3;
 /// Full precision, so the display agrees with the model to the last bit that matters.
 std::string g(double x) { return fmt::format("{:.17g}", x); }
 std::string v3(const model::Vector3d& v) { return g(v.x()) + " " + g(v.y()) + " " + g(v.z()); }
-
-std::string xml_escape(const std::string& s) {
-  std::string out;
-  for (char c : s) {
-    switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      default: out += c;
-    }
-  }
-  return out;
-}
 
 std::string origin(const SE3& X) {
   return fmt::format("<origin xyz=\"{}\" rpy=\"{}\"/>", v3(X.p), v3(rpy_of(X.R)));

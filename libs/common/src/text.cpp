@@ -39,4 +39,19 @@ std::string did_you_mean(std::string_view word, const std::vector<std::string>& 
   return n.empty() ? "" : " (did you mean '" + n + "'?)";
 }
 
+std::string xml_escape(std::string_view s) {
+  std::string out;
+  out.reserve(s.size());
+  for (const char c : s) {
+    switch (c) {
+      case '&': out += "&amp;"; break;
+      case '<': out += "&lt;"; break;
+      case '>': out += "&gt;"; break;
+      case '"': out += "&quot;"; break;
+      default: out += c;
+    }
+  }
+  return out;
+}
+
 }  // namespace hpr

@@ -53,7 +53,10 @@ class MultiBodyRobot {
   /// velocity of the base, joint accelerations) to the model's v̇, given the model state v.
   Eigen::VectorXd to_model_acceleration(const Eigen::VectorXd& bullet_acc, const Eigen::VectorXd& v) const;
 
-  /// World placement of Bullet link i (-1 for the base) as the model's body placement X_WB.
+  /// World placement of model body `body`'s Bullet link frame X_WL (its centre of mass, principal
+  /// axes), from the cached link transforms.
+  [[nodiscard]] model::SE3 link_frame(int body) const;
+  /// World placement of model body `body` as the model's body placement X_WB = X_WL X_BL⁻¹.
   [[nodiscard]] model::SE3 body_placement(int body) const;
 
  private:

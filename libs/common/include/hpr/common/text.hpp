@@ -1,5 +1,6 @@
 #pragma once
-/// \file Suggestions for a misspelt name: "unknown key 'stifness' (did you mean 'stiffness'?)".
+/// \file Text helpers: suggestions for a misspelt name ("unknown key 'stifness' (did you mean
+/// 'stiffness'?)") and XML attribute escaping.
 
 #include <string>
 #include <string_view>
@@ -16,5 +17,8 @@ std::string nearest(std::string_view word, const std::vector<std::string>& candi
 
 /// " (did you mean 'x'?)" for the nearest candidate, or "".
 std::string did_you_mean(std::string_view word, const std::vector<std::string>& candidates);
+
+/// `s` with &, <, > and " escaped, for an XML attribute value or text.
+std::string xml_escape(std::string_view s);
 
 }  // namespace hpr
