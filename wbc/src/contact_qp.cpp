@@ -1,5 +1,6 @@
 #include "hpr/wbc/contact_qp.hpp"
 
+#include <cassert>
 #include <cmath>
 #include <limits>
 
@@ -23,7 +24,7 @@ ContactQp::ContactQp(ContactParams params) : params_(params) {
     const qp::Options opt{params.max_working_set_changes * (exact != 0 ? 1 : 3), 1e-10, 1e-12, 1e-12};
     for (int na = 1; na <= 2; ++na) {
       solvers_[static_cast<size_t>(exact)][static_cast<size_t>(na - 1)] =
-          std::make_unique<qp::Solver>(6 * na, kRowsPerFoot * na + (exact != 0 ? 6 : 0), opt);
+          std::make_unique<qp::Solver>(6 * na, rows_per_foot(params) * na + (exact != 0 ? 6 : 0), opt);
     }
   }
 }
@@ -31,7 +32,9 @@ ContactQp::ContactQp(ContactParams params) : params_(params) {
 void ContactQp::foot_constraints(const Contact& c, const ContactParams& p, Eigen::Ref<Eigen::MatrixXd> C,
                                  Eigen::Ref<Eigen::VectorXd> lb, Eigen::Ref<Eigen::VectorXd> ub) {
   // Rows on the local wrench (f_x, f_y, f_z, τ_x, τ_y, τ_z), then rotated to world axes.
-  Eigen::Matrix<double, kRowsPerFoot, 6> L = Eigen::Matrix<double, kRowsPerFoot, 6>::Zero();
+  Eigen::Matrix<double, kMaxRowsPerFoot, 6> L = Eigen::Matrix<double, kMaxRowsPerFoot, 6>::Zero();
+  const int rows = rows_per_foot(p);
+  assert(C.rows() == rows && lb.size() == rows && ub.size() == rows);
   lb.setConstant(-kInf);
   ub.setZero();
   const double mu = p.friction * std::cos(M_PI / 8);  // octagon inscribed in the cone
@@ -49,6 +52,31 @@ void ContactQp::foot_constraints(const Contact& c, const ContactParams& p, Eigen
   L(11, 4) = -1; L(11, 2) = -hx;
   L(12, 5) = 1;  L(12, 2) = -p.torsion;
   L(13, 5) = -1; L(13, 2) = -p.torsion;
+  // The torsion of a rectangle of four corner contacts, each in a friction pyramid |f_x|, |f_y| ≤
+  // μ_p f_z (the pyramid inside the cone, μ_p = μ/√2), at the CoP (−τ_y, τ_x)/f_z:
+  //   τ_z ≤ μ_p (X + Y) f_z − |Y f_x + μ_p τ_x| − |X f_y + μ_p τ_y|,
+  //   τ_z ≥ −μ_p (X + Y) f_z + |Y f_x − μ_p τ_x| + |X f_y − μ_p τ_y|,
+  // the whole range at the centre, nothing at a corner (a sole on one corner turns about it).
+  if (p.sole_torsion) {
+    const double mp = p.friction / std::sqrt(2.0);
+    int r = kBaseRowsPerFoot;
+    for (const double s1 : {-1.0, 1.0}) {
+      for (const double s2 : {-1.0, 1.0}) {
+        // τ_z + s1 (Y f_x + μ_p τ_x) + s2 (X f_y + μ_p τ_y) − μ_p (X + Y) f_z ≤ 0
+        L(r, 5) = 1;
+        L(r, 0) = s1 * hy; L(r, 3) = s1 * mp;
+        L(r, 1) = s2 * hx; L(r, 4) = s2 * mp;
+        L(r, 2) = -mp * (hx + hy);
+        ++r;
+        // −τ_z + s1 (Y f_x − μ_p τ_x) + s2 (X f_y − μ_p τ_y) − μ_p (X + Y) f_z ≤ 0
+        L(r, 5) = -1;
+        L(r, 0) = s1 * hy; L(r, 3) = -s1 * mp;
+        L(r, 1) = s2 * hx; L(r, 4) = -s2 * mp;
+        L(r, 2) = -mp * (hx + hy);
+        ++r;
+      }
+    }
+  }
   L(14, 2) = 1;  // f_z ≥ f_min
   lb(14) = p.min_normal_force;
   ub(14) = kInf;
@@ -57,8 +85,8 @@ void ContactQp::foot_constraints(const Contact& c, const ContactParams& p, Eigen
   ub(15) = std::max(p.min_normal_force, c.load_limit * p.max_normal_force);
   // Local wrench = blockdiag(Rᵀ, Rᵀ) w  →  rows L blockdiag(Rᵀ, Rᵀ).
   const model::Matrix3d Rt = c.X_WS.R.transpose();
-  C.leftCols(3) = L.leftCols<3>() * Rt;
-  C.rightCols(3) = L.rightCols<3>() * Rt;
+  C.leftCols(3) = L.topRows(rows).leftCols<3>() * Rt;
+  C.rightCols(3) = L.topRows(rows).rightCols<3>() * Rt;
 }
 
 qp::Status ContactQp::solve(const std::array<Contact, 2>& contacts, const Eigen::Vector3d& com,
@@ -95,7 +123,7 @@ qp::Status ContactQp::solve_mode(bool exact, int na, const int* active, const st
     solver.reset();  // the other foot: its working set means nothing here
     last_single_foot_[exact ? 1 : 0] = active[0];
   }
-  const int n = 6 * na, mc = kRowsPerFoot * na, m = mc + (exact ? 6 : 0);
+  const int rows = rows_per_foot(params_), n = 6 * na, mc = rows * na, m = mc + (exact ? 6 : 0);
   H_.resize(n, n);
   g_.resize(n);
   A_.resize(m, n);
@@ -108,8 +136,7 @@ qp::Status ContactQp::solve_mode(bool exact, int na, const int* active, const st
   for (int a = 0; a < na; ++a) {
     const Contact& c = contacts[static_cast<size_t>(active[a])];
     G.block<6, 6>(0, 6 * a) = contact_map(c.X_WS.p, com);
-    foot_constraints(c, params_, A_.block(kRowsPerFoot * a, 6 * a, kRowsPerFoot, 6),
-                     lbA_.segment(kRowsPerFoot * a, kRowsPerFoot), ubA_.segment(kRowsPerFoot * a, kRowsPerFoot));
+    foot_constraints(c, params_, A_.block(rows * a, 6 * a, rows, 6), lbA_.segment(rows * a, rows), ubA_.segment(rows * a, rows));
   }
   const auto Gn = G.leftCols(n);
   Eigen::Matrix<double, 12, 1> R;

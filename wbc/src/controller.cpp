@@ -72,6 +72,7 @@ WbcConfig WbcConfig::load(const Config& c, const model::RobotSpec& robot) {
     ContactParams& p = w.contact;
     p.friction = s.real_or("friction", p.friction, 0.05, 2.0);
     p.torsion = s.real_or("torsion", p.torsion, 0.0, 0.5);
+    p.sole_torsion = s.boolean_or("sole_torsion", p.sole_torsion);
     p.min_normal_force = s.real_or("min_normal_force", p.min_normal_force, 0.0, 1e4);
     p.max_normal_force = s.real_or("max_normal_force", p.max_normal_force, 1.0, 1e5);
     p.cop_margin = s.real_or("cop_margin", p.cop_margin, 0.0, 0.05);

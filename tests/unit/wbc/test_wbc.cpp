@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
+#include <limits>
 #include <random>
 #include <tuple>
 #include <vector>
@@ -60,8 +61,9 @@ void expect_constraints_hold(const std::array<wbc::Contact, 2>& c, const std::ar
                              const wbc::ContactParams& p) {
   for (int k = 0; k < 2; ++k) {
     if (!c[static_cast<size_t>(k)].active) continue;
-    MatrixXd C(wbc::ContactQp::kRowsPerFoot, 6);
-    VectorXd lb(wbc::ContactQp::kRowsPerFoot), ub(wbc::ContactQp::kRowsPerFoot);
+    const int rows = wbc::ContactQp::rows_per_foot(p);
+    MatrixXd C(rows, 6);
+    VectorXd lb(rows), ub(rows);
     wbc::ContactQp::foot_constraints(c[static_cast<size_t>(k)], p, C, lb, ub);
     const VectorXd r = C * w[static_cast<size_t>(k)];
     for (int i = 0; i < r.size(); ++i) {
@@ -87,6 +89,114 @@ TEST(ContactQp, FeasibleWrenchIsMetExactly) {
     EXPECT_LT((qp.achieved() - w_des).norm(), 1e-8 * w_des.norm()) << "sample " << s;
     EXPECT_LT((com_wrench(c, qp.wrenches(), com) - w_des).norm(), 1e-8 * w_des.norm());
     expect_constraints_hold(c, qp.wrenches(), p);
+  }
+}
+
+// The sole's torsion bound (ContactParams::sole_torsion) against an independent model of the same
+// contact: four corner points, each in the friction pyramid |f_x|, |f_y| <= mu_p f_z. For a force
+// and a CoP, the largest and smallest torsion the corners can hold is a linear programme, solved
+// here as a QP with a vanishing regularisation; the closed form must give the same interval.
+TEST(ContactQp, SoleTorsionIsWhatFourCornerContactsHold) {
+  std::mt19937 gen(35);
+  std::uniform_real_distribution<double> u(-1, 1);
+  wbc::ContactParams p;
+  p.sole_torsion = true;
+  p.cop_margin = 0.0;
+  p.torsion = 10.0;  // the constant bound out of the way
+  const wbc::Contact c{true, model::SE3{}, 0.2, 0.1, 1.0};
+  const double X = 0.1, Y = 0.05, mu_p = p.friction / std::sqrt(2.0);
+  MatrixXd C(wbc::ContactQp::kMaxRowsPerFoot, 6);
+  VectorXd lb(wbc::ContactQp::kMaxRowsPerFoot), ub(wbc::ContactQp::kMaxRowsPerFoot);
+  wbc::ContactQp::foot_constraints(c, p, C, lb, ub);
+  // Corner forces x = (f_x1..4, f_y1..4, f_z1..4) at (±X, ±Y).
+  const double cx[4] = {X, X, -X, -X}, cy[4] = {Y, -Y, Y, -Y};
+  MatrixXd A = MatrixXd::Zero(5 + 16, 12);
+  for (int i = 0; i < 4; ++i) {
+    A(0, i) = A(1, 4 + i) = A(2, 8 + i) = 1;  // the force
+    A(3, 8 + i) = cy[i];                     // tau_x = sum y_i f_zi
+    A(4, 8 + i) = -cx[i];                    // tau_y = -sum x_i f_zi
+    for (int axis = 0; axis < 2; ++axis) {
+      for (const double s : {1.0, -1.0}) {
+        const int r = 5 + 8 * axis + 4 * (s > 0 ? 0 : 1) + i;
+        A(r, 4 * axis + i) = s;
+        A(r, 8 + i) = -mu_p;
+      }
+    }
+  }
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  VectorXd g(12), lbx = VectorXd::Constant(12, -kInf), ubx = VectorXd::Constant(12, kInf);
+  lbx.tail<4>().setZero();
+  for (int i = 0; i < 4; ++i) {
+    g(i) = cy[i];       // minimise -tau_z = -sum (x_i f_yi - y_i f_xi)
+    g(4 + i) = -cx[i];
+    g(8 + i) = 0;
+  }
+  const MatrixXd H = 1e-7 * MatrixXd::Identity(12, 12);  // the optimum moves by about 1e-7 of a unit force
+  qp::Solver lp(12, 21);
+  int corners = 0;
+  for (int s = 0; s < 300; ++s) {
+    // f_z = 1; a CoP anywhere in the sole (next to its edge or corner one sample in five; exactly on
+    // them the corners' LP is degenerate, which the active-set solver reports infeasible); a force along
+    // the ground within the pyramid.
+    const double edge = s % 5 == 0 ? 0.999 : 0.98;
+    Vector6d w;
+    w << 0.9 * mu_p * u(gen), 0.9 * mu_p * u(gen), 1.0, 0, 0, 0;
+    double px = X * u(gen), py = Y * u(gen);
+    if (s % 5 == 0) (s % 10 == 0 ? px : py) = (u(gen) > 0 ? 1 : -1) * (s % 10 == 0 ? X : Y) * edge;
+    if (s % 15 == 0) { px = (u(gen) > 0 ? X : -X) * 0.999; py = (u(gen) > 0 ? Y : -Y) * 0.999; ++corners; }
+    w(3) = py;   // tau_x = p_y f_z
+    w(4) = -px;  // tau_y = -p_x f_z
+    VectorXd lbA = VectorXd::Constant(21, -kInf), ubA = VectorXd::Zero(21);
+    lbA.head<5>() = w.head<5>();
+    ubA.head<5>() = w.head<5>();
+    double tau[2];
+    for (int k = 0; k < 2; ++k) {
+      const double sign = k == 0 ? 1.0 : -1.0;  // max, then min
+      ASSERT_EQ(lp.solve_cold(H, sign * g, A, lbx, ubx, lbA, ubA), qp::Status::kOptimal) << "sample " << s;
+      const VectorXd& f = lp.x();
+      tau[k] = 0;
+      for (int i = 0; i < 4; ++i) tau[k] += cx[i] * f(4 + i) - cy[i] * f(i);
+    }
+    // The closed form: the torsion rows (coefficient ±1 on tau_z) bound it given the rest of w.
+    double hi = kInf, lo = -kInf;
+    for (int r = wbc::ContactQp::kBaseRowsPerFoot; r < wbc::ContactQp::kMaxRowsPerFoot; ++r) {
+      const double rest = C.row(r).head<5>().dot(w.head<5>()), a = C(r, 5);
+      ASSERT_NEAR(std::abs(a), 1.0, 1e-12);
+      if (a > 0) hi = std::min(hi, (ub(r) - rest) / a);
+      else lo = std::max(lo, (ub(r) - rest) / a);
+    }
+    EXPECT_NEAR(hi, tau[0], 1e-5) << "sample " << s << ": p = (" << px << ", " << py << ")";
+    EXPECT_NEAR(lo, tau[1], 1e-5) << "sample " << s;
+    EXPECT_LE(lo, hi + 1e-9);
+  }
+  EXPECT_GT(corners, 10);
+  // And the contact QP keeps within it: one sole, its CoP asked 0.999 of the way to a corner with a
+  // force along the ground and 3 N m of torsion the constant bound allows. The four corners hold
+  // only the torsion of that force at the corner (about -3 N m): bounded, the QP returns a torsion
+  // in the corners' interval for the wrench it returns; unbounded, the asked one.
+  const auto interval = [&](const Vector6d& w) {
+    const double hi = mu_p * (X + Y) * w(2) - std::abs(Y * w(0) + mu_p * w(3)) - std::abs(X * w(1) + mu_p * w(4));
+    const double lo = -mu_p * (X + Y) * w(2) + std::abs(Y * w(0) - mu_p * w(3)) + std::abs(X * w(1) - mu_p * w(4));
+    return std::pair{lo, hi};
+  };
+  Vector6d asked;
+  asked << 30.0, -15.0, 300.0, 0.999 * Y * 300.0, -0.999 * X * 300.0, 3.0;
+  const std::array<wbc::Contact, 2> one{c, wbc::Contact{}};
+  for (const bool bounded : {false, true}) {
+    p.sole_torsion = bounded;
+    wbc::ContactQp qp(p);
+    ASSERT_TRUE(qp::usable(qp.solve(one, Vector3d::Zero(), asked))) << bounded;
+    const Vector6d& w = qp.wrenches()[0];
+    const auto [lo, hi] = interval(w);
+    if (bounded) {
+      EXPECT_GE(w(5), lo - 1e-6);
+      EXPECT_LE(w(5), hi + 1e-6);
+      EXPECT_LT(w(5), 0.0);
+    } else {
+      EXPECT_TRUE(qp.exact());
+      EXPECT_NEAR(w(5), 3.0, 1e-6);
+      EXPECT_GT(w(5), hi + 1.0);  // what four corners cannot hold
+    }
   }
 }
 

@@ -3,7 +3,10 @@
 /// Contact wrench distribution (section II-B): find the contact wrenches w_grf of the feet in
 /// contact whose CoM-mapped sum Adᵀ w_grf is the desired CoM wrench, subject to, per foot in its
 /// sole frame: f_z ≥ f_min (unilaterality), f_z ≤ load · f_max, an 8-facet friction pyramid
-/// |f_t| ≤ μ f_z, the CoP inside the sole (less a margin), |τ_z| ≤ γ f_z (bounded torsion).
+/// |f_t| ≤ μ f_z, the CoP inside the sole (less a margin), |τ_z| ≤ γ f_z (bounded torsion), and
+/// with `sole_torsion` the torsion that four corner contacts in the pyramid |f_x|, |f_y| ≤ μ/√2 f_z
+/// hold with the CoP where it is (none beyond the corner force's own at a corner, about which a
+/// sole on its corner turns).
 ///
 /// When the desired wrench is feasible it is met exactly (equality constraints), and among the
 /// distributions that meet it the one of least ½ wᵀ R w is chosen. When it is not, the error is
@@ -29,6 +32,7 @@ namespace hpr::wbc {
 struct ContactParams {
   double friction = 0.6;          ///< μ of the linearised Coulomb cone
   double torsion = 0.02;          ///< γ [m]: |τ_z| ≤ γ f_z
+  bool sole_torsion = false;      ///< also the torsion four corner contacts hold with the CoP where it is
   double min_normal_force = 20;   ///< f_min [N]
   double max_normal_force = 1500; ///< f_max [N]
   double cop_margin = 0.005;      ///< the CoP stays this far inside the sole edges [m]
@@ -69,10 +73,13 @@ class ContactQp {
   /// μ of the friction cone, from the next solve.
   void set_friction(double mu) { params_.friction = mu; }
 
-  /// The 16 constraint rows of one foot in the form lb ≤ C w_i ≤ ub (world-axes wrench at the sole).
+  /// The constraint rows of one foot (rows_per_foot(p) of them) in the form lb ≤ C w_i ≤ ub
+  /// (world-axes wrench at the sole).
   static void foot_constraints(const Contact& c, const ContactParams& p, Eigen::Ref<Eigen::MatrixXd> C,
                                Eigen::Ref<Eigen::VectorXd> lb, Eigen::Ref<Eigen::VectorXd> ub);
-  static constexpr int kRowsPerFoot = 16;
+  static constexpr int kBaseRowsPerFoot = 16;  ///< friction, CoP, torsion γ, normal force
+  static constexpr int kMaxRowsPerFoot = 24;   ///< and the sole's torsion (ContactParams::sole_torsion)
+  static int rows_per_foot(const ContactParams& p) { return p.sole_torsion ? kMaxRowsPerFoot : kBaseRowsPerFoot; }
 
  private:
   qp::Status solve_mode(bool exact, int na, const int* active, const std::array<Contact, 2>& contacts,
