@@ -56,24 +56,22 @@ void ContactQp::foot_constraints(const Contact& c, const ContactParams& p, Eigen
   // μ_p f_z (the pyramid inside the cone, μ_p = μ/√2), at the CoP (−τ_y, τ_x)/f_z:
   //   τ_z ≤ μ_p (X + Y) f_z − |Y f_x + μ_p τ_x| − |X f_y + μ_p τ_y|,
   //   τ_z ≥ −μ_p (X + Y) f_z + |Y f_x − μ_p τ_x| + |X f_y − μ_p τ_y|,
-  // the whole range at the centre, nothing at a corner (a sole on one corner turns about it).
+  // the whole range at the centre, at a corner only the corner force's own (a sole on its corner turns
+  // about it).
   if (p.sole_torsion) {
     const double mp = p.friction / std::sqrt(2.0);
     int r = kBaseRowsPerFoot;
     for (const double s1 : {-1.0, 1.0}) {
       for (const double s2 : {-1.0, 1.0}) {
-        // τ_z + s1 (Y f_x + μ_p τ_x) + s2 (X f_y + μ_p τ_y) − μ_p (X + Y) f_z ≤ 0
-        L(r, 5) = 1;
-        L(r, 0) = s1 * hy; L(r, 3) = s1 * mp;
-        L(r, 1) = s2 * hx; L(r, 4) = s2 * mp;
-        L(r, 2) = -mp * (hx + hy);
-        ++r;
-        // −τ_z + s1 (Y f_x − μ_p τ_x) + s2 (X f_y − μ_p τ_y) − μ_p (X + Y) f_z ≤ 0
-        L(r, 5) = -1;
-        L(r, 0) = s1 * hy; L(r, 3) = -s1 * mp;
-        L(r, 1) = s2 * hx; L(r, 4) = -s2 * mp;
-        L(r, 2) = -mp * (hx + hy);
-        ++r;
+        // sz = 1: τ_z + s1 (Y f_x + μ_p τ_x) + s2 (X f_y + μ_p τ_y) − μ_p (X + Y) f_z ≤ 0;
+        // sz = −1: −τ_z + s1 (Y f_x − μ_p τ_x) + s2 (X f_y − μ_p τ_y) − μ_p (X + Y) f_z ≤ 0.
+        for (const double sz : {1.0, -1.0}) {
+          L(r, 5) = sz;
+          L(r, 0) = s1 * hy; L(r, 3) = sz * s1 * mp;
+          L(r, 1) = s2 * hx; L(r, 4) = sz * s2 * mp;
+          L(r, 2) = -mp * (hx + hy);
+          ++r;
+        }
       }
     }
   }
