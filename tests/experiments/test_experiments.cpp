@@ -314,6 +314,31 @@ TEST(PushSweep, TheDominanceTableRunsTheThreeControllersOnEveryPushAndChecksThem
   EXPECT_NE(out.find("dominance table: " + dir + "/dominance.md"), std::string::npos) << out;
 }
 
+TEST(PushGrid, RunsEveryPushOfTheGridAndListsWhatOneVariantHoldsAndTheOtherLoses) {
+  // From behind at 130 N, 20 and 120 N s: the default holds both (docs/RESULTS.md, "The default
+  // controller"); standing (stepping off) it holds 20 N s and loses 120 (its limit is 48.5 N s).
+  const std::string dir = hpr::test::temp_dir("push-grid");
+  std::string out;
+  ASSERT_EQ(run("/usr/bin/python3 " + hpr::test::source_dir() + "/tools/push-grid --angles 0 --impulses 20:100:120 --jobs 2"
+                " --variant standing=balance.stepping.enabled=false --bin " + hpr::test::bin_dir() + " --out " + dir, &out), 0) << out;
+  std::ifstream f(dir + "/grid.json");
+  const json j = json::parse(f, nullptr, false);
+  ASSERT_FALSE(j.is_discarded()) << "no grid.json in " << dir;
+  ASSERT_EQ(j["trials"].size(), 4u) << j.dump(1);
+  std::map<std::pair<std::string, double>, bool> recovered;
+  for (const auto& t : j["trials"]) recovered[{t["variant"].get<std::string>(), t["impulse_Ns"].get<double>()}] = t["recovered"].get<bool>();
+  EXPECT_TRUE(recovered.at({"as configured", 20.0}));
+  EXPECT_TRUE(recovered.at({"as configured", 120.0}));
+  EXPECT_TRUE(recovered.at({"standing", 20.0}));
+  EXPECT_FALSE(recovered.at({"standing", 120.0}));
+  std::ifstream md_file(dir + "/grid.md");
+  const std::string md((std::istreambuf_iterator<char>(md_file)), std::istreambuf_iterator<char>());
+  EXPECT_NE(md.find("| 0 deg | `RR` | `RF` |"), std::string::npos) << md;
+  EXPECT_NE(md.find("| recovered | 2 of 2 | 1 of 2 |"), std::string::npos) << md;
+  EXPECT_NE(md.find("Held as configured, lost standing (1): 0 deg 120 N s"), std::string::npos) << md;
+  EXPECT_NE(md.find("Held standing, lost as configured (0): none"), std::string::npos) << md;
+}
+
 /// m ω d of a robot configuration: the largest impulse a point mass at the standing CoM height
 /// recovers with its CoP at the sole's edge (less the wbc's CoP margin), the linear inverted
 /// pendulum's capture bound for an instantaneous push (ξ = c + ċ/ω reaches the edge).
@@ -475,8 +500,8 @@ TEST(PhysicsStep, TheConfiguredStepGivesTheOutcomeOfAStepFourTimesFiner) {
 
 TEST(DefaultController, StepsWhereBothStandingStrategiesFallAndStandsThroughASmallerPush) {
   // config/toro.yaml as shipped: ankle, hip and step. At a 130 N peak from behind (docs/RESULTS.md,
-  // "The default controller": the default holds every push up to 120 N s, the CAM strategy standing
-  // 45.6 and the ankle strategy standing 39.8 N s), 55 N s: the default recovers by stepping where
+  // "The default controller": the default holds a push of 120 N s, the CAM strategy standing 48.5
+  // and the ankle strategy standing 39.8 N s), 55 N s: the default recovers by stepping where
   // both single strategies, in the same posture, fall. 20 N s: it holds standing, without a step.
   const std::string push = "--in-process --robot toro --support double --peak 130 --direction 0 --impulse ";
   const json stepped = trial(push + "55 --strategy cam");
@@ -490,6 +515,38 @@ TEST(DefaultController, StepsWhereBothStandingStrategiesFallAndStandsThroughASma
   EXPECT_TRUE(held["recovered"].get<bool>()) << held.dump();
   EXPECT_EQ(held["steps"].get<int>(), 0) << held.dump();
   EXPECT_EQ(held["steps_started"].get<int>(), 0) << held.dump();
+}
+
+TEST(DefaultController, ALightlyLoadedSoleHoldsNoTorsionAboutItsLoadedCorner) {
+  // 47 N s from the front and the left (135 deg, 130 N peak): the right sole carries 44-83 N with
+  // its CoP at its inner heel corner. Bounded by torsion x f_z wherever its CoP is
+  // (wbc.contact.sole_torsion false), the wbc asks that sole for a torsion its corners cannot hold,
+  // it turns about the loaded corner and slides past 1 cm; bounded by what its four corners hold (as
+  // configured) it holds (docs/notes/2026-12-01-sole-torsion.md).
+  const std::string push = "--in-process --robot toro --support double --peak 130 --direction 135 --impulse 47 --strategy cam";
+  const json bounded = trial(push);
+  const json unbounded = trial(push + " --set wbc.contact.sole_torsion=false");
+  EXPECT_TRUE(bounded["recovered"].get<bool>()) << bounded.dump();
+  EXPECT_LT(bounded["max_sole_slip_m"].get<double>(), 0.01) << bounded.dump();
+  EXPECT_FALSE(unbounded["recovered"].get<bool>()) << unbounded.dump();
+  EXPECT_GT(unbounded["max_sole_slip_m"].get<double>(), 0.01) << unbounded.dump();
+}
+
+TEST(DefaultController, TheTrailingFootFollowsOnlyOnceTheCapturePointIsOverTheLandedSole) {
+  // 33.75 N s from the front and the right (225 deg, 260 N peak): one step sideways. Right after
+  // touchdown the CoM swings over the landed foot and the trailing foot unloads for a moment; a
+  // follow step begun then (balance.stepping.follow_reach 1 m: whatever the capture point) lifts the
+  // foot the CoM swings back onto, and the robot walks in place, one follow step after another,
+  // without coming to rest. With the capture point required over the landed sole (as configured)
+  // the DCM settles between the feet and no follow step is taken.
+  const std::string push = "--in-process --robot toro --support double --peak 260 --direction 225 --impulse 33.75 --strategy cam";
+  const json configured = trial(push);
+  const json eager = trial(push + " --set balance.stepping.follow_reach=1");
+  EXPECT_TRUE(configured["recovered"].get<bool>()) << configured.dump();
+  EXPECT_EQ(configured["steps"].get<int>() - configured["follow_steps"].get<int>(), 1) << configured.dump();
+  EXPECT_LE(configured["follow_steps"].get<int>(), 1) << configured.dump();
+  EXPECT_FALSE(eager["recovered"].get<bool>()) << eager.dump();
+  EXPECT_GE(eager["follow_steps"].get<int>(), 3) << eager.dump();
 }
 
 TEST(SecondRobot, H1StandsAndRecoversAPushItsAnkleStrategyDoesNot) {

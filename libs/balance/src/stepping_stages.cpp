@@ -147,7 +147,13 @@ void PostureReference::check_step(double t, const EstimatedState& state) {
     } else if (unloaded_since_ < 0.0) {
       unloaded_since_ = t;
     }
-    follow = unloaded_since_ >= 0.0 && t - unloaded_since_ >= config_.step.follow_delay;
+    // ... and the DCM is over the landed sole: a DCM still crossing towards it (the CoM swinging
+    // over it) unloads the trailing foot for a moment, and a swing begun then lifts the foot the
+    // CoM swings back onto.
+    std::array<bool, 2> landed{false, false};
+    landed[static_cast<size_t>(last_swing_)] = true;
+    follow = unloaded_since_ >= 0.0 && t - unloaded_since_ >= config_.step.follow_delay &&
+             support_distance(sole, landed, xi_) <= config_.step.follow_reach;
   }
   const bool needed = excess_ > 0.0;  // update() computed it this tick, for these soles and ξ
   if (!follow && !needed) return;

@@ -67,6 +67,7 @@ PostureReferenceConfig PostureReferenceConfig::load(const Config& c) {
     e.touchdown_height = st.real_or("touchdown_height", e.touchdown_height, 0.0, 0.2);
     e.transfer_time = st.real_or("transfer_time", e.transfer_time, 0.0, 2.0);
     e.follow_delay = st.real_or("follow_delay", e.follow_delay, 0.0, 2.0);
+    e.follow_reach = st.real_or("follow_reach", e.follow_reach, -0.05, 1.0);
     e.force_filter = st.real_or("force_filter", e.force_filter, 0.001, 1.0);
     e.push_onset = st.real_or("push_onset", e.push_onset, 0.0, 1000.0);
     e.push_duration_ratio = st.real_or("push_duration_ratio", e.push_duration_ratio, 0.0, 1000.0);

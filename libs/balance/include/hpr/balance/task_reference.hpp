@@ -113,6 +113,8 @@ struct PostureReferenceConfig {
     double follow_load = 0.1;         ///< after a step, the trailing foot steps too when its share of the
                                       ///< weight stays below this
     double follow_delay = 0.08;       ///< [s] for this long
+    double follow_reach = 0.01;       ///< [m] and the capture point lies within this of the landed sole (a
+                                      ///< DCM still crossing towards it is no rest over it)
     double target_rate = 2.0;         ///< [m/s] fastest change of the landing while it is replanned
     double force_filter = 0.04;       ///< [s] time constant of the external-force estimate
     /// [N] |F̂| above which a push counts as under way (below, it shifts no capture point)
