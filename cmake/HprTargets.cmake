@@ -35,6 +35,13 @@ function(hpr_set_options target)
     target_compile_options(${target} PRIVATE -fsanitize=thread -fno-omit-frame-pointer)
     target_link_options(${target} PRIVATE -fsanitize=thread)
   endif()
+  if(HPR_UNITY_BUILD)
+    # One translation unit per batch of up to 8 sources: the headers every source includes (Eigen,
+    # the standard library, yaml-cpp, the generated LCM types) are parsed and instantiated once per
+    # batch. Names local to a source (anonymous namespaces) must therefore differ within a target;
+    # the builds without it (the asan, tsan and debug presets) check that each source compiles alone.
+    set_target_properties(${target} PROPERTIES UNITY_BUILD ON UNITY_BUILD_BATCH_SIZE 8)
+  endif()
   if(HPR_BUILD_FUZZERS)
     # Coverage feedback for libFuzzer from every library the targets call.
     target_compile_options(${target} PRIVATE -fsanitize=fuzzer-no-link)

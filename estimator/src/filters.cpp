@@ -17,7 +17,6 @@ using model::Vector6d;
 namespace {
 
 constexpr double kAnchorTrust = 0.1;  // [s] a sole in contact this long may override the estimate alone
-const Vector3d kZ = Vector3d::UnitZ();
 
 }  // namespace
 
@@ -59,7 +58,7 @@ void Estimator::attitude(const SensorSample& s, double dt) {
   const Vector3d f_B = R_BI_ * s.imu_accel_B;
   const double gn = robot_->model.gravity.norm();
   if (!any && std::abs(f_B.norm() - gn) < 0.1 * gn) {
-    const Vector3d u = R_.transpose() * kZ;
+    const Vector3d u = R_.transpose() * Vector3d::UnitZ();
     attitude_correct(f_B.normalized() - u, config_.accel_orientation_noise, model::skew(u));
   }
   // Angular velocity of the base: gyro and, for each sole in contact, ω_B = −ω_S,rel.

@@ -17,7 +17,7 @@ using hpr::experiments::largest_recovered;
 constexpr double kStart = 15.0, kMax = 80.0, kResolution = 0.5;
 
 /// A robot that recovers every impulse up to `threshold` [N s], recording the impulses tried.
-struct Robot {
+struct ThresholdRobot {
   double threshold;
   std::vector<double> tried;
   bool operator()(double impulse) {
@@ -26,13 +26,13 @@ struct Robot {
   }
 };
 
-ImpulseBracket search(Robot& robot) {
+ImpulseBracket search(ThresholdRobot& robot) {
   return largest_recovered([&](double i) { return robot(i); }, kStart, kMax, kResolution);
 }
 
 TEST(LargestRecovered, TheBracketHoldsTheThresholdAndIsAtMostTheResolutionWide) {
   for (double threshold = 0.3; threshold < kMax; threshold += 1.37) {
-    Robot robot{threshold, {}};
+    ThresholdRobot robot{threshold, {}};
     const ImpulseBracket b = search(robot);
     SCOPED_TRACE(threshold);
     EXPECT_FALSE(b.reached_max);
@@ -54,7 +54,7 @@ TEST(LargestRecovered, TheBracketHoldsTheThresholdAndIsAtMostTheResolutionWide) 
 }
 
 TEST(LargestRecovered, ARobotThatWithstandsTheLargestPushCostsTwoTrials) {
-  Robot robot{1e9, {}};
+  ThresholdRobot robot{1e9, {}};
   const ImpulseBracket b = search(robot);
   EXPECT_TRUE(b.reached_max);
   EXPECT_EQ(b.max_recovered, kMax);
@@ -63,7 +63,7 @@ TEST(LargestRecovered, ARobotThatWithstandsTheLargestPushCostsTwoTrials) {
 }
 
 TEST(LargestRecovered, AThresholdBetweenTheStartAndTheMaximumClimbsTheLadderBelowTheFailedMaximum) {
-  Robot robot{40.0, {}};
+  ThresholdRobot robot{40.0, {}};
   const ImpulseBracket b = search(robot);
   ASSERT_GE(robot.tried.size(), 5u);
   // 15 recovered, 80 lost, then 22.5 and 33.75 recovered and 50.625 lost: bisection inside [33.75, 50.625].
@@ -77,7 +77,7 @@ TEST(LargestRecovered, AThresholdBetweenTheStartAndTheMaximumClimbsTheLadderBelo
 }
 
 TEST(LargestRecovered, AStartAtOrAboveTheMaximumTriesTheMaximumOnce) {
-  Robot robot{1e9, {}};
+  ThresholdRobot robot{1e9, {}};
   const ImpulseBracket b = largest_recovered([&](double i) { return robot(i); }, 90.0, kMax, kResolution);
   EXPECT_TRUE(b.reached_max);
   EXPECT_EQ(b.max_recovered, kMax);

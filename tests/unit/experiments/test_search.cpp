@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <system_error>
 #include <vector>
 
 #include "hpr/experiments/bisection.hpp"
@@ -18,12 +19,21 @@ namespace {
 using namespace hpr::experiments;
 namespace fs = std::filesystem;
 
-fs::path fresh_dir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("hpr-search-" + name + "-" + std::to_string(::getpid()));
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
+/// An empty folder of the test's own, removed with everything in it when the test ends.
+struct ScratchDir {
+  fs::path path;
+  explicit ScratchDir(const std::string& name)
+      : path(fs::temp_directory_path() / ("hpr-search-" + name + "-" + std::to_string(::getpid()))) {
+    fs::remove_all(path);
+    fs::create_directories(path);
+  }
+  ~ScratchDir() {
+    std::error_code ec;
+    fs::remove_all(path, ec);
+  }
+  ScratchDir(const ScratchDir&) = delete;
+  ScratchDir& operator=(const ScratchDir&) = delete;
+};
 
 /// A configuration file of its own for each test (the key hashes its content).
 SearchSpec spec_in(const fs::path& dir, const std::string& config_text = "robot: {}\n") {
@@ -45,7 +55,7 @@ SearchSpec spec_in(const fs::path& dir, const std::string& config_text = "robot:
 }
 
 /// A robot that recovers every impulse up to `threshold`, counting the trials it runs.
-struct Robot {
+struct ThresholdTrials {
   double threshold;
   int runs = 0;
   TrialResult operator()(const TrialSpec& s) {
@@ -67,10 +77,11 @@ std::vector<std::string> lines_of(const fs::path& file) {
 }
 
 TEST(Search, FindsWhatTheBisectionFindsAndKeepsEveryTrialInTheStore) {
-  const fs::path dir = fresh_dir("store");
+  const ScratchDir scratch("store");
+  const fs::path& dir = scratch.path;
   const SearchSpec spec = spec_in(dir);
   const SearchStore store(dir / "trials");
-  Robot robot{37.3};
+  ThresholdTrials robot{37.3};
   const SearchResult r = run_search(spec, {}, &store, {}, std::ref(robot));
   const ImpulseBracket expected = largest_recovered([](double i) { return i <= 37.3; }, 15.0, 80.0, 0.5);
   EXPECT_EQ(r.bracket.max_recovered, expected.max_recovered);
@@ -86,10 +97,11 @@ TEST(Search, FindsWhatTheBisectionFindsAndKeepsEveryTrialInTheStore) {
 }
 
 TEST(Search, WhatTheStoreHoldsIsNeverRunAgainWhereverTheSearchWasCut) {
-  const fs::path dir = fresh_dir("resume");
+  const ScratchDir scratch("resume");
+  const fs::path& dir = scratch.path;
   const SearchSpec spec = spec_in(dir);
   const SearchStore store(dir / "trials");
-  Robot first{52.1};
+  ThresholdTrials first{52.1};
   const SearchResult whole = run_search(spec, {}, &store, {}, std::ref(first));
   const std::vector<std::string> lines = lines_of(store.file(spec));
   // Cut after every number of trials: the rest, and only the rest, runs; the result is the same.
@@ -99,7 +111,7 @@ TEST(Search, WhatTheStoreHoldsIsNeverRunAgainWhereverTheSearchWasCut) {
       std::ofstream out(store.file(spec), std::ios::trunc);
       for (size_t i = 0; i <= kept; ++i) out << lines[i] << "\n";
     }
-    Robot again{52.1};
+    ThresholdTrials again{52.1};
     const SearchResult r = run_search(spec, store.trials(spec), &store, {}, std::ref(again));
     EXPECT_EQ(again.runs, static_cast<int>(whole.trials.size() - kept));
     EXPECT_EQ(r.bracket.max_recovered, whole.bracket.max_recovered);
@@ -117,10 +129,11 @@ TEST(Search, WhatTheStoreHoldsIsNeverRunAgainWhereverTheSearchWasCut) {
 }
 
 TEST(Search, ALastLineTornByAKilledWriterIsIgnoredAndOneElsewhereIsRefusedNamingTheLine) {
-  const fs::path dir = fresh_dir("torn");
+  const ScratchDir scratch("torn");
+  const fs::path& dir = scratch.path;
   const SearchSpec spec = spec_in(dir);
   const SearchStore store(dir / "trials");
-  Robot robot{30.0};
+  ThresholdTrials robot{30.0};
   const SearchResult whole = run_search(spec, {}, &store, {}, std::ref(robot));
   std::vector<std::string> lines = lines_of(store.file(spec));
   const std::string torn = lines.back().substr(0, lines.back().size() / 2);
@@ -143,7 +156,8 @@ TEST(Search, ALastLineTornByAKilledWriterIsIgnoredAndOneElsewhereIsRefusedNaming
 }
 
 TEST(Search, AnInconclusiveTrialRunsAgainAndCountsAsNotRecovered) {
-  const fs::path dir = fresh_dir("inconclusive");
+  const ScratchDir scratch("inconclusive");
+  const fs::path& dir = scratch.path;
   const SearchSpec spec = spec_in(dir);
   int runs = 0, retries = 0;
   SearchEvents events;
@@ -173,7 +187,8 @@ TEST(Search, AnInconclusiveTrialRunsAgainAndCountsAsNotRecovered) {
 }
 
 TEST(Search, ASpecSurvivesItsJsonExactly) {
-  const fs::path dir = fresh_dir("json");
+  const ScratchDir scratch("json");
+  const fs::path& dir = scratch.path;
   SearchSpec s = spec_in(dir);
   s.base.direction_deg = 1.0 / 3.0;
   s.base.peak = 65.000000000000014;
@@ -192,7 +207,8 @@ TEST(Search, ASpecSurvivesItsJsonExactly) {
 }
 
 TEST(Search, TheKeyChangesWithTheSpecAndTheConfigurationsContent) {
-  const fs::path dir = fresh_dir("key");
+  const ScratchDir scratch("key");
+  const fs::path& dir = scratch.path;
   const SearchSpec s = spec_in(dir);
   const std::string key = s.key();
   EXPECT_EQ(key.size(), 16U);

@@ -141,16 +141,16 @@ TEST(Cia402, TheStatuswordPatternsWhateverTheBitsTheyLeaveFree) {
   // (pattern, mask) of IEC 61800-7-201 table 30; every bit outside the mask set both ways.
   struct Row {
     std::uint16_t value, mask;
-    DriveState state;
+    canopen::DriveState state;
   };
-  const std::array<Row, 8> rows{{{0x0000, 0x004F, DriveState::kNotReadyToSwitchOn},
-                                 {0x0040, 0x004F, DriveState::kSwitchOnDisabled},
-                                 {0x0021, 0x006F, DriveState::kReadyToSwitchOn},
-                                 {0x0023, 0x006F, DriveState::kSwitchedOn},
-                                 {0x0027, 0x006F, DriveState::kOperationEnabled},
-                                 {0x0007, 0x006F, DriveState::kQuickStopActive},
-                                 {0x000F, 0x004F, DriveState::kFaultReactionActive},
-                                 {0x0008, 0x004F, DriveState::kFault}}};
+  const std::array<Row, 8> rows{{{0x0000, 0x004F, canopen::DriveState::kNotReadyToSwitchOn},
+                                 {0x0040, 0x004F, canopen::DriveState::kSwitchOnDisabled},
+                                 {0x0021, 0x006F, canopen::DriveState::kReadyToSwitchOn},
+                                 {0x0023, 0x006F, canopen::DriveState::kSwitchedOn},
+                                 {0x0027, 0x006F, canopen::DriveState::kOperationEnabled},
+                                 {0x0007, 0x006F, canopen::DriveState::kQuickStopActive},
+                                 {0x000F, 0x004F, canopen::DriveState::kFaultReactionActive},
+                                 {0x0008, 0x004F, canopen::DriveState::kFault}}};
   for (const Row& r : rows) {
     for (std::uint32_t free = 0; free <= 0xFFFF; free += 0x0111) {
       const auto sw = static_cast<std::uint16_t>(r.value | (free & ~r.mask & 0xFFFF));
@@ -165,10 +165,10 @@ TEST(Cia402, TheStatuswordPatternsWhateverTheBitsTheyLeaveFree) {
 
 TEST(Cia402, TheDeviceFollowsTable31AndReportsItsStateInItsStatusword) {
   DriveStateMachine d;
-  EXPECT_EQ(d.state(), DriveState::kNotReadyToSwitchOn);
+  EXPECT_EQ(d.state(), canopen::DriveState::kNotReadyToSwitchOn);
   EXPECT_EQ(d.apply(kCwShutdown), 0) << "nothing before start-up";
   d.tick();
-  EXPECT_EQ(d.state(), DriveState::kSwitchOnDisabled);
+  EXPECT_EQ(d.state(), canopen::DriveState::kSwitchOnDisabled);
   EXPECT_EQ(d.apply(kCwSwitchOn), 0) << "switch on from switch on disabled is no transition";
   EXPECT_EQ(d.apply(kCwShutdown), 2);
   EXPECT_EQ(d.apply(kCwSwitchOn), 3);
@@ -177,7 +177,7 @@ TEST(Cia402, TheDeviceFollowsTable31AndReportsItsStateInItsStatusword) {
   EXPECT_EQ(d.apply(kCwDisableOperation), 5);
   EXPECT_EQ(d.apply(kCwShutdown), 6);
   EXPECT_EQ(d.apply(kCwQuickStop), 7);
-  EXPECT_EQ(d.state(), DriveState::kSwitchOnDisabled);
+  EXPECT_EQ(d.state(), canopen::DriveState::kSwitchOnDisabled);
   for (int t : {2, 3, 4}) EXPECT_EQ(d.apply(t == 2 ? kCwShutdown : t == 3 ? kCwSwitchOn : kCwEnableOperation), t);
   EXPECT_EQ(d.apply(kCwShutdown), 8);
   (void)d.apply(kCwSwitchOn);
@@ -199,13 +199,13 @@ TEST(Cia402, TheDeviceFollowsTable31AndReportsItsStateInItsStatusword) {
   (void)d.apply(kCwSwitchOn);
   (void)d.apply(kCwEnableOperation);
   d.fault();
-  EXPECT_EQ(d.state(), DriveState::kFaultReactionActive);
+  EXPECT_EQ(d.state(), canopen::DriveState::kFaultReactionActive);
   EXPECT_FALSE(d.enabled());
   d.tick();
-  EXPECT_EQ(d.state(), DriveState::kFault);
+  EXPECT_EQ(d.state(), canopen::DriveState::kFault);
   EXPECT_EQ(d.apply(kCwEnableOperation), 0) << "a fault is left only by a reset";
   EXPECT_EQ(d.apply(kCwFaultReset), 15);
-  EXPECT_EQ(d.state(), DriveState::kSwitchOnDisabled);
+  EXPECT_EQ(d.state(), canopen::DriveState::kSwitchOnDisabled);
   d.fault();
   d.tick();
   EXPECT_EQ(d.apply(kCwFaultReset), 0) << "bit 7 still up from the last reset: no edge";
@@ -241,9 +241,9 @@ TEST(Cia402, TheMastersControlwordsBringADriveToOperationEnabledAndFaultsStayUnt
   }
   EXPECT_TRUE(d.enabled());
   EXPECT_EQ(steps, 3) << "shutdown, switch on, enable operation";
-  EXPECT_EQ(next_controlword(DriveState::kOperationEnabled, true, false, cw), kCwEnableOperation) << "held";
+  EXPECT_EQ(next_controlword(canopen::DriveState::kOperationEnabled, true, false, cw), kCwEnableOperation) << "held";
   // Limp on request: disable voltage from any state.
-  for (auto s : {DriveState::kOperationEnabled, DriveState::kSwitchedOn, DriveState::kReadyToSwitchOn, DriveState::kQuickStopActive}) {
+  for (auto s : {canopen::DriveState::kOperationEnabled, canopen::DriveState::kSwitchedOn, canopen::DriveState::kReadyToSwitchOn, canopen::DriveState::kQuickStopActive}) {
     EXPECT_EQ(next_controlword(s, false, false, kCwEnableOperation), kCwDisableVoltage) << to_string(s);
   }
   // A fault: no reset unless asked; asked, a rising edge on bit 7, then on to operation enabled.
@@ -253,7 +253,7 @@ TEST(Cia402, TheMastersControlwordsBringADriveToOperationEnabledAndFaultsStayUnt
     cw = next_controlword(*decode_statusword(d.statusword()), true, false, cw);
     (void)d.apply(cw);
   }
-  EXPECT_EQ(d.state(), DriveState::kFault);
+  EXPECT_EQ(d.state(), canopen::DriveState::kFault);
   steps = 0;
   bool reset_asked = true;
   while (!d.enabled() && steps < 10) {
@@ -264,10 +264,10 @@ TEST(Cia402, TheMastersControlwordsBringADriveToOperationEnabledAndFaultsStayUnt
   EXPECT_TRUE(d.enabled());
   EXPECT_EQ(steps, 4) << "fault reset, shutdown, switch on, enable operation";
   // After a quick stop the master takes the drive down through switch on disabled.
-  EXPECT_EQ(next_controlword(DriveState::kQuickStopActive, true, false, kCwEnableOperation), kCwDisableVoltage);
+  EXPECT_EQ(next_controlword(canopen::DriveState::kQuickStopActive, true, false, kCwEnableOperation), kCwDisableVoltage);
   // A reset asked for while bit 7 is already up first drops it.
-  EXPECT_EQ(next_controlword(DriveState::kFault, true, true, kCwFaultReset), kCwDisableVoltage);
-  EXPECT_EQ(next_controlword(DriveState::kFault, true, true, kCwDisableVoltage), kCwFaultReset);
+  EXPECT_EQ(next_controlword(canopen::DriveState::kFault, true, true, kCwFaultReset), kCwDisableVoltage);
+  EXPECT_EQ(next_controlword(canopen::DriveState::kFault, true, true, kCwDisableVoltage), kCwFaultReset);
 }
 
 }  // namespace
