@@ -289,6 +289,11 @@ TEST(SteppingClosedLoop, H1StepsOutOfAPushItCannotHoldStandingLandingBeyondTheCa
       at_the_dcm_overlay.push_back(o);
     }
   }
+  // Its decision and landing are the code's defaults; config/h1_2.yaml's own would show through.
+  for (const char* key : {"balance.stepping.cmp_reach=0.025", "balance.stepping.cmp_reach_backward=0.025",
+                          "balance.stepping.cmp_reach_sideways=0.025", "balance.stepping.dcm_offset=0"}) {
+    at_the_dcm_overlay.emplace_back(key);
+  }
   const Outcome at_the_dcm = push_from_behind(45.0, at_the_dcm_overlay, Eigen::Vector3d::UnitX(), "h1_2");
   EXPECT_TRUE(at_the_dcm.fallen) << "landing at the predicted DCM recovers too: the landing offset is not what recovers";
   const Outcome stepping = push_from_behind(45.0, stepping_overlay("h1_2"), Eigen::Vector3d::UnitX(), "h1_2");

@@ -498,23 +498,31 @@ TEST(PhysicsStep, TheConfiguredStepGivesTheOutcomeOfAStepFourTimesFiner) {
   }
 }
 
+/// A robot's default as shipped, pushed at a 130 N peak from behind: `stepped` N s is recovered by
+/// stepping where both single strategies (stepping off, the same posture) fall; `held` N s is held
+/// standing, without a step.
+void expect_steps_where_both_standing_strategies_fall(const std::string& robot, const std::string& stepped,
+                                                      const std::string& held) {
+  const std::string push = "--in-process --robot " + robot + " --support double --peak 130 --direction 0 --impulse ";
+  const json by_step = trial(push + stepped + " --strategy cam");
+  const json cam = trial(push + stepped + " --strategy cam-standing");
+  const json ankle = trial(push + stepped + " --strategy ankle-standing");
+  EXPECT_TRUE(by_step["recovered"].get<bool>()) << robot << ": " << by_step.dump();
+  EXPECT_GE(by_step["steps"].get<int>(), 1) << robot << ": " << by_step.dump();
+  EXPECT_FALSE(cam["recovered"].get<bool>()) << robot << ": " << cam.dump();
+  EXPECT_FALSE(ankle["recovered"].get<bool>()) << robot << ": " << ankle.dump();
+  const json standing = trial(push + held + " --strategy cam");
+  EXPECT_TRUE(standing["recovered"].get<bool>()) << robot << ": " << standing.dump();
+  EXPECT_EQ(standing["steps"].get<int>(), 0) << robot << ": " << standing.dump();
+  EXPECT_EQ(standing["steps_started"].get<int>(), 0) << robot << ": " << standing.dump();
+}
+
 TEST(DefaultController, StepsWhereBothStandingStrategiesFallAndStandsThroughASmallerPush) {
   // config/toro.yaml as shipped: ankle, hip and step. At a 130 N peak from behind (docs/RESULTS.md,
   // "The default controller": the default holds a push of 120 N s, the CAM strategy standing 48.5
   // and the ankle strategy standing 39.8 N s), 55 N s: the default recovers by stepping where
   // both single strategies, in the same posture, fall. 20 N s: it holds standing, without a step.
-  const std::string push = "--in-process --robot toro --support double --peak 130 --direction 0 --impulse ";
-  const json stepped = trial(push + "55 --strategy cam");
-  const json cam = trial(push + "55 --strategy cam-standing");
-  const json ankle = trial(push + "55 --strategy ankle-standing");
-  EXPECT_TRUE(stepped["recovered"].get<bool>()) << stepped.dump();
-  EXPECT_GE(stepped["steps"].get<int>(), 1) << stepped.dump();
-  EXPECT_FALSE(cam["recovered"].get<bool>()) << cam.dump();
-  EXPECT_FALSE(ankle["recovered"].get<bool>()) << ankle.dump();
-  const json held = trial(push + "20 --strategy cam");
-  EXPECT_TRUE(held["recovered"].get<bool>()) << held.dump();
-  EXPECT_EQ(held["steps"].get<int>(), 0) << held.dump();
-  EXPECT_EQ(held["steps_started"].get<int>(), 0) << held.dump();
+  expect_steps_where_both_standing_strategies_fall("toro", "55", "20");
 }
 
 TEST(DefaultController, ALightlyLoadedSoleHoldsNoTorsionAboutItsLoadedCorner) {
@@ -550,9 +558,10 @@ TEST(DefaultController, TheTrailingFootFollowsOnlyOnceTheCapturePointIsOverTheLa
 }
 
 TEST(SecondRobot, H1StandsAndRecoversAPushItsAnkleStrategyDoesNot) {
-  // Configuration only (config/h1_2.yaml). The impulse sits between the two strategies' limits
-  // from the front (see docs/RESULTS.md for the sweep that found them).
-  const std::string args = "--robot h1_2 --support double --direction 180 --peak 65 --impulse ";
+  // Configuration only (config/h1_2.yaml), in the paper's configuration (config/overlays/paper.yaml)
+  // and through the processes. The impulse sits between the two strategies' limits from the front
+  // (see docs/RESULTS.md for the sweep that found them).
+  const std::string args = "--robot h1_2" + overlay("paper") + " --support double --direction 180 --peak 65 --impulse ";
   const json stand = trial(args + "1 --strategy cam");
   EXPECT_TRUE(stand["recovered"].get<bool>()) << "stands: " << stand.dump();
   const std::string impulse = HPR_H1_TEST_IMPULSE;
@@ -560,6 +569,36 @@ TEST(SecondRobot, H1StandsAndRecoversAPushItsAnkleStrategyDoesNot) {
   const json cam = trial(args + impulse + " --strategy cam", hpr::test::temp_dir("h1-cam"), "H1-2: push from the front, CAM strategy");
   EXPECT_FALSE(ankle["recovered"].get<bool>()) << ankle.dump();
   EXPECT_TRUE(cam["recovered"].get<bool>()) << cam.dump();
+}
+
+TEST(SecondRobot, H1DefaultStepsWhereBothStandingStrategiesFallAndStandsThroughASmallerPush) {
+  // config/h1_2.yaml as shipped: ankle, hip and step. At a 130 N peak from behind (docs/RESULTS.md,
+  // "The default controller (H1-2)": the CAM strategy standing holds 38.8 N s, the ankle strategy standing
+  // 34.3), 50 N s: the default recovers by stepping where both single strategies, in the same
+  // posture, fall. 20 N s: it holds standing, without a step. Sideways, 80 N s: the H1-2 holds it
+  // standing and the default takes no step (it stepped and fell with the reach ahead beside the soles).
+  expect_steps_where_both_standing_strategies_fall("h1_2", "50", "20");
+  const std::string push = "--in-process --robot h1_2 --support double --peak 130 --direction ";
+  const json sideways = trial(push + "90 --impulse 80 --strategy cam");
+  const json reach_ahead = trial(push + "90 --impulse 80 --strategy cam --set balance.stepping.cmp_reach_sideways=0.02");
+  EXPECT_TRUE(sideways["recovered"].get<bool>()) << sideways.dump();
+  EXPECT_EQ(sideways["steps_started"].get<int>(), 0) << sideways.dump();
+  EXPECT_FALSE(reach_ahead["recovered"].get<bool>()) << reach_ahead.dump();
+  EXPECT_GE(reach_ahead["steps_started"].get<int>(), 1) << reach_ahead.dump();
+}
+
+TEST(SecondRobot, H1DiagonalPushLoadsASoleCornerTheHipStrategyHoldsItWithItsCoPACentimetreInside) {
+  // 24 N s at 45 deg, 130 N peak, standing: the CoP of the front left sole goes to its corner. With
+  // the CoP bounded 5 mm inside the soles (the paper's wbc.contact.cop_margin) the hip strategy
+  // tilts that sole past 2 deg and loses the push the ankle strategy alone holds (24.96 N s); 1 cm
+  // inside (as configured) it holds it with the sole flat.
+  const std::string push = "--in-process --robot h1_2 --support double --peak 130 --direction 45 --impulse 24 --strategy cam-standing";
+  const json configured = trial(push);
+  const json thin = trial(push + " --set wbc.contact.cop_margin=0.005");
+  EXPECT_TRUE(configured["recovered"].get<bool>()) << configured.dump();
+  EXPECT_LT(configured["max_foot_tilt_deg"].get<double>(), 1.0) << configured.dump();
+  EXPECT_FALSE(thin["recovered"].get<bool>()) << thin.dump();
+  EXPECT_GT(thin["max_foot_tilt_deg"].get<double>(), 2.0) << thin.dump();
 }
 
 TEST(ThirdRobot, G1AsPublishedStandsAndRecoversFromBehindAndTheFront) {

@@ -155,6 +155,7 @@ SteppingConfig SteppingConfig::load(const Config& c) {
   s.margin = c.real_or("margin", s.margin, -0.1, 0.2);
   s.cmp_reach = c.real_or("cmp_reach", s.cmp_reach, 0.0, 0.5);
   s.cmp_reach_backward = c.real_or("cmp_reach_backward", s.cmp_reach, 0.0, 0.5);
+  s.cmp_reach_sideways = c.real_or("cmp_reach_sideways", s.cmp_reach, 0.0, 0.5);
   s.lean_range = c.real_or("lean_range", s.lean_range, 0.0, 1.5);
   s.t_min = c.real_or("t_min", s.t_min, 0.05, 2.0);
   s.t_max = c.real_or("t_max", s.t_max, s.t_min, 3.0);
@@ -199,8 +200,11 @@ double StepPlanner::excess(const std::array<Sole, 2>& soles, const std::array<bo
   double reach = config_.cmp_reach;
   if (n > 0 && norm > 0.0) {
     if (hnorm > 0.0) {
-      const double behind = std::max(0.0, -d.dot(heading) / (norm * hnorm));  // cos of the angle to −x
-      reach += (config_.cmp_reach_backward - config_.cmp_reach) * behind * behind;
+      const double along = d.dot(heading) / (norm * hnorm);  // cos of the angle to x
+      const double behind = std::max(0.0, -along);
+      const double side2 = std::max(0.0, 1.0 - along * along);  // sin² of that angle
+      reach += (config_.cmp_reach_backward - config_.cmp_reach) * behind * behind +
+               (config_.cmp_reach_sideways - config_.cmp_reach) * (side2 * side2) * (side2 * side2);
     }
     if (config_.lean_range > 0.0) {
       const double leaning = std::max(0.0, lean.dot(d) / norm);  // sin of the lean towards ξ

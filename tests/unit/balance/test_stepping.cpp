@@ -173,7 +173,7 @@ TEST(SupportPoint, InsideItIsThePointItselfOutsideTheNearestPointOfTheShrunkHull
 SteppingConfig deciding(double cmp_reach) {
   SteppingConfig c;
   c.enabled = true;
-  c.cmp_reach = cmp_reach;
+  c.cmp_reach = c.cmp_reach_backward = c.cmp_reach_sideways = cmp_reach;
   return c;
 }
 
@@ -215,6 +215,39 @@ TEST(StepDecision, BehindTheSupportTheBackwardReachHoldsBetweenTheDirectionsItBl
     const Vector2d diagonal = R * Vector2d(-0.13, -0.13);
     const double d = hpr::balance::support_distance(soles, both, diagonal);
     EXPECT_NEAR(planner.excess(soles, both, diagonal), d - 0.035, 1e-12) << yaw;
+  }
+}
+
+TEST(StepDecision, BesideTheSupportTheSidewaysReachHoldsAndTheDiagonalsKeepLittleOfIt) {
+  SteppingConfig c = deciding(0.02);
+  c.cmp_reach_backward = 0.04;
+  c.cmp_reach_sideways = 0.06;
+  StepPlanner planner(c);
+  const std::array<bool, 2> both{true, true};
+  for (const double yaw : {0.0, -1.1}) {
+    auto soles = standing();
+    const Eigen::Rotation2Dd R(yaw);
+    for (auto& sole : soles) {
+      sole.centre = R * sole.centre;
+      sole.yaw = yaw;
+    }
+    // 4 cm beside either foot: inside the sideways reach; ahead and behind as without it.
+    for (const double side : {1.0, -1.0}) {
+      const Vector2d xi = R * Vector2d(0.0, side * 0.19);
+      EXPECT_NEAR(planner.excess(soles, both, xi), 0.04 - 0.06, 1e-12) << yaw;
+      EXPECT_FALSE(planner.step_needed(soles, both, xi)) << yaw;
+    }
+    EXPECT_NEAR(planner.excess(soles, both, R * Vector2d(0.14, 0.0)), 0.04 - 0.02, 1e-12) << yaw;
+    EXPECT_NEAR(planner.excess(soles, both, R * Vector2d(-0.14, 0.0)), 0.04 - 0.04, 1e-12) << yaw;
+    // At 45° ahead: sin⁸ 45° = 1/16 of the sideways gain; at 45° behind also half the backward one.
+    const Vector2d ahead = R * Vector2d(0.13, 0.13), behind = R * Vector2d(-0.13, 0.13);
+    EXPECT_NEAR(planner.excess(soles, both, ahead), hpr::balance::support_distance(soles, both, ahead) - 0.0225, 1e-12);
+    EXPECT_NEAR(planner.excess(soles, both, behind),
+                hpr::balance::support_distance(soles, both, behind) - (0.02 + 0.5 * 0.02 + 0.04 / 16), 1e-12);
+    // At 60° from ahead (sin² = 3/4): (3/4)⁴ of it.
+    const Vector2d steep = R * Vector2d(0.5 * 0.3, std::sqrt(0.75) * 0.3);
+    EXPECT_NEAR(planner.excess(soles, both, steep),
+                hpr::balance::support_distance(soles, both, steep) - (0.02 + 0.04 * std::pow(0.75, 4)), 1e-12);
   }
 }
 
@@ -384,6 +417,11 @@ TEST(SteppingConfig, LoadsAndRefusesOutOfRangeValuesNamingTheKey) {
   EXPECT_EQ(c.cmp_reach_backward, 0.03) << "unset, the reach behind is the reach ahead";
   const auto behind = hpr::Config::parse("stepping: {cmp_reach: 0.03, cmp_reach_backward: 0.05}", "test.yaml");
   EXPECT_EQ(SteppingConfig::load(behind.section("stepping")).cmp_reach_backward, 0.05);
+  EXPECT_EQ(c.cmp_reach_sideways, 0.03) << "unset, the reach beside is the reach ahead";
+  const auto beside = hpr::Config::parse("stepping: {cmp_reach: 0.03, cmp_reach_sideways: 0.06}", "test.yaml");
+  EXPECT_EQ(SteppingConfig::load(beside.section("stepping")).cmp_reach_sideways, 0.06);
+  EXPECT_THROW((void)SteppingConfig::load(hpr::Config::parse("stepping: {cmp_reach_sideways: -0.01}", "test.yaml").section("stepping")),
+               hpr::ConfigError);
   EXPECT_EQ(c.lean_range, 0.0) << "unset, the lean is not looked at";
   const auto lean = hpr::Config::parse("stepping: {lean_range: 0.25}", "test.yaml");
   EXPECT_EQ(SteppingConfig::load(lean.section("stepping")).lean_range, 0.25);

@@ -80,6 +80,12 @@ struct SteppingConfig {
   /// the trunk leans back to gain it, with more range than leaning forward, where stretched knees end
   /// it early. Between the directions the reach blends with the squares of the direction's components.
   double cmp_reach_backward = 0.025;
+  /// [m] the same beside the support (a push from the side), where the hip strategy turns the trunk
+  /// about x and its reach is the robot's own (a wide stance holds more standing than a step gives).
+  /// It blends in with the eighth power of the sideways component (1/16 of it at 45°), so that the
+  /// diagonals keep nearly the forward or backward reach: a sole loaded at its corner tilts sooner
+  /// than one loaded along its edge.
+  double cmp_reach_sideways = 0.025;
   /// [rad] what is left of the reach shrinks with the base's lean towards ξ, to nothing at this
   /// lean: the hip strategy holds ξ beyond the support by turning the trunk through its range (the
   /// flywheel of the capture-point literature), and a trunk already leaning into ξ has less of that
