@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "closed_loop.hpp"
+#include "hpr/balance/stepping.hpp"
 #include "hpr/experiments/trial.hpp"
 #include "paper.hpp"
 #include "process_group.hpp"
@@ -289,11 +290,13 @@ TEST(SteppingClosedLoop, H1StepsOutOfAPushItCannotHoldStandingLandingBeyondTheCa
       at_the_dcm_overlay.push_back(o);
     }
   }
-  // Its decision and landing are the code's defaults; config/h1_2.yaml's own would show through.
-  for (const char* key : {"balance.stepping.cmp_reach=0.025", "balance.stepping.cmp_reach_backward=0.025",
-                          "balance.stepping.cmp_reach_sideways=0.025", "balance.stepping.dcm_offset=0"}) {
-    at_the_dcm_overlay.emplace_back(key);
+  // Its decision and landing are the code's defaults (config/h1_2.yaml's own would show through),
+  // the reach the same every way.
+  const hpr::balance::SteppingConfig code;
+  for (const char* key : {"cmp_reach", "cmp_reach_backward", "cmp_reach_sideways"}) {
+    at_the_dcm_overlay.push_back(std::string("balance.stepping.") + key + "=" + std::to_string(code.cmp_reach));
   }
+  at_the_dcm_overlay.push_back("balance.stepping.dcm_offset=" + std::to_string(code.dcm_offset));
   const Outcome at_the_dcm = push_from_behind(45.0, at_the_dcm_overlay, Eigen::Vector3d::UnitX(), "h1_2");
   EXPECT_TRUE(at_the_dcm.fallen) << "landing at the predicted DCM recovers too: the landing offset is not what recovers";
   const Outcome stepping = push_from_behind(45.0, stepping_overlay("h1_2"), Eigen::Vector3d::UnitX(), "h1_2");

@@ -517,6 +517,18 @@ void expect_steps_where_both_standing_strategies_fall(const std::string& robot, 
   EXPECT_EQ(standing["steps_started"].get<int>(), 0) << robot << ": " << standing.dump();
 }
 
+/// The push `push` (push_trial's arguments) is recovered as configured with `field` of its result
+/// below `configured_below`, and lost with the override `set` (key=value), `field` above `set_above`.
+void expect_held_as_configured_and_lost_with(const std::string& push, const std::string& set, const std::string& field,
+                                             double configured_below, double set_above) {
+  const json configured = trial(push);
+  const json changed = trial(push + " --set " + set);
+  EXPECT_TRUE(configured["recovered"].get<bool>()) << configured.dump();
+  EXPECT_LT(configured[field].get<double>(), configured_below) << configured.dump();
+  EXPECT_FALSE(changed["recovered"].get<bool>()) << set << ": " << changed.dump();
+  EXPECT_GT(changed[field].get<double>(), set_above) << set << ": " << changed.dump();
+}
+
 TEST(DefaultController, StepsWhereBothStandingStrategiesFallAndStandsThroughASmallerPush) {
   // config/toro.yaml as shipped: ankle, hip and step. At a 130 N peak from behind (docs/RESULTS.md,
   // "The default controller": the default holds a push of 120 N s, the CAM strategy standing 48.5
@@ -531,13 +543,9 @@ TEST(DefaultController, ALightlyLoadedSoleHoldsNoTorsionAboutItsLoadedCorner) {
   // (wbc.contact.sole_torsion false), the wbc asks that sole for a torsion its corners cannot hold,
   // it turns about the loaded corner and slides past 1 cm; bounded by what its four corners hold (as
   // configured) it holds (docs/notes/2026-12-01-sole-torsion.md).
-  const std::string push = "--in-process --robot toro --support double --peak 130 --direction 135 --impulse 47 --strategy cam";
-  const json bounded = trial(push);
-  const json unbounded = trial(push + " --set wbc.contact.sole_torsion=false");
-  EXPECT_TRUE(bounded["recovered"].get<bool>()) << bounded.dump();
-  EXPECT_LT(bounded["max_sole_slip_m"].get<double>(), 0.01) << bounded.dump();
-  EXPECT_FALSE(unbounded["recovered"].get<bool>()) << unbounded.dump();
-  EXPECT_GT(unbounded["max_sole_slip_m"].get<double>(), 0.01) << unbounded.dump();
+  expect_held_as_configured_and_lost_with(
+      "--in-process --robot toro --support double --peak 130 --direction 135 --impulse 47 --strategy cam",
+      "wbc.contact.sole_torsion=false", "max_sole_slip_m", 0.01, 0.01);
 }
 
 TEST(DefaultController, TheTrailingFootFollowsOnlyOnceTheCapturePointIsOverTheLandedSole) {
@@ -592,13 +600,9 @@ TEST(SecondRobot, H1DiagonalPushLoadsASoleCornerTheHipStrategyHoldsItWithItsCoPA
   // the CoP bounded 5 mm inside the soles (the paper's wbc.contact.cop_margin) the hip strategy
   // tilts that sole past 2 deg and loses the push the ankle strategy alone holds (24.96 N s); 1 cm
   // inside (as configured) it holds it with the sole flat.
-  const std::string push = "--in-process --robot h1_2 --support double --peak 130 --direction 45 --impulse 24 --strategy cam-standing";
-  const json configured = trial(push);
-  const json thin = trial(push + " --set wbc.contact.cop_margin=0.005");
-  EXPECT_TRUE(configured["recovered"].get<bool>()) << configured.dump();
-  EXPECT_LT(configured["max_foot_tilt_deg"].get<double>(), 1.0) << configured.dump();
-  EXPECT_FALSE(thin["recovered"].get<bool>()) << thin.dump();
-  EXPECT_GT(thin["max_foot_tilt_deg"].get<double>(), 2.0) << thin.dump();
+  expect_held_as_configured_and_lost_with(
+      "--in-process --robot h1_2 --support double --peak 130 --direction 45 --impulse 24 --strategy cam-standing",
+      "wbc.contact.cop_margin=0.005", "max_foot_tilt_deg", 1.0, 2.0);
 }
 
 TEST(ThirdRobot, G1AsPublishedStandsAndRecoversFromBehindAndTheFront) {
