@@ -290,10 +290,10 @@ TEST_P(OneFoot, StandsOnEitherFootWithEitherStrategyAndTheEstimatorInTheLoop) {
 /// the support. The G1's four 5 mm sole spheres seat themselves in the first milliseconds (the
 /// ankles turn at up to 1.4 rad/s): a tick of those rates taken for the base's velocity, integrated
 /// until a sole is an anchor again, moves the estimate off the feet.
-double g1_start_drift(bool settle_at_start, bool edges) {
+double g1_start_drift(bool settle_at_start, bool edges, bool sole_torsion = true) {
   ClosedLoop loop("g1",
                   {fmt::format("estimator.settle_at_start={}", settle_at_start), fmt::format("estimator.edge_velocity_noise={}", edges ? 0.03 : 0.0),
-                   fmt::format("estimator.settle_after_roll={}", edges)},
+                   fmt::format("estimator.settle_after_roll={}", edges), fmt::format("wbc.contact.sole_torsion={}", sole_torsion)},
                   ClosedLoopOptions{.estimator_in_loop = true});
   Vector3d e0 = Vector3d::Zero();
   bool have_e0 = false;
@@ -312,14 +312,20 @@ double g1_start_drift(bool settle_at_start, bool edges) {
 
 TEST(EstimatorAccuracy, SolesSeatingThemselvesAtTheStartLeaveTheEstimateOnItsFeet) {
   // settle_at_start on its own (the soles' edge handling off: a sole rolling on an edge gives no
-  // velocity, none settles after a roll), then the shipped configuration (all on).
-  const double settled = g1_start_drift(true, false), unsettled = g1_start_drift(false, false), shipped = g1_start_drift(true, true);
+  // velocity, none settles after a roll), with each sole's torsion bounded by torsion x f_z (the
+  // paper's contact model, wbc.contact.sole_torsion false), under which the spheres seat themselves;
+  // then the shipped configuration (all on, the torsion bounded by the sole's corners), and that
+  // contact model without settle_at_start: the wbc then asks the soles for no torsion their
+  // spheres cannot hold, and they hardly move.
+  const double settled = g1_start_drift(true, false, false), unsettled = g1_start_drift(false, false, false);
+  const double shipped = g1_start_drift(true, true), corners_unsettled = g1_start_drift(false, false);
   std::printf("G1 standing, the estimated CoM's drift against the truth in the first second: %.1f mm with settle_at_start, %.1f mm without "
-              "(edge handling off); %.1f mm as configured\n",
-              settled * 1e3, unsettled * 1e3, shipped * 1e3);
+              "(edge handling and the corners' torsion bound off); %.1f mm as configured, %.1f mm so without settle_at_start\n",
+              settled * 1e3, unsettled * 1e3, shipped * 1e3, corners_unsettled * 1e3);
   EXPECT_LT(settled, 3e-3);
   EXPECT_GT(unsettled, 10e-3) << "without it the start's transient is in the estimate (what this test guards against)";
   EXPECT_LT(shipped, 3e-3);
+  EXPECT_LT(corners_unsettled, 3e-3);
 }
 
 INSTANTIATE_TEST_SUITE_P(Robots, EstimatorInTheLoop, ::testing::Values("toro", "h1_2"));

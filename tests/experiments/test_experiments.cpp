@@ -606,12 +606,13 @@ TEST(SecondRobot, H1DiagonalPushLoadsASoleCornerTheHipStrategyHoldsItWithItsCoPA
 }
 
 TEST(ThirdRobot, G1AsPublishedStandsAndRecoversFromBehindAndTheFront) {
-  // config/g1.yaml as `hpr_robot init` wrote it from the published URDF (meshes, sphere feet, the
-  // fingers held). From the front the impulse sits between the two strategies' limits; from behind
-  // the two strategies' limits depend on the physics step (docs/RESULTS.md) and the test asks for a
-  // recovery below both. The 30 s stand runs in process (the processes' messages bit for bit,
-  // `InProcess.*`), the pushes through the processes.
-  const std::string args = "--robot g1 --support double --peak 65 ";
+  // config/g1.yaml's robot section as `hpr_robot init` wrote it from the published URDF (meshes,
+  // sphere feet, the fingers held), in the paper's configuration (config/overlays/paper.yaml). From
+  // the front the impulse sits between the two strategies' limits; from behind the two strategies'
+  // limits depend on the physics step (docs/RESULTS.md) and the test asks for a recovery below both.
+  // The 30 s stand runs in process (the processes' messages bit for bit, `InProcess.*`), the pushes
+  // through the processes.
+  const std::string args = "--robot g1" + kPaper + " --support double --peak 65 ";
   const json stand = trial("--in-process " + args + "--direction 0 --impulse 1 --push-time 30 --strategy cam");
   EXPECT_TRUE(stand["recovered"].get<bool>()) << "stands 30 s: " << stand.dump();
   EXPECT_GE(stand["push_start_s"].get<double>(), 30.0);
@@ -623,6 +624,24 @@ TEST(ThirdRobot, G1AsPublishedStandsAndRecoversFromBehindAndTheFront) {
   const json cam = trial(front + " --strategy cam", hpr::test::temp_dir("g1-cam-180"), "G1: push from the front, CAM strategy");
   EXPECT_FALSE(ankle["recovered"].get<bool>()) << ankle.dump();
   EXPECT_TRUE(cam["recovered"].get<bool>()) << cam.dump();
+}
+
+TEST(ThirdRobot, G1DefaultStepsWhereBothStandingStrategiesFallAndStandsThroughASmallerPush) {
+  // config/g1.yaml as shipped: ankle, hip and step. At a 130 N peak from behind (docs/RESULTS.md,
+  // "The default controller (G1)": the default holds 29.88 N s, the CAM strategy standing 11.88 and
+  // the ankle strategy standing 11.25), 20 N s: the default recovers by stepping where both single
+  // strategies, in the same posture, fall. 5 N s: it holds standing, without a step (it steps from
+  // 7 N s on). Sideways, 18 N s: the G1 holds it standing (19.22 N s) and the default takes no
+  // step; with the H1-2's 8 cm reach beside the soles it steps and falls (the push's force shifts
+  // the capture point by F / (m w^2), 24 cm at 130 N on this 34 kg robot).
+  expect_steps_where_both_standing_strategies_fall("g1", "20", "5");
+  const std::string push = "--in-process --robot g1 --support double --peak 130 --direction 90 --impulse 18 --strategy cam";
+  const json sideways = trial(push);
+  const json reach_h1 = trial(push + " --set balance.stepping.cmp_reach_sideways=0.08");
+  EXPECT_TRUE(sideways["recovered"].get<bool>()) << sideways.dump();
+  EXPECT_EQ(sideways["steps_started"].get<int>(), 0) << sideways.dump();
+  EXPECT_FALSE(reach_h1["recovered"].get<bool>()) << reach_h1.dump();
+  EXPECT_GE(reach_h1["steps_started"].get<int>(), 1) << reach_h1.dump();
 }
 
 TEST(Onboarding, ABipedAsPublishedIsInitialisedStandsAndRecoversPushesFromBehindAndTheFront) {
