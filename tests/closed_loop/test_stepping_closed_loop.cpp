@@ -290,13 +290,12 @@ TEST(SteppingClosedLoop, H1StepsOutOfAPushItCannotHoldStandingLandingBeyondTheCa
       at_the_dcm_overlay.push_back(o);
     }
   }
-  // Its decision and landing are the code's defaults (config/h1_2.yaml's own would show through),
-  // the reach the same every way.
+  // Its decision and landing are the code's defaults (config/h1_2.yaml's own would show through).
   const hpr::balance::SteppingConfig code;
-  for (const char* key : {"cmp_reach", "cmp_reach_backward", "cmp_reach_sideways"}) {
-    at_the_dcm_overlay.push_back(std::string("balance.stepping.") + key + "=" + std::to_string(code.cmp_reach));
+  for (const auto& [key, value] : {std::pair{"cmp_reach", code.cmp_reach}, std::pair{"cmp_reach_backward", code.cmp_reach_backward},
+                                   std::pair{"cmp_reach_sideways", code.cmp_reach_sideways}, std::pair{"dcm_offset", code.dcm_offset}}) {
+    at_the_dcm_overlay.push_back(std::string("balance.stepping.") + key + "=" + std::to_string(value));
   }
-  at_the_dcm_overlay.push_back("balance.stepping.dcm_offset=" + std::to_string(code.dcm_offset));
   const Outcome at_the_dcm = push_from_behind(45.0, at_the_dcm_overlay, Eigen::Vector3d::UnitX(), "h1_2");
   EXPECT_TRUE(at_the_dcm.fallen) << "landing at the predicted DCM recovers too: the landing offset is not what recovers";
   const Outcome stepping = push_from_behind(45.0, stepping_overlay("h1_2"), Eigen::Vector3d::UnitX(), "h1_2");

@@ -236,7 +236,8 @@ TEST(RobotDraft, TheShippedG1ConfigurationIsInitsOutputWithItsControllerSet) {
   ASSERT_FALSE(top_level_section(text, "robot").empty());
   EXPECT_EQ(top_level_section(text, "robot"), top_level_section(shipped, "robot"));
 
-  YAML::Node written = YAML::Load(text), set = YAML::Load(shipped);
+  const YAML::Node written = YAML::Load(text);
+  YAML::Node set = YAML::Load(shipped);
   EXPECT_FALSE(written["balance"]["push_compensation"]) << "the template now writes push compensation: this test's list is out of date";
   EXPECT_FALSE(written["balance"]["stepping"]);
   EXPECT_FALSE(written["reference_gen"]["x"]);
