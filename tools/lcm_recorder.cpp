@@ -3,27 +3,38 @@
 //
 // lcm-logger keeps LCM's default subscription queue of 30 messages: with the whole stack at
 // 1 kHz (about 8 messages per tick, more in lockstep) a logger held up for 4 ms loses messages.
-// This recorder queues up to --queue messages, asks the kernel for a socket buffer of seconds of
-// traffic, and on exit says which ticks of the data-flow channels are missing, so that a log is
-// known complete or known holed.
+// This recorder asks the kernel for a socket buffer of seconds of traffic (on a URL other than
+// udpm://, liblcm's queue holds up to --queue messages too), and on exit says which ticks of the
+// data-flow channels are missing, so that a log is known complete or known holed.
+//
+// On a udpm URL it reads the multicast socket itself (hpr/node/udpm.hpp) and stamps each message
+// with the kernel's receive time: on the loopback, the instant it was published, however late
+// the recorder woke. A recording's delays (lcm_latency) are then those of the stack, not of the
+// recorder's scheduling.
 //
 // Exit status: 0 recorded (complete), 1 error, 2 bad use, 3 recorded with missing ticks, 4 (--check)
 // undecodable messages in the log.
 #include <fmt/format.h>
 
+#include <poll.h>
+
+#include <cerrno>
 #include <csignal>
 #include <filesystem>
 #include <cstdio>
 #include <lcm/lcm-cpp.hpp>
 #include <map>
 #include <memory>
+#include <regex>
 #include <string>
+#include <string_view>
 
 #include "hpr/common/args.hpp"
 #include "hpr/common/time.hpp"
 #include "hpr/msg/log_check.hpp"
 #include "hpr/msg/ticks.hpp"
 #include "hpr/node/lcm_url.hpp"
+#include "hpr/node/udpm.hpp"
 
 namespace {
 
@@ -35,7 +46,8 @@ Records every LCM message (or those of --channel) into FILE until SIGINT or SIGT
 data-flow channels lack.
   --lcm-url URL     LCM URL (default: $LCM_DEFAULT_URL, else LCM's default)
   --channel REGEX   channels to record (default .*)
-  --queue N         messages held while the file is written (default 200000)
+  --queue N         messages held while the file is written, for a URL other than udpm://
+                    (default 200000; on udpm:// the socket's buffer of seconds of traffic holds them)
   --force           overwrite FILE
   --quiet           no progress line
 Exit status: 0 recorded (--check: the log is complete), 1 error, 2 bad use, 3 ticks of data-flow
@@ -79,21 +91,31 @@ struct Tally {
 
 class Recorder {
  public:
-  explicit Recorder(lcm::LogFile& log) : log_(log) {}
-  void on(const lcm::ReceiveBuffer* rb, const std::string& channel) {
-    lcm::LogEvent ev{};
-    ev.timestamp = rb->recv_utime;
-    ev.channel = channel;
-    ev.datalen = static_cast<int32_t>(rb->data_size);
-    ev.data = rb->data;
-    if (log_.writeEvent(&ev) != 0) ++write_errors;
-    tally.add(channel, rb->data, ev.datalen);
+  Recorder(lcm::LogFile& log, const std::string& channels) : log_(log), channels_(channels) {}
+  /// liblcm's subscription (it matched the channel already).
+  void on(const lcm::ReceiveBuffer* rb, const std::string& channel) { write(channel, rb->data, rb->data_size, rb->recv_utime); }
+  /// The own socket's message, when its channel matches (as liblcm does, the whole name).
+  void offer(std::string_view channel, const void* data, std::size_t size, std::int64_t utime) {
+    auto it = matches_.find(channel);
+    if (it == matches_.end()) it = matches_.emplace(std::string(channel), std::regex_match(channel.begin(), channel.end(), channels_)).first;
+    if (it->second) write(it->first, data, size, utime);
   }
   Tally tally;
   std::int64_t write_errors = 0;
 
  private:
+  void write(const std::string& channel, const void* data, std::size_t size, std::int64_t utime) {
+    lcm::LogEvent ev{};
+    ev.timestamp = utime;
+    ev.channel = channel;
+    ev.datalen = static_cast<int32_t>(size);
+    ev.data = const_cast<void*>(data);
+    if (log_.writeEvent(&ev) != 0) ++write_errors;
+    tally.add(channel, data, ev.datalen);
+  }
   lcm::LogFile& log_;
+  std::regex channels_;
+  std::map<std::string, bool, std::less<>> matches_;
 };
 
 int check_log(const std::string& file) {
@@ -168,23 +190,46 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "lcm_recorder: cannot write %s\n", file.c_str());
     return 1;
   }
-  std::unique_ptr<lcm::LCM> lcm_handle;
+  std::unique_ptr<Recorder> rec_holder;
   try {
-    lcm_handle = hpr::node::open_lcm(url);
+    rec_holder = std::make_unique<Recorder>(log, channel);
+  } catch (const std::regex_error& e) {
+    std::fprintf(stderr, "lcm_recorder: --channel '%s' is not a regular expression: %s\n", channel.c_str(), e.what());
+    return 2;
+  }
+  Recorder& rec = *rec_holder;
+  std::unique_ptr<lcm::LCM> lcm_handle;
+  std::unique_ptr<hpr::node::UdpmReceiver> socket;
+  try {
+    if (hpr::node::is_udpm_url(url)) {
+      hpr::node::check_multicast_route(url);
+      socket = std::make_unique<hpr::node::UdpmReceiver>(hpr::node::parse_udpm_url(url));
+    } else {
+      lcm_handle = hpr::node::open_lcm(url);
+      lcm_handle->subscribe(channel, &Recorder::on, &rec)->setQueueCapacity(queue);
+    }
   } catch (const hpr::node::LcmError& e) {
     std::fprintf(stderr, "lcm_recorder: %s\n", e.what());
     return 1;
   }
-  lcm::LCM& lcm = *lcm_handle;
-  Recorder rec(log);
-  lcm.subscribe(channel, &Recorder::on, &rec)->setQueueCapacity(queue);
+  const hpr::node::MessageSink sink = [&rec](std::string_view ch, const std::uint8_t* data, std::size_t size, std::int64_t utime) {
+    rec.offer(ch, data, size, utime);
+  };
+  // One turn of the loop: what is waiting, or a wait of at most `timeout_ms`. -1: failed.
+  const auto receive = [&](int timeout_ms) -> int {
+    if (lcm_handle) return lcm_handle->handleTimeout(timeout_ms);
+    pollfd p{socket->fd(), POLLIN, 0};
+    const int n = ::poll(&p, 1, timeout_ms);
+    if (n <= 0) return n < 0 && errno != EINTR ? -1 : 0;
+    return static_cast<int>(socket->drain(sink));
+  };
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
   if (!quiet) std::fprintf(stderr, "lcm_recorder: recording %s from %s (Ctrl-C to stop)\n", file.c_str(), url.c_str());
   const double t0 = hpr::monotonic_s();
   double next_progress = t0 + 2.0;
   while (g_stop == 0) {
-    if (lcm.handleTimeout(100) < 0) {
+    if (receive(100) < 0) {
       if (g_stop != 0) break;  // the stop signal interrupted the wait
       std::fprintf(stderr, "lcm_recorder: LCM failed while receiving\n");
       break;
@@ -195,8 +240,12 @@ int main(int argc, char** argv) {
       next_progress += 2.0;
     }
   }
-  // What LCM still queues is part of the recording.
-  while (lcm.handleTimeout(0) > 0) {
+  // What is still queued is part of the recording.
+  while (receive(0) > 0) {
+  }
+  if (socket && socket->refused() > 0) {
+    std::fprintf(stderr, "lcm_recorder: %lld datagrams were not LCM's format (the last: %s)\n", static_cast<long long>(socket->refused()),
+                 socket->last_refusal().c_str());
   }
   std::fflush(log.getFilePtr());
   std::fprintf(stderr, "%slcm_recorder: %lld messages (%.1f MB) in %.1f s into %s\n", !quiet && rec.tally.messages > 0 ? "\n" : "",

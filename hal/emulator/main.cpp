@@ -33,7 +33,7 @@ class EmulatorLoop {
       : rt_(rt), config_(config), options_(options), simulator_(simulator), buses_(buses), emu_(emu),
         truth_out_(rt.advertise(msg::channels::kSimTruth)) {
     for (const auto& b : buses_) fds_.push_back({b->fd(), POLLIN, 0});
-    fds_.push_back({rt.lcm().getFileno(), POLLIN, 0});
+    fds_.push_back({rt.receive_fd(), POLLIN, 0});
     rx_.reserve(256);
   }
 

@@ -3,11 +3,14 @@
 //
 //   bench_lcm_hop [--count N] [--rate HZ] [--joints N]
 //
-// Two modes, each N messages:
-//   raw    LCM's own cost: pre-encoded bytes published with lcm_publish, timestamped on arrival.
-//   typed  the stack's path: fill robot_sensors_t, Output::publish (encode), Runtime Input (decode,
-//          validate, callback), timestamped in the callback.
-// Prints median, p99 and max per mode. Then the same two as ping-pong, back to back (the next
+// Three modes, each N messages:
+//   raw     LCM's own cost: pre-encoded bytes published with lcm_publish, read through liblcm's
+//           receive thread, timestamped on arrival.
+//   typed   the stack's path: fill robot_sensors_t, Output::publish (encode and sign), Runtime
+//           Input (read from the Runtime's own socket, hpr/node/udpm.hpp; check the code, decode,
+//           validate, callback), timestamped in the callback.
+//   typed-liblcm  the same with the Runtime reading through liblcm (lcm.receive: liblcm).
+// Prints median, p99 and max per mode. Then the same three as ping-pong, back to back (the next
 // message leaves when the echo is back, as liblcm's own latency figures are taken): the other
 // process echoes each message (raw: the bytes; typed: decoded, validated and re-encoded), and half
 // the round trip is one hop with both processes awake.
@@ -26,6 +29,14 @@
 #include "hpr/node/runtime.hpp"
 
 namespace {
+
+enum class Mode { kRaw, kTyped, kTypedLiblcm };
+const char* name(Mode m) { return m == Mode::kRaw ? "raw" : m == Mode::kTyped ? "typed" : "typed-liblcm"; }
+hpr::node::RuntimeOptions options(Mode m) {
+  hpr::node::RuntimeOptions o;
+  o.receive_direct = m == Mode::kTyped;
+  return o;
+}
 
 std::int64_t now_ns() {
   timespec ts{};
@@ -49,11 +60,11 @@ humanoid::robot_sensors_t make_message(int joints) {
 }
 
 // Receiver: collects `count` one-way latencies [us] and writes them to `fd`.
-void receive(const std::string& url, bool typed, int count, int fd) {
+void receive(const std::string& url, Mode mode, int count, int fd) {
   std::vector<double> lat;
   lat.reserve(static_cast<size_t>(count));
-  if (typed) {
-    hpr::node::Runtime rt("bench_rx", url);
+  if (mode != Mode::kRaw) {
+    hpr::node::Runtime rt("bench_rx", url, options(mode));
     rt.subscribe<humanoid::robot_sensors_t>(
         "BENCH_HOP",
         [](const humanoid::robot_sensors_t& m) { return m.num_joints == 27 ? std::string() : std::string("size"); },
@@ -79,9 +90,11 @@ void receive(const std::string& url, bool typed, int count, int fd) {
   _exit(0);
 }
 
-void send(const std::string& url, bool typed, int count, double rate, int joints) {
+void send(const std::string& url, Mode mode, int count, double rate, int joints) {
   lcm::LCM lcm(url);
-  auto out = hpr::node::Output<humanoid::robot_sensors_t>(&lcm, "BENCH_HOP");
+  // Signed with the deployment's key and stamped with a source, as every process publishes it.
+  const hpr::auth::Key key = hpr::auth::load_key(hpr::auth::key_path());
+  auto out = hpr::node::Output<humanoid::robot_sensors_t>(&lcm, "BENCH_HOP", &key, 1);
   humanoid::robot_sensors_t m = make_message(joints);
   std::vector<std::uint8_t> raw(static_cast<size_t>(m.getEncodedSize()) + 8);
   m.encode(raw.data(), 0, m.getEncodedSize());
@@ -95,7 +108,7 @@ void send(const std::string& url, bool typed, int count, double rate, int joints
       ++next.tv_sec;
     }
     clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &next, nullptr);
-    if (typed) {
+    if (mode != Mode::kRaw) {
       m.tick = k;
       m.utime = now_ns();
       m.q[0] = 0.001 * k;
@@ -108,17 +121,17 @@ void send(const std::string& url, bool typed, int count, double rate, int joints
   }
 }
 
-void run(const std::string& url, bool typed, int count, double rate, int joints) {
+void run(const std::string& url, Mode mode, int count, double rate, int joints) {
   int fds[2];
   if (pipe(fds) != 0) return;
   const pid_t child = fork();
   if (child == 0) {
     close(fds[0]);
-    receive(url, typed, count, fds[1]);
+    receive(url, mode, count, fds[1]);
   }
   close(fds[1]);
   usleep(300000);  // let the receiver subscribe
-  send(url, typed, count, rate, joints);
+  send(url, mode, count, rate, joints);
   std::vector<double> lat(static_cast<size_t>(count));
   size_t got = 0;
   while (got < lat.size() * sizeof(double)) {
@@ -130,17 +143,17 @@ void run(const std::string& url, bool typed, int count, double rate, int joints)
   int status = 0;
   waitpid(child, &status, 0);
   humanoid::robot_sensors_t m = make_message(joints);
-  std::printf("%-6s %6zu msgs of %5d bytes: one-way median %7.1f us  p99 %7.1f us  max %8.1f us\n",
-              typed ? "typed" : "raw", lat.size(), m.getEncodedSize(), hpr::percentile(lat, 0.5),
+  std::printf("%-12s %6zu msgs of %5d bytes: one-way median %7.1f us  p99 %7.1f us  max %8.1f us\n",
+              name(mode), lat.size(), m.getEncodedSize(), hpr::percentile(lat, 0.5),
               hpr::percentile(lat, 0.99), hpr::percentile(lat, 1.0));
   std::fflush(stdout);
 }
 
 /// Echoes PING as PONG until `count` messages went back (raw bytes, or through the Runtime typed).
-void echo(const std::string& url, bool typed, int count) {
+void echo(const std::string& url, Mode mode, int count) {
   int n = 0;
-  if (typed) {
-    hpr::node::Runtime rt("bench_echo", url);
+  if (mode != Mode::kRaw) {
+    hpr::node::Runtime rt("bench_echo", url, options(mode));
     auto out = rt.advertise<humanoid::robot_sensors_t>("PONG");
     rt.subscribe<humanoid::robot_sensors_t>(
         "PING", [](const humanoid::robot_sensors_t& m) { return m.num_joints > 0 ? std::string() : std::string("size"); },
@@ -166,9 +179,9 @@ void echo(const std::string& url, bool typed, int count) {
   _exit(0);
 }
 
-void ping_pong(const std::string& url, bool typed, int count, int joints) {
+void ping_pong(const std::string& url, Mode mode, int count, int joints) {
   const pid_t child = fork();
-  if (child == 0) echo(url, typed, count + 100);
+  if (child == 0) echo(url, mode, count + 100);
   usleep(300000);  // let the echo subscribe
   std::vector<double> rtt;
   rtt.reserve(static_cast<size_t>(count));
@@ -189,8 +202,9 @@ void ping_pong(const std::string& url, bool typed, int count, int joints) {
   } h{record};
   std::vector<std::uint8_t> raw(static_cast<size_t>(m.getEncodedSize()));
   m.encode(raw.data(), 0, m.getEncodedSize());
+  const bool typed = mode != Mode::kRaw;
   if (typed) {
-    rt = std::make_unique<hpr::node::Runtime>("bench_ping", url);
+    rt = std::make_unique<hpr::node::Runtime>("bench_ping", url, options(mode));
     out = rt->advertise<humanoid::robot_sensors_t>("PING");
     rt->subscribe<humanoid::robot_sensors_t>("PONG", {}, [&](const humanoid::robot_sensors_t&) { record(); });
   } else {
@@ -213,8 +227,8 @@ void ping_pong(const std::string& url, bool typed, int count, int joints) {
   }
   int status = 0;
   waitpid(child, &status, 0);
-  std::printf("%-6s %6zu ping-pongs of %5d bytes: half round trip median %7.1f us  p99 %7.1f us  (round trip median %7.1f us)\n",
-              typed ? "typed" : "raw", rtt.size(), m.getEncodedSize(), 0.5 * hpr::percentile(rtt, 0.5),
+  std::printf("%-12s %6zu ping-pongs of %5d bytes: half round trip median %7.1f us  p99 %7.1f us  (round trip median %7.1f us)\n",
+              name(mode), rtt.size(), m.getEncodedSize(), 0.5 * hpr::percentile(rtt, 0.5),
               0.5 * hpr::percentile(rtt, 0.99), hpr::percentile(rtt, 0.5));
   std::fflush(stdout);
 }
@@ -238,9 +252,7 @@ int main(int argc, char** argv) {
     return 3;
   }
   std::printf("LCM %s, %d messages at %.0f Hz per mode\n", url.c_str(), count, rate);
-  run(url, false, count, rate, joints);
-  run(url, true, count, rate, joints);
-  ping_pong(url, false, count, joints);
-  ping_pong(url, true, count, joints);
+  for (const Mode mode : {Mode::kRaw, Mode::kTyped, Mode::kTypedLiblcm}) run(url, mode, count, rate, joints);
+  for (const Mode mode : {Mode::kRaw, Mode::kTyped, Mode::kTypedLiblcm}) ping_pong(url, mode, count, joints);
   return 0;
 }

@@ -75,6 +75,15 @@ Runtime::Runtime(std::string node_name, const std::string& lcm_url, RuntimeOptio
     }
   }
   lcm_ = open_lcm(lcm_url);
+  if (options_.receive_direct && is_udpm_url(lcm_url)) {
+    receiver_ = std::make_unique<UdpmReceiver>(parse_udpm_url(with_receive_buffer(lcm_url)));
+    deliver_ = [this](std::string_view channel, const std::uint8_t* payload, std::size_t size, std::int64_t /*utime*/) {
+      const auto it = by_channel_.find(channel);
+      if (it == by_channel_.end()) return;
+      // By index: a callback may subscribe (a vector that grows moves, a map node does not).
+      for (std::size_t i = 0; i < it->second.size(); ++i) it->second[i]->deliver(payload, size);
+    };
+  }
   std::random_device entropy;
   while (source_id_ == 0) source_id_ = static_cast<std::int64_t>((std::uint64_t{entropy()} << 32) | entropy());
   start_time_ = monotonic_s();
@@ -328,8 +337,13 @@ void Runtime::spin_once(double timeout_s) {
   run_timers(now);
   check_triggers(now);
   double wake = std::min(next_wakeup(now), now + std::max(0.0, timeout_s));
-  pollfd fds[2] = {{lcm_->getFileno(), POLLIN, 0}, {g_signal_pipe[0], POLLIN, 0}};
-  const std::span<pollfd> watched(fds, g_signal_pipe[0] >= 0 ? 2 : 1);
+  // The typed inputs' descriptor; with the own socket, liblcm's too once something subscribed there.
+  pollfd fds[3] = {{receive_fd(), POLLIN, 0}, {-1, POLLIN, 0}, {-1, POLLIN, 0}};
+  std::size_t nfds = 1;
+  const bool raw = receiver_ && raw_lcm_used_;
+  if (raw) fds[nfds++].fd = lcm_->getFileno();
+  if (g_signal_pipe[0] >= 0) fds[nfds++].fd = g_signal_pipe[0];
+  const std::span<pollfd> watched(fds, nfds);
   bool spin = false;
   if (options_.spin_s > 0.0) {
     const double due = next_arrival();
@@ -348,15 +362,37 @@ void Runtime::spin_once(double timeout_s) {
   } else {
     n = poll_for(watched, wake - now);
   }
-  if (n > 0 && (fds[0].revents & POLLIN) != 0) {
+  const auto handle_lcm = [&] {
     lcm_->handle();
     // Drain whatever else is already queued, without blocking.
     pollfd more{lcm_->getFileno(), POLLIN, 0};
     while (!stop_requested() && ::poll(&more, 1, 0) > 0 && (more.revents & POLLIN) != 0) lcm_->handle();
+  };
+  if (n > 0 && (fds[0].revents & POLLIN) != 0) {
+    if (receiver_) {
+      receive_direct();
+    } else {
+      handle_lcm();
+    }
   }
+  if (n > 0 && raw && (fds[1].revents & POLLIN) != 0) handle_lcm();
   now = monotonic_s();
   check_triggers(now);
   run_timers(now);
+}
+
+int Runtime::receive_fd() const { return receiver_ ? receiver_->fd() : lcm_->getFileno(); }
+
+void Runtime::receive_direct() {
+  receiver_->drain(deliver_);
+  if (receiver_->refused() != refused_reported_) {
+    const double now = monotonic_s();
+    if (now - last_reject_log_ > 1.0) {
+      last_reject_log_ = now;
+      log::warn("LCM: refused {} ({} datagrams refused so far)", receiver_->last_refusal(), receiver_->refused());
+      refused_reported_ = receiver_->refused();
+    }
+  }
 }
 
 int Runtime::run() {
@@ -403,6 +439,7 @@ RuntimeOptions runtime_options(const Config& cfg, double deadline_s) {
   o.tick_period_max_s = l.tick_period_max_s;
   o.time_slack_s = l.time_slack_s;
   o.spin_s = l.spin_s;
+  o.receive_direct = l.receive_direct;
   o.authenticate = l.authenticate;
   return o;
 }

@@ -78,6 +78,9 @@ class InputBase {
   void restart_stream();
   /// Makes the held message the latest one (validating it first); false when it is refused.
   virtual bool adopt_held() = 0;
+  /// Takes one message's bytes as they came off the channel (the Runtime's own receive path, or
+  /// liblcm's).
+  virtual void deliver(const void* data, std::size_t size) = 0;
   /// Whether a message of `tick` repeats the tick of a step that waits for its synced inputs; if
   /// so it is counted, and the caller drops it.
   bool repeats_waiting_step(std::int64_t tick);
@@ -107,23 +110,26 @@ class Input final : public InputBase {
   using Validator = std::function<std::string(const Msg&)>;
   using Callback = std::function<void(const Msg&)>;
 
-  /// `key`: the key a signed type's code is checked with (null: not checked).
-  Input(Runtime& rt, lcm::LCM& lcm, std::string channel, Validator validate, Callback on_message, const auth::Key* key = nullptr)
+  /// `key`: the key a signed type's code is checked with (null: not checked). `lcm`: subscribes
+  /// there; null: the Runtime delivers the channel's messages itself.
+  Input(Runtime& rt, lcm::LCM* lcm, std::string channel, Validator validate, Callback on_message, const auth::Key* key = nullptr)
       : InputBase(rt, std::move(channel)), validate_(std::move(validate)), on_message_(std::move(on_message)), key_(key) {
-    lcm.subscribe(channel_, &Input::handle, this);
+    if (lcm != nullptr) lcm->subscribe(channel_, &Input::on_lcm, this);
   }
 
   /// The latest valid message (default-constructed before the first).
   [[nodiscard]] const Msg& latest() const { return latest_; }
 
  private:
-  void handle(const lcm::ReceiveBuffer* rbuf, const std::string& /*channel*/) {
+  void on_lcm(const lcm::ReceiveBuffer* rbuf, const std::string& /*channel*/) { deliver(rbuf->data, rbuf->data_size); }
+
+  void deliver(const void* data, std::size_t size) override {
     if constexpr (auth::Signed<Msg>) {
-      if (!authentic(rbuf->data, rbuf->data_size, key_)) return;
+      if (!authentic(data, size, key_)) return;
     }
     std::string why;
     try {
-      const int used = spare_.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size));
+      const int used = spare_.decode(data, 0, static_cast<int>(size));
       if (used < 0) why = "not a valid " + std::string(Msg::getTypeName());
     } catch (const std::exception& e) {
       why = "not a valid " + std::string(Msg::getTypeName()) + " (" + e.what() + ")";
@@ -143,8 +149,8 @@ class Input final : public InputBase {
       if (!held_why.empty()) {
         // Not validated yet: a validator may act on what it accepts (the simulator applies a command).
         std::swap(held_msg_, spare_);
-        held_bytes_ = rbuf->data_size;
-        hold(rbuf->data_size, held_msg_.tick, held_why);
+        held_bytes_ = size;
+        hold(size, held_msg_.tick, held_why);
         return;
       }
     }
@@ -152,7 +158,7 @@ class Input final : public InputBase {
     if (why.empty() && stream_ && repeats_waiting_step(spare_.tick)) return;
     if (why.empty()) why = validated(spare_);
     if (!why.empty()) {
-      reject(rbuf->data_size, why);
+      reject(size, why);
       return;
     }
     held_ = false;

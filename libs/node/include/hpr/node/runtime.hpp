@@ -59,6 +59,7 @@
 #include "hpr/node/input.hpp"
 #include "hpr/node/lifecycle.hpp"
 #include "hpr/node/output.hpp"
+#include "hpr/node/udpm.hpp"
 #include "hpr/common/auth.hpp"
 #include "hpr/common/channel.hpp"
 #include "hpr/common/config.hpp"
@@ -117,6 +118,10 @@ struct RuntimeOptions {
   /// sleeping, so the step starts without the core's wake-up (tens of microseconds on a virtual
   /// machine). 0 (the default) always sleeps. Costs about 2 × spin_s / period of a core.
   double spin_s = 0.0;
+  /// Whether the typed inputs of a udpm URL are read from a socket of the loop's own
+  /// (hpr/node/udpm.hpp: one wake-up per message instead of liblcm's two) rather than through
+  /// liblcm's receive thread (lcm.receive). Other URLs (memq://) always go through liblcm.
+  bool receive_direct = true;
   /// The node's configuration: when the loop first runs (the node has read all of it), a key it
   /// did not read in a section it entered, or an override it did not read, stops it with a
   /// ConfigError (Config::check_all_read).
@@ -145,7 +150,17 @@ class Runtime {
   Runtime(const Runtime&) = delete;
   Runtime& operator=(const Runtime&) = delete;
 
-  [[nodiscard]] lcm::LCM& lcm() { return *lcm_; }
+  /// liblcm, for what the typed inputs and outputs do not cover (raw publishing, a recorder's
+  /// subscriptions). From the first call on, the loop also serves liblcm's own subscriptions.
+  [[nodiscard]] lcm::LCM& lcm() {
+    raw_lcm_used_ = true;
+    return *lcm_;
+  }
+  /// The descriptor that becomes readable when a message for a typed input is waiting (for a loop
+  /// of the node's own that polls other descriptors too and then calls spin_once(0)).
+  [[nodiscard]] int receive_fd() const;
+  /// Whether the typed inputs are read from the Runtime's own socket (RuntimeOptions::receive_direct).
+  [[nodiscard]] bool receives_directly() const { return receiver_ != nullptr; }
   [[nodiscard]] const std::string& name() const { return name_; }
   /// The full channel name with the configured prefix.
   [[nodiscard]] std::string channel(const std::string& name) const { return options_.channel_prefix + name; }
@@ -263,8 +278,10 @@ class Runtime {
   Input<Msg>& make_input(const std::string& name, typename Input<Msg>::Validator validate, typename Input<Msg>::Callback on_message) {
     const auth::Key* key = nullptr;
     if constexpr (auth::Signed<Msg>) key = deployment_key();
-    auto in = std::make_unique<Input<Msg>>(*this, *lcm_, channel(name), std::move(validate), std::move(on_message), key);
+    auto in = std::make_unique<Input<Msg>>(*this, receiver_ ? nullptr : lcm_.get(), channel(name), std::move(validate),
+                                           std::move(on_message), key);
     auto& ref = *in;
+    if (receiver_) by_channel_[ref.channel()].push_back(&ref);
     inputs_.push_back(std::move(in));
     return ref;
   }
@@ -294,11 +311,18 @@ class Runtime {
   void check_triggers(double now);
   void run_timers(double now);
   double next_wakeup(double now) const;
+  /// Reads what is waiting on the own socket and hands each message to its channel's inputs.
+  void receive_direct();
 
   std::string name_;
   std::optional<Ports> declared_;  ///< a process's ports (none: a tool or a test, unchecked)
   RuntimeOptions options_;
   std::unique_ptr<lcm::LCM> lcm_;
+  std::unique_ptr<UdpmReceiver> receiver_;  ///< the typed inputs' socket (null: through liblcm)
+  std::map<std::string, std::vector<InputBase*>, std::less<>> by_channel_;  ///< with receiver_
+  MessageSink deliver_;                     ///< receive_direct's sink, made once
+  std::int64_t refused_reported_ = 0;
+  bool raw_lcm_used_ = false;
   std::vector<std::unique_ptr<InputBase>> inputs_;
   std::vector<Trigger> triggers_;
   std::vector<Timer> timers_;

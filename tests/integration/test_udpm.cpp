@@ -1,0 +1,152 @@
+// The own LCM receive path (hpr/node/udpm.hpp) against liblcm's sender over real multicast: every
+// message liblcm publishes, short or fragmented, arrives byte for byte on its channel, stamped
+// with the instant it was published; a typed input reads the same through it as through liblcm;
+// a datagram that is not LCM's is refused and loses nothing.
+#include <arpa/inet.h>
+#include <gtest/gtest.h>
+#include <humanoid/robot_sensors_t.hpp>
+#include <netinet/in.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <lcm/lcm-cpp.hpp>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "hpr/node/lcm_url.hpp"
+#include "hpr/node/runtime.hpp"
+#include "hpr/node/udpm.hpp"
+#include "process_group.hpp"
+
+namespace {
+
+using Bytes = std::vector<std::uint8_t>;
+
+std::int64_t realtime_us() {
+  timespec ts{};
+  ::clock_gettime(CLOCK_REALTIME, &ts);
+  return std::int64_t{ts.tv_sec} * 1'000'000 + ts.tv_nsec / 1000;
+}
+
+struct Received {
+  std::string channel;
+  Bytes payload;
+  std::int64_t utime;
+};
+
+/// Reads `socket` until `n` messages arrived or 5 s passed.
+std::vector<Received> receive(hpr::node::UdpmReceiver& socket, std::size_t n) {
+  std::vector<Received> got;
+  const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  while (got.size() < n && std::chrono::steady_clock::now() < end) {
+    pollfd p{socket.fd(), POLLIN, 0};
+    if (::poll(&p, 1, 100) <= 0) continue;
+    socket.drain([&](std::string_view ch, const std::uint8_t* data, std::size_t size, std::int64_t utime) {
+      got.push_back({std::string(ch), Bytes(data, data + size), utime});
+    });
+  }
+  return got;
+}
+
+TEST(Udpm, EveryMessageLiblcmPublishesArrivesByteForByteShortOrFragmented) {
+  const std::string url = hpr::test::unique_lcm_url();
+  hpr::node::UdpmReceiver socket(hpr::node::parse_udpm_url(hpr::node::with_receive_buffer(url)));
+  lcm::LCM sender(url);
+  ASSERT_TRUE(sender.good());
+  // Sizes around liblcm's single-datagram limit (65 499 bytes with the channel) and well beyond it.
+  const std::vector<std::size_t> sizes = {0, 1, 1496, 65'000, 65'480, 65'500, 65'600, 300'000, 1'000'000};
+  std::vector<Bytes> sent;
+  for (std::size_t i = 0; i < sizes.size(); ++i) {
+    Bytes b(sizes[i]);
+    for (std::size_t k = 0; k < b.size(); ++k) b[k] = static_cast<std::uint8_t>((k * 7 + i) % 256);
+    sent.push_back(b);
+    ASSERT_EQ(sender.publish("SIZE_" + std::to_string(i), b.data(), static_cast<unsigned>(b.size())), 0);
+    // Paced: the socket buffer (4 MB) holds them all anyway, but the loopback queue per CPU is smaller.
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  const auto got = receive(socket, sizes.size());
+  ASSERT_EQ(got.size(), sizes.size());
+  for (std::size_t i = 0; i < sizes.size(); ++i) {
+    EXPECT_EQ(got[i].channel, "SIZE_" + std::to_string(i));
+    EXPECT_EQ(got[i].payload, sent[i]) << sizes[i] << " bytes";
+  }
+  EXPECT_EQ(socket.refused(), 0) << socket.last_refusal();
+}
+
+TEST(Udpm, AMessageIsStampedWhenItWasPublishedNotWhenItWasRead) {
+  const std::string url = hpr::test::unique_lcm_url();
+  hpr::node::UdpmReceiver socket(hpr::node::parse_udpm_url(url));
+  lcm::LCM sender(url);
+  ASSERT_TRUE(sender.good());
+  const Bytes b(1496, 1);
+  const std::int64_t before = realtime_us();
+  ASSERT_EQ(sender.publish("STAMPED", b.data(), static_cast<unsigned>(b.size())), 0);
+  const std::int64_t after = realtime_us();
+  std::this_thread::sleep_for(std::chrono::milliseconds(50));  // read late: the stamp must not move
+  const auto got = receive(socket, 1);
+  ASSERT_EQ(got.size(), 1u);
+  EXPECT_GE(got[0].utime, before);
+  EXPECT_LE(got[0].utime, after);
+}
+
+/// A Runtime's typed input on `url`, read directly or through liblcm.
+class TypedInput : public ::testing::TestWithParam<bool> {};
+
+TEST_P(TypedInput, ReadsWhatLiblcmPublishesAndRefusesAForeignDatagramWithoutLosingTheNext) {
+  const std::string url = hpr::test::unique_lcm_url();
+  hpr::node::RuntimeOptions o;
+  o.authenticate = false;
+  o.health_period_s = 10.0;
+  o.receive_direct = GetParam();
+  hpr::node::Runtime rt("test", url, o);
+  EXPECT_EQ(rt.receives_directly(), GetParam());
+  auto& in = rt.subscribe<humanoid::robot_sensors_t>("SENSORS");
+  lcm::LCM sender(url);
+  ASSERT_TRUE(sender.good());
+  const auto wait_for_count = [&](std::int64_t n) {
+    const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+    while (in.count() < n && std::chrono::steady_clock::now() < end) rt.spin_once(0.05);
+    return in.count() >= n;
+  };
+  humanoid::robot_sensors_t m{};
+  m.tick = 11;
+  m.utime = 11'000;
+  m.num_joints = 2;
+  m.joint_name = {"a", "b"};
+  m.q = {0.5, -0.25};
+  m.qd = {0.0, 1.0};
+  m.tau = {3.0, 4.0};
+  m.drive_status = {1, 1};
+  sender.publish("SENSORS", &m);
+  sender.publish("OTHER", &m);  // not subscribed: not delivered
+  ASSERT_TRUE(wait_for_count(1));
+  EXPECT_EQ(in.latest().tick, 11);
+  EXPECT_EQ(in.latest().q, m.q);
+  // A datagram on LCM's group and port that is not LCM's format, then a good message.
+  const auto addr = hpr::node::parse_udpm_url(url);
+  const int fd = ::socket(AF_INET, SOCK_DGRAM, 0);
+  ASSERT_GE(fd, 0);
+  unsigned char ttl = 0;
+  ::setsockopt(fd, IPPROTO_IP, IP_MULTICAST_TTL, &ttl, sizeof ttl);
+  sockaddr_in to{};
+  to.sin_family = AF_INET;
+  to.sin_port = htons(static_cast<std::uint16_t>(addr.port));
+  ::inet_pton(AF_INET, addr.group.c_str(), &to.sin_addr);
+  const char junk[] = "not an LCM datagram";
+  ASSERT_EQ(::sendto(fd, junk, sizeof junk, 0, reinterpret_cast<const sockaddr*>(&to), sizeof to), static_cast<ssize_t>(sizeof junk));
+  ::close(fd);
+  m.tick = 12;
+  m.utime = 12'000;
+  sender.publish("SENSORS", &m);
+  ASSERT_TRUE(wait_for_count(2));
+  EXPECT_EQ(in.latest().tick, 12);
+  EXPECT_EQ(in.errors(), 0);
+}
+
+std::string receive_path(const ::testing::TestParamInfo<bool>& p) { return p.param ? "Direct" : "ThroughLiblcm"; }
+INSTANTIATE_TEST_SUITE_P(Udpm, TypedInput, ::testing::Values(true, false), receive_path);
+
+}  // namespace
