@@ -15,6 +15,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include "hpr/node/lcm_url.hpp"
 #include "hpr/msg/channels.hpp"  // every channel with its message type
 #include "hpr/msg/commands.hpp"
 
@@ -215,7 +216,9 @@ int run_supervisor(const launch::GroupSpec& group, const Options& o, const std::
     notify_fd = -1;
   };
   hpr::log::init("supervisor");
-  lcm::LCM lcm(url);
+  // It judges hangs by HEALTH among every message of the stack: a receive buffer of seconds of
+  // traffic (as a recorder's), so that a moment without a core loses no HEALTH and raises no false hang.
+  lcm::LCM lcm(hpr::node::with_receive_buffer(url, hpr::node::kRecorderBufferBytes));
   if (!lcm.good()) {
     const std::string msg = "failed: cannot open LCM on " + url + " (is multicast enabled on the interface? tools/install-deps sets it up)\n";
     std::cerr << msg;

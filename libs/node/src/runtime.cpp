@@ -76,7 +76,7 @@ Runtime::Runtime(std::string node_name, const std::string& lcm_url, RuntimeOptio
   }
   lcm_ = open_lcm(lcm_url);
   if (options_.receive_direct && is_udpm_url(lcm_url)) {
-    receiver_ = std::make_unique<UdpmReceiver>(parse_udpm_url(with_receive_buffer(lcm_url)));
+    receiver_ = std::make_unique<UdpmReceiver>(parse_udpm_url(with_receive_buffer(lcm_url, kDirectReceiveBufferBytes)));
     deliver_ = [this](std::string_view channel, const std::uint8_t* payload, std::size_t size, std::int64_t /*utime*/) {
       const auto it = by_channel_.find(channel);
       if (it == by_channel_.end()) return;
@@ -384,7 +384,9 @@ void Runtime::spin_once(double timeout_s) {
 int Runtime::receive_fd() const { return receiver_ ? receiver_->fd() : lcm_->getFileno(); }
 
 void Runtime::receive_direct() {
-  receiver_->drain(deliver_);
+  // At most a few ticks' worth at a time, so that timers (HEALTH) and steps run between batches
+  // of a backlog.
+  receiver_->drain(deliver_, 256);
   if (receiver_->refused() != refused_reported_) {
     const double now = monotonic_s();
     if (now - last_reject_log_ > 1.0) {

@@ -20,9 +20,10 @@ struct LcmSection {
   double tick_period_max_s = 0.01;     ///< [s] a stream's time may run this much per tick ahead of the wall clock
   double time_slack_s = 0.05;          ///< [s] and this much more
   double spin_s = 0.0;                 ///< [s] busy-poll window around the next sensor tick
-  /// `receive: direct` (the default): the node's loop reads LCM's multicast socket itself
-  /// (hpr/node/udpm.hpp); `liblcm`: through liblcm's receive thread (one more wake-up per message).
-  bool receive_direct = true;
+  /// `receive: liblcm` (the default): liblcm's receive thread reads LCM's socket while the node
+  /// computes; `direct`: the node's own loop reads it (hpr/node/udpm.hpp; one wake-up per message
+  /// fewer, for a process with a core of its own).
+  bool receive_direct = false;
   /// `authentication: required` (the default) or `off` (a bench): whether the commands and the
   /// clocked channels carry and are checked for the deployment key's code (hpr/common/auth.hpp).
   bool authenticate = true;

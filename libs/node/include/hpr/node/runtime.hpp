@@ -120,8 +120,11 @@ struct RuntimeOptions {
   double spin_s = 0.0;
   /// Whether the typed inputs of a udpm URL are read from a socket of the loop's own
   /// (hpr/node/udpm.hpp: one wake-up per message instead of liblcm's two) rather than through
-  /// liblcm's receive thread (lcm.receive). Other URLs (memq://) always go through liblcm.
-  bool receive_direct = true;
+  /// liblcm's receive thread (lcm.receive). The own socket is read only between steps, so it
+  /// suits a process with a core of its own; on a machine where many processes share few cores,
+  /// liblcm's thread keeps reading while the process waits for one. Other URLs (memq://) always
+  /// go through liblcm.
+  bool receive_direct = false;
   /// The node's configuration: when the loop first runs (the node has read all of it), a key it
   /// did not read in a section it entered, or an override it did not read, stops it with a
   /// ConfigError (Config::check_all_read).
