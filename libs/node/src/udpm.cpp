@@ -123,9 +123,22 @@ std::string LcmDatagrams::feed_fragment(const std::uint8_t* data, std::size_t si
     n -= channel.size() + 1;
   }
   if (std::size_t{offset} + n > total) return fmt::format("fragment {} ends at {}, beyond the message's {} bytes", no, std::size_t{offset} + n, total);
-  Partial& p = partial_[sender];
-  if (p.fragments == 0 || p.seqno != seqno || p.size != total || p.fragments != count) {
-    if (p.fragments != 0 && p.missing > 0) ++dropped_partial_;
+  if (const auto it = partial_.find(sender);
+      it == partial_.end() || it->second.fragments == 0 || it->second.seqno != seqno || it->second.size != total ||
+      it->second.fragments != count) {
+    // A new message: the sender's unfinished one goes, and every other one too if together they
+    // would hold more than the budget.
+    if (it != partial_.end()) {
+      if (it->second.fragments != 0 && it->second.missing > 0) ++dropped_partial_;
+      partial_bytes_ -= it->second.payload.size();
+      partial_.erase(it);
+    }
+    if (partial_bytes_ + total > kMaxPartialBytes) {
+      for (const auto& [s, q] : partial_) dropped_partial_ += q.fragments != 0 && q.missing > 0 ? 1 : 0;
+      partial_.clear();
+      partial_bytes_ = 0;
+    }
+    Partial& p = partial_[sender];
     p.seqno = seqno;
     p.size = total;
     p.fragments = count;
@@ -133,15 +146,20 @@ std::string LcmDatagrams::feed_fragment(const std::uint8_t* data, std::size_t si
     p.channel.clear();
     p.payload.assign(total, 0);
     p.seen.assign(count, false);
+    partial_bytes_ += total;
   }
+  Partial& p = partial_[sender];
   if (p.seen[no]) return {};  // a copy: taken already
   p.seen[no] = true;
   --p.missing;
   if (no == 0) p.channel.assign(channel);
   std::memcpy(p.payload.data() + offset, body, n);
   if (p.missing == 0) {
-    p.fragments = 0;  // done: the next fragment starts a new message
-    sink(p.channel, p.payload.data(), p.payload.size(), utime);
+    // Done: delivered from a buffer of its own, so that the sink may feed this reader again.
+    Partial done = std::move(p);
+    partial_.erase(sender);
+    partial_bytes_ -= done.payload.size();
+    sink(done.channel, done.payload.data(), done.payload.size(), utime);
   }
   return {};
 }

@@ -140,6 +140,30 @@ TEST(LcmDatagrams, ANewerMessageDropsTheUnfinishedOneOfItsSender) {
   EXPECT_EQ(r.got[0].payload, new_msg);
 }
 
+TEST(LcmDatagrams, UnfinishedMessagesOfManySendersStayWithinTheBudgetAndTheNextMessageStillArrives) {
+  // Forged first fragments of 10 MB messages from 100 senders: never more than the budget held.
+  Reader r;
+  Bytes head;
+  put32(head, 0x4c433033);
+  put32(head, 1);
+  put32(head, 10u << 20);
+  put32(head, 0);
+  put16(head, 0);
+  put16(head, 200);
+  head.insert(head.end(), {'F', 0, 1, 2, 3});
+  for (std::uint64_t sender = 0; sender < 100; ++sender) {
+    EXPECT_EQ(r.feed(head, sender), "");
+    EXPECT_LE(r.datagrams.partial_bytes(), LcmDatagrams::kMaxPartialBytes);
+  }
+  EXPECT_GE(r.datagrams.dropped_partial(), 90);
+  EXPECT_TRUE(r.got.empty());
+  const Bytes payload = pattern(100'000);
+  EXPECT_EQ(r.feed(fragment("LATER", payload, 3, 0, 2, 60'000), 1000), "");
+  EXPECT_EQ(r.feed(fragment("LATER", payload, 3, 1, 2, 60'000), 1000), "");
+  ASSERT_EQ(r.got.size(), 1u);
+  EXPECT_EQ(r.got[0].payload, payload);
+}
+
 TEST(LcmDatagrams, MalformedDatagramsAreRefusedWithTheirReasonAndNothingIsDelivered) {
   const Bytes payload = pattern(100'000);
   const auto with = [](Bytes b, std::size_t at, std::uint8_t v) {
@@ -161,8 +185,8 @@ TEST(LcmDatagrams, MalformedDatagramsAreRefusedWithTheirReasonAndNothingIsDelive
       {Bytes(long_header.begin(), long_header.begin() + 19), "fragment of 19 bytes, shorter than its 20-byte header"},
       {with(long_header, 19, 1), "fragment 1 of 1"},
       {with(long_header, 17, 2), "fragment 2 of 2"},
-      {with(with(with(with(long_header, 8, 0), 9, 0), 10, 0), 11, 0), "fragmented message of 0 bytes (at most 67108864)"},
-      {with(long_header, 8, 0x7f), "fragmented message of 2130806432 bytes (at most 67108864)"},
+      {with(with(with(with(long_header, 8, 0), 9, 0), 10, 0), 11, 0), "fragmented message of 0 bytes (at most 16777216)"},
+      {with(long_header, 8, 0x7f), "fragmented message of 2130806432 bytes (at most 16777216)"},
       {with(long_header, 10, 0), "fragment 1 ends at 100000, beyond the message's 65696 bytes"},
       {with(fragment("X", payload, 1, 0, 2, 60'000), 15, 1), "fragment 0 at offset 1"},
   };

@@ -49,8 +49,12 @@ using MessageSink = std::function<void(std::string_view channel, const std::uint
 /// newer message drops the older one). Pure: no socket, so that it is tested and fuzzed alone.
 class LcmDatagrams {
  public:
-  /// The largest fragmented payload accepted [bytes]; liblcm's own receive buffers are smaller.
-  static constexpr std::uint32_t kMaxMessageBytes = 64u << 20;
+  /// The largest fragmented payload accepted [bytes] (the stack's largest message is a few kB).
+  static constexpr std::uint32_t kMaxMessageBytes = 16u << 20;
+  /// The most the unfinished messages of all senders may hold together [bytes]: a message that
+  /// would exceed it drops every other unfinished one first, so forged fragments from many
+  /// senders cannot make a node allocate without bound.
+  static constexpr std::size_t kMaxPartialBytes = 32u << 20;
   /// liblcm's limit on a channel name.
   static constexpr std::size_t kMaxChannelLength = 63;
 
@@ -58,8 +62,11 @@ class LcmDatagrams {
   /// Returns an empty string when the datagram was taken (delivered, or kept as a fragment), else
   /// why it was refused.
   std::string feed(const std::uint8_t* data, std::size_t size, std::uint64_t sender, std::int64_t utime, const MessageSink& sink);
-  /// Messages dropped unfinished because a newer message of the same sender began.
+  /// Messages dropped unfinished: a newer message of the same sender began, or the unfinished
+  /// messages together would have exceeded kMaxPartialBytes.
   [[nodiscard]] std::int64_t dropped_partial() const { return dropped_partial_; }
+  /// Bytes the unfinished messages hold now.
+  [[nodiscard]] std::size_t partial_bytes() const { return partial_bytes_; }
 
  private:
   struct Partial {
@@ -75,6 +82,7 @@ class LcmDatagrams {
                             const MessageSink& sink);
   std::unordered_map<std::uint64_t, Partial> partial_;
   std::int64_t dropped_partial_ = 0;
+  std::size_t partial_bytes_ = 0;
 };
 
 /// A non-blocking socket joined to a udpm URL's group, bound as liblcm binds (SO_REUSEADDR on the
