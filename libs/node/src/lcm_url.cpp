@@ -11,6 +11,8 @@
 #include <cstring>
 #include <lcm/lcm-cpp.hpp>
 
+#include "hpr/node/udpm.hpp"
+
 namespace hpr::node {
 
 std::string resolve_lcm_url(const std::string& explicit_url, const std::string& configured_url) {
@@ -21,28 +23,14 @@ std::string resolve_lcm_url(const std::string& explicit_url, const std::string& 
 }
 
 void check_multicast_route(const std::string& url) {
-  const std::string scheme = "udpm://";
-  if (url.rfind(scheme, 0) != 0) return;
-  std::string rest = url.substr(scheme.size());
-  const size_t q = rest.find('?');
-  if (q != std::string::npos) rest = rest.substr(0, q);
-  std::string host = rest;
-  int port = 7667;
-  if (const size_t colon = rest.find(':'); colon != std::string::npos) {
-    host = rest.substr(0, colon);
-    try {
-      port = std::stoi(rest.substr(colon + 1));
-    } catch (...) {
-      throw LcmError(fmt::format("LCM URL '{}': the port is not a number", url));
-    }
-  }
-  if (host.empty()) host = "239.255.76.67";
+  if (!is_udpm_url(url)) return;
+  const UdpmUrl u = parse_udpm_url(url);  // throws LcmError naming a malformed part
+  const std::string& host = u.group;
+  const int port = u.port;
   sockaddr_in addr{};
   addr.sin_family = AF_INET;
   addr.sin_port = htons(static_cast<uint16_t>(port));
-  if (inet_pton(AF_INET, host.c_str(), &addr.sin_addr) != 1) {
-    throw LcmError(fmt::format("LCM URL '{}': '{}' is not an IPv4 multicast address", url, host));
-  }
+  (void)inet_pton(AF_INET, host.c_str(), &addr.sin_addr);
   const int fd = ::socket(AF_INET, SOCK_DGRAM, 0);
   if (fd < 0) throw LcmError(fmt::format("LCM: cannot create a UDP socket: {}", std::strerror(errno)));
   const int rc = ::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof(addr));
@@ -56,7 +44,7 @@ void check_multicast_route(const std::string& url) {
 }
 
 std::string with_receive_buffer(const std::string& url, int bytes) {
-  if (url.rfind("udpm://", 0) != 0 || url.find("recv_buf_size=") != std::string::npos) return url;
+  if (!is_udpm_url(url) || url.find("recv_buf_size=") != std::string::npos) return url;
   return url + (url.find('?') == std::string::npos ? "?" : "&") + "recv_buf_size=" + std::to_string(bytes);
 }
 
