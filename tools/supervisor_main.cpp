@@ -15,9 +15,9 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include "hpr/node/lcm_url.hpp"
 #include "hpr/msg/channels.hpp"  // every channel with its message type
 #include "hpr/msg/commands.hpp"
+#include "hpr/node/lcm_url.hpp"
 
 #include <atomic>
 #include <chrono>

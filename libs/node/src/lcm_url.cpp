@@ -25,12 +25,10 @@ std::string resolve_lcm_url(const std::string& explicit_url, const std::string& 
 void check_multicast_route(const std::string& url) {
   if (!is_udpm_url(url)) return;
   const UdpmUrl u = parse_udpm_url(url);  // throws LcmError naming a malformed part
-  const std::string& host = u.group;
-  const int port = u.port;
   sockaddr_in addr{};
   addr.sin_family = AF_INET;
-  addr.sin_port = htons(static_cast<uint16_t>(port));
-  (void)inet_pton(AF_INET, host.c_str(), &addr.sin_addr);
+  addr.sin_port = htons(static_cast<uint16_t>(u.port));
+  addr.sin_addr = u.group_addr;
   const int fd = ::socket(AF_INET, SOCK_DGRAM, 0);
   if (fd < 0) throw LcmError(fmt::format("LCM: cannot create a UDP socket: {}", std::strerror(errno)));
   const int rc = ::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof(addr));
@@ -38,8 +36,8 @@ void check_multicast_route(const std::string& url) {
   ::close(fd);
   if (rc != 0) {
     throw LcmError(fmt::format(
-        "LCM cannot reach multicast group {}:{} ({}): there is no multicast route. Fix (as root): {}", host,
-        port, std::strerror(err), kMulticastFixCommand));
+        "LCM cannot reach multicast group {}:{} ({}): there is no multicast route. Fix (as root): {}", u.group,
+        u.port, std::strerror(err), kMulticastFixCommand));
   }
 }
 

@@ -23,6 +23,10 @@
 namespace hpr::node {
 namespace {
 
+/// Datagrams the own socket is drained of at a time: a few ticks' worth, so that timers (HEALTH)
+/// and steps run between batches of a backlog.
+constexpr std::size_t kDirectDrainBatch = 256;
+
 std::atomic<bool> g_signalled{false};
 int g_signal_pipe[2] = {-1, -1};
 
@@ -384,9 +388,7 @@ void Runtime::spin_once(double timeout_s) {
 int Runtime::receive_fd() const { return receiver_ ? receiver_->fd() : lcm_->getFileno(); }
 
 void Runtime::receive_direct() {
-  // At most a few ticks' worth at a time, so that timers (HEALTH) and steps run between batches
-  // of a backlog.
-  receiver_->drain(deliver_, 256);
+  receiver_->drain(deliver_, kDirectDrainBatch);
   if (receiver_->refused() != refused_reported_) {
     const double now = monotonic_s();
     if (now - last_reject_log_ > 1.0) {

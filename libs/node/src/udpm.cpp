@@ -74,8 +74,7 @@ UdpmUrl parse_udpm_url(const std::string& url) {
     rest = rest.substr(0, colon);
   }
   if (!rest.empty()) u.group = std::string(rest);
-  in_addr a{};
-  if (inet_pton(AF_INET, u.group.c_str(), &a) != 1 || !IN_MULTICAST(ntohl(a.s_addr))) {
+  if (inet_pton(AF_INET, u.group.c_str(), &u.group_addr) != 1 || !IN_MULTICAST(ntohl(u.group_addr.s_addr))) {
     throw LcmError(fmt::format("LCM URL '{}': '{}' is not an IPv4 multicast address", url, u.group));
   }
   while (!query.empty()) {
@@ -123,8 +122,8 @@ std::string LcmDatagrams::feed_fragment(const std::uint8_t* data, std::size_t si
     n -= channel.size() + 1;
   }
   if (std::size_t{offset} + n > total) return fmt::format("fragment {} ends at {}, beyond the message's {} bytes", no, std::size_t{offset} + n, total);
-  if (const auto it = partial_.find(sender);
-      it == partial_.end() || it->second.fragments == 0 || it->second.seqno != seqno || it->second.size != total ||
+  auto it = partial_.find(sender);
+  if (it == partial_.end() || it->second.fragments == 0 || it->second.seqno != seqno || it->second.size != total ||
       it->second.fragments != count) {
     // A new message: the sender's unfinished one goes, and every other one too if together they
     // would hold more than the budget.
@@ -138,7 +137,8 @@ std::string LcmDatagrams::feed_fragment(const std::uint8_t* data, std::size_t si
       partial_.clear();
       partial_bytes_ = 0;
     }
-    Partial& p = partial_[sender];
+    it = partial_.try_emplace(sender).first;
+    Partial& p = it->second;
     p.seqno = seqno;
     p.size = total;
     p.fragments = count;
@@ -148,7 +148,7 @@ std::string LcmDatagrams::feed_fragment(const std::uint8_t* data, std::size_t si
     p.seen.assign(count, false);
     partial_bytes_ += total;
   }
-  Partial& p = partial_[sender];
+  Partial& p = it->second;
   if (p.seen[no]) return {};  // a copy: taken already
   p.seen[no] = true;
   --p.missing;
@@ -157,7 +157,7 @@ std::string LcmDatagrams::feed_fragment(const std::uint8_t* data, std::size_t si
   if (p.missing == 0) {
     // Done: delivered from a buffer of its own, so that the sink may feed this reader again.
     Partial done = std::move(p);
-    partial_.erase(sender);
+    partial_.erase(it);
     partial_bytes_ -= done.payload.size();
     sink(done.channel, done.payload.data(), done.payload.size(), utime);
   }
@@ -187,7 +187,7 @@ UdpmReceiver::UdpmReceiver(const UdpmUrl& url) : buffer_(kMaxDatagram) {
   if (::setsockopt(fd_, SOL_SOCKET, SO_TIMESTAMPNS, &one, sizeof one) != 0) throw fail("SO_TIMESTAMPNS");
   if (::bind(fd_, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) != 0) throw fail("bind");
   ip_mreq group{};
-  (void)inet_pton(AF_INET, url.group.c_str(), &group.imr_multiaddr);
+  group.imr_multiaddr = url.group_addr;
   group.imr_interface.s_addr = htonl(INADDR_ANY);
   if (::setsockopt(fd_, IPPROTO_IP, IP_ADD_MEMBERSHIP, &group, sizeof group) != 0) throw fail("joining the multicast group");
 }

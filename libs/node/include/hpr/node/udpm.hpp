@@ -30,6 +30,7 @@ namespace hpr::node {
 /// The parts of a `udpm://GROUP:PORT?...` URL a receiver needs.
 struct UdpmUrl {
   std::string group = "239.255.76.67";
+  in_addr group_addr{};  ///< `group` as parse_udpm_url read it (network byte order)
   int port = 7667;
   int recv_buf_size = 0;  ///< 0: the system's default
 };
