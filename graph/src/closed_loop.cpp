@@ -7,13 +7,14 @@
 
 #include "hpr/common/args.hpp"
 #include "hpr/estimator/truth_state.hpp"
+#include "hpr/sim/engines.hpp"
 
 namespace hpr::graph {
 
 SimulatedRobot::SimulatedRobot(const std::string& config_file, const std::vector<std::string>& overrides)
     : cfg(Config::load(config_file, overrides)),
       spec(model::RobotSpec::load(cfg.section("robot"))),
-      sim(spec, sim::SimConfig::load(cfg.section("sim"))) {}
+      sim(spec, sim::SimConfig::load(cfg.section("sim")), sim::make_engine) {}
 
 namespace {
 ControllersOptions controllers_options(const ClosedLoopOptions& o) {

@@ -18,14 +18,6 @@ namespace hpr::hal {
 
 namespace {
 
-std::pair<double, double> range(const Config& c, const std::string& key, double lo, double hi) {
-  if (!c.has(key)) return {lo, hi};
-  const auto v = c.reals(key, 2);
-  if (!(v[0] < v[1])) throw ConfigError(c.file() + ": " + c.full_key(key) + ": [" + std::to_string(v[0]) + ", " +
-                                        std::to_string(v[1]) + "] is not an interval with min < max");
-  return {v[0], v[1]};
-}
-
 /// The buses (`buses`), with the top level's transport defaults: `transport`, and for udp the
 /// hosts and a base port (bus b: hal at base + 2b, the drives' side at base + 2b + 1) unless a bus
 /// gives `local` and `remote`. Each bus's index by name.
@@ -73,56 +65,6 @@ int bus_of(const Config& where, const std::string& key, const std::map<std::stri
   const auto it = bus_index.find(name);
   if (it == bus_index.end()) throw ConfigError(where.file() + ": " + where.full_key(key) + ": unknown bus '" + name + "'");
   return it->second;
-}
-
-/// The joint an entry of `drives` names: a controlled joint's index, or nj + k for the k-th held one.
-int drive_joint(const Config& d, const model::Model& m) {
-  const std::string joint = d.string("joint");
-  for (std::size_t k = 0; k < m.held_joint_name.size(); ++k) {
-    if (m.held_joint_name[k] == joint) return m.nj + static_cast<int>(k);
-  }
-  try {
-    return m.joint_index(joint);
-  } catch (const std::exception&) {
-    throw ConfigError(d.file() + ": " + d.full_key("joint") + ": '" + joint + "' is not a joint of " + m.source);
-  }
-}
-
-/// An entry of `drives` into `dc` (joint `j`): its id, sign, offset, and limits in drive units
-/// (from the joint's limits, the model's or for a held joint the URDF's; a `limits` block overrides).
-void load_drive(const Config& d, int j, const model::RobotSpec& robot, const DriveDefaults& defaults, DriveConfig& dc) {
-  const model::Model& m = robot.model;
-  dc.joint = d.string("joint");
-  dc.joint_index = j;
-  dc.id = static_cast<int>(d.integer("id", 1, MitCodec::kMaxDriveId));
-  const double sign = d.real_or("sign", 1.0);
-  if (sign != 1.0 && sign != -1.0) throw ConfigError(d.file() + ": " + d.full_key("sign") + ": " + std::to_string(sign) + " is not 1 or -1");
-  dc.sign = sign;
-  dc.offset = d.real_or("offset", 0.0, -10.0, 10.0);
-  double q_lower = -1e9, q_upper = 1e9, v_max = 0.0, tau_max = 0.0;
-  if (j < m.nj) {
-    const auto ju = static_cast<std::size_t>(j);
-    q_lower = m.q_lower[ju], q_upper = m.q_upper[ju], v_max = m.v_max[ju], tau_max = m.tau_max[ju];
-  } else {
-    const model::JointDesc& jd = *robot.description.find_joint(dc.joint);
-    dc.held = true;
-    dc.held_q = m.held_q[static_cast<std::size_t>(j - m.nj)];
-    if (jd.has_limits && jd.type != model::JointType::kContinuous) q_lower = jd.lower, q_upper = jd.upper;
-    if (jd.has_limits) v_max = jd.velocity, tau_max = jd.effort;
-  }
-  dc.q_lower = q_lower;
-  dc.q_upper = q_upper;
-  dc.limits = default_limits(defaults, dc, v_max, tau_max);
-  DriveLimits& l = dc.limits;
-  if (d.has("limits")) {
-    const Config lc = d.section("limits");
-    std::tie(l.p_min, l.p_max) = range(lc, "position", l.p_min, l.p_max);
-    std::tie(l.v_min, l.v_max) = range(lc, "velocity", l.v_min, l.v_max);
-    std::tie(l.kp_min, l.kp_max) = range(lc, "kp", l.kp_min, l.kp_max);
-    std::tie(l.kd_min, l.kd_max) = range(lc, "kd", l.kd_min, l.kd_max);
-    std::tie(l.t_min, l.t_max) = range(lc, "torque", l.t_min, l.t_max);
-    if (l.kp_min != 0.0 || l.kd_min != 0.0) throw ConfigError(lc.file() + ": " + lc.full_key("kp") + ": gain ranges must start at 0");
-  }
 }
 
 /// The CANopen master's times (`hal.canopen`).
@@ -235,13 +177,14 @@ HalConfig HalConfig::load(const Config& c, const model::RobotSpec& robot) {
   h.drives.assign(static_cast<std::size_t>(m.nj) + m.held_joint_name.size(), DriveConfig{});
   std::set<std::pair<int, int>> ids;
   for (const Config& d : c.items("drives")) {
-    const int j = drive_joint(d, m);
+    const int j = drive::drive_joint(d, m);
     DriveConfig& dc = h.drives[static_cast<std::size_t>(j)];
     if (dc.joint_index >= 0) {
       throw ConfigError(d.file() + ": " + d.full_key("joint") + ": joint '" + d.string("joint") + "' is mapped twice");
     }
     dc.bus = bus_of(d, "bus", bus_index);
-    load_drive(d, j, robot, defaults, dc);
+    dc.id = static_cast<int>(d.integer("id", 1, MitCodec::kMaxDriveId));
+    drive::load_joint_drive(d, j, robot, defaults, dc);
     const DriveProtocol bus_protocol = h.buses[static_cast<std::size_t>(dc.bus)].protocol;
     dc.protocol = d.has("protocol") ? (d.choice("protocol", {"mit", "cia402"}) == "cia402" ? DriveProtocol::kCia402 : DriveProtocol::kMit)
                                     : bus_protocol;

@@ -7,10 +7,11 @@
 #include <vector>
 
 #include "hpr/common/config.hpp"
-#include "hpr/hal/drive_emulator.hpp"
+#include "hpr/sim/drive_emulator.hpp"
 #include "hpr/hal/hal.hpp"
 #include "hpr/hal/memory_transport.hpp"
 #include "hpr/model/robot.hpp"
+#include "hpr/sim/engines.hpp"
 #include "hpr/sim/simulator.hpp"
 #include "process_group.hpp"
 
@@ -34,7 +35,7 @@ struct Rig {
       : cfg(Config::load(test::source_dir() + "/config/toro.yaml", overrides)),
         robot(model::RobotSpec::load(cfg.section("robot"))),
         config(hal::HalConfig::load(cfg.section("hal"), robot)),
-        sim(robot, sim::SimConfig::load(cfg.section("sim"))) {
+        sim(robot, sim::SimConfig::load(cfg.section("sim")), sim::make_engine) {
     std::vector<std::unique_ptr<hal::CanTransport>> hal_buses;
     for (std::size_t b = 0; b < config.buses.size(); ++b) {
       auto [a, d] = hal::MemoryTransport::pair();

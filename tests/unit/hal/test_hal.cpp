@@ -6,7 +6,7 @@
 #include <cmath>
 #include <fstream>
 
-#include "hpr/hal/drive_emulator.hpp"
+#include "hpr/sim/drive_emulator.hpp"
 #include "hpr/hal/hal.hpp"
 #include "hal_rig.hpp"
 #include "hpr/hal/memory_transport.hpp"

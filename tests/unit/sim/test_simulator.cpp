@@ -8,6 +8,7 @@
 
 #include "hpr/model/algorithms.hpp"
 #include "hpr/model/urdf.hpp"
+#include "hpr/sim/engines.hpp"
 #include "hpr/sim/simulator.hpp"
 #include "model_fixture.hpp"
 
@@ -55,7 +56,7 @@ VectorXd float_at_rest(Robot& r, sim::Simulator& s) {
 TEST_P(SimulatorEngine, PushedFreeFloatingBodyGainsTheImpulse) {
   Robot r("toro", GetParam());
   r.sim_config.gravity.setZero();
-  sim::Simulator s(*r.spec, r.sim_config);
+  sim::Simulator s(*r.spec, r.sim_config, sim::make_engine);
   float_at_rest(r, s);
   for (auto profile : {sim::Push::Profile::kRectangle, sim::Push::Profile::kHalfSine}) {
     const Vector3d h0 = s.truth().h_lin_W;
@@ -83,7 +84,7 @@ TEST_P(SimulatorEngine, JointsStopAtTheirLimitsWhicheverLinksCollide) {
     Robot r("toro", GetParam());
     r.sim_config.gravity.setZero();
     r.sim_config.feet_only_collisions = std::string(collisions) == "feet";
-    sim::Simulator s(*r.spec, r.sim_config);
+    sim::Simulator s(*r.spec, r.sim_config, sim::make_engine);
     float_at_rest(r, s);
     const model::Model& m = r.spec->model;
     sim::JointCommand c;
@@ -109,7 +110,7 @@ TEST_P(SimulatorEngine, JointsStopAtTheirLimitsWhicheverLinksCollide) {
 TEST_P(SimulatorEngine, TruthPushPointIsThePushedPointOfTheLink) {
   Robot r("toro", GetParam());
   r.sim_config.gravity.setZero();
-  sim::Simulator s(*r.spec, r.sim_config);
+  sim::Simulator s(*r.spec, r.sim_config, sim::make_engine);
   const VectorXd q = float_at_rest(r, s);
   sim::Push p;
   p.id = 3;
@@ -140,7 +141,7 @@ TEST_P(SimulatorEngine, TruthPushPointIsThePushedPointOfTheLink) {
 TEST_P(SimulatorEngine, TruthMomentumMatchesTheModelLibrary) {
   for (const char* name : {"toro", "h1_2"}) {
     Robot r(name, GetParam());
-    sim::Simulator s(*r.spec, r.sim_config);
+    sim::Simulator s(*r.spec, r.sim_config, sim::make_engine);
     test::RandomState rs(21);
     model::Data data(r.spec->model);
     for (int k = 0; k < 20; ++k) {
@@ -162,7 +163,7 @@ TEST_P(SimulatorEngine, TruthMomentumMatchesTheModelLibrary) {
 TEST_P(SimulatorEngine, StandsWithStiffJointImpedance) {
   for (const char* name : {"toro", "h1_2"}) {
     Robot r(name, GetParam());
-    sim::Simulator s(*r.spec, r.sim_config);
+    sim::Simulator s(*r.spec, r.sim_config, sim::make_engine);
     const auto c = hold_command(r);
     const auto p0 = s.truth().p_WF;
     double slip = 0, sink = 0, tilt = 0;
@@ -189,7 +190,7 @@ TEST_P(SimulatorEngine, StandsWithStiffJointImpedance) {
 
 TEST_P(SimulatorEngine, SensorsAtRestAreConsistent) {
   Robot r("toro", GetParam());
-  sim::Simulator s(*r.spec, r.sim_config);
+  sim::Simulator s(*r.spec, r.sim_config, sim::make_engine);
   const auto c = hold_command(r);
   for (int k = 0; k < 3000; ++k) {  // let the hand-over from the settling gains die out
     s.set_command(c);
@@ -217,7 +218,7 @@ TEST_P(SimulatorEngine, SensorsAtRestAreConsistent) {
 
 TEST_P(SimulatorEngine, IsDeterministic) {
   Robot r("toro", GetParam());
-  sim::Simulator a(*r.spec, r.sim_config), b(*r.spec, r.sim_config);
+  sim::Simulator a(*r.spec, r.sim_config, sim::make_engine), b(*r.spec, r.sim_config, sim::make_engine);
   auto c = hold_command(r, 800, 20);
   sim::Push p;
   p.link = "torso";
@@ -243,7 +244,7 @@ TEST_P(SimulatorEngine, IsDeterministic) {
 
 TEST(Simulator, BadCommandsAreRefusedThenStaleCommandsDamp) {
   Robot r("toro");
-  sim::Simulator s(*r.spec, r.sim_config);
+  sim::Simulator s(*r.spec, r.sim_config, sim::make_engine);
   const auto good = hold_command(r);
   for (int k = 0; k < 500; ++k) {
     ASSERT_TRUE(s.set_command(good));
@@ -287,7 +288,7 @@ TEST_P(SimulatorEngine, HeldJointsStayAtTheirPositionsOutsideTheCommands) {
   auto sim_config = sim::SimConfig::load(cfg.section("sim"));
   sim_config.engine = GetParam();
   ASSERT_EQ(spec.model.nj, 24);
-  sim::Simulator s(spec, sim_config);
+  sim::Simulator s(spec, sim_config, sim::make_engine);
   EXPECT_EQ(s.simulated_model().nj, 27);
   EXPECT_EQ(s.sensors().q.size(), 24);
   sim::JointCommand c;
@@ -323,7 +324,7 @@ TEST_P(SimulatorEngine, RigidHeldJointsAreWeldedAtTheirPositions) {
   auto sim_config = sim::SimConfig::load(cfg.section("sim"));
   sim_config.engine = GetParam();
   ASSERT_TRUE(sim_config.held_rigid);
-  sim::Simulator s(spec, sim_config);
+  sim::Simulator s(spec, sim_config, sim::make_engine);
   EXPECT_EQ(s.simulated_model().nj, 24);
   test::RandomState rs(3);
   model::Data data(spec.model);
@@ -372,7 +373,7 @@ namespace {
 TEST_P(SimulatorEngine, ModelErrorChangesTheSimulatedBodyOnly) {
   Robot r("toro", GetParam());
   r.sim_config.model_error = {{"torso", 1.1, Vector3d(0.02, 0.0, 0.0)}};
-  sim::Simulator s(*r.spec, r.sim_config);
+  sim::Simulator s(*r.spec, r.sim_config, sim::make_engine);
   model::Model changed = r.spec->model;
   const auto b = static_cast<size_t>(changed.body_index("torso"));
   const model::Inertia before = changed.inertia[b];
@@ -398,7 +399,7 @@ TEST_P(SimulatorEngine, ModelErrorChangesTheSimulatedBodyOnly) {
   Robot bad("toro", GetParam());
   bad.sim_config.model_error = {{"trunk", 1.1, Vector3d::Zero()}};
   try {
-    sim::Simulator unused(*bad.spec, bad.sim_config);
+    sim::Simulator unused(*bad.spec, bad.sim_config, sim::make_engine);
     FAIL() << "an unknown body was accepted";
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("no moving body named 'trunk'"), std::string::npos) << e.what();
@@ -412,7 +413,7 @@ TEST_P(SimulatorEngine, ActuationDelayAppliesTheCommandOfNTicksAgo) {
     Robot r("toro", GetParam());
     r.sim_config.actuation_delay_ticks = delay;
     r.sim_config.gravity.setZero();
-    sim::Simulator s(*r.spec, r.sim_config);
+    sim::Simulator s(*r.spec, r.sim_config, sim::make_engine);
     float_at_rest(r, s);
     sim::JointCommand c;
     c.resize(r.spec->model.nj);
@@ -474,7 +475,7 @@ TEST(SimConfig, EveryMujocoVariantBuildsAndStands) {
     Robot r("toro", sim::EngineKind::kMujoco);
     const auto c = sim::SimConfig::load(Config::parse(std::string("sim: {engine: mujoco, substeps: 2, mujoco: {") + variant + "}}", "x.yaml").section("sim"));
     r.sim_config.mujoco = c.mujoco;
-    sim::Simulator s(*r.spec, r.sim_config);
+    sim::Simulator s(*r.spec, r.sim_config, sim::make_engine);
     const auto hold = hold_command(r);
     for (int k = 0; k < 1000; ++k) {
       ASSERT_TRUE(s.set_command(hold));
@@ -487,7 +488,7 @@ TEST(SimConfig, EveryMujocoVariantBuildsAndStands) {
   // The model as MuJoCo got it, written for its own tools: every body of the simulated model.
   Robot r("toro", sim::EngineKind::kMujoco);
   r.sim_config.mujoco.write_model = test::temp_dir("mujoco-model") + "/toro.xml";
-  sim::Simulator s(*r.spec, r.sim_config);
+  sim::Simulator s(*r.spec, r.sim_config, sim::make_engine);
   std::ifstream in(r.sim_config.mujoco.write_model);
   const std::string xml((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   EXPECT_NE(xml.find("<freejoint"), std::string::npos);

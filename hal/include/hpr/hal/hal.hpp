@@ -36,16 +36,10 @@ struct BusConfig {
   std::string local, remote;  ///< udp "host:port" (hal side; the emulator swaps them)
 };
 
-struct DriveConfig {
-  std::string joint;
-  int joint_index = -1;
+/// A drive of the hal: its joint and units (drive::JointDrive), and where and how it is reached.
+struct DriveConfig : drive::JointDrive {
   int bus = -1;
   int id = 0;
-  double sign = 1.0, offset = 0.0;
-  DriveLimits limits;
-  double q_lower = -1e9, q_upper = 1e9;  ///< hard joint limits [rad] (soft-limit damping near them)
-  bool held = false;      ///< a held joint (robot.held_joints): outside the commands, held by the hal
-  double held_q = 0.0;    ///< its position [rad]
   DriveProtocol protocol = DriveProtocol::kMit;
   Cia402Scaling cia402;   ///< CiA 402: units (from hal.canopen, the drive's EDS, its `cia402` block)
   std::string eds;        ///< CiA 402: the drive's EDS/DCF file, if one is given
@@ -78,29 +72,9 @@ struct HalConfig {
   static HalConfig load(const Config& hal_section, const model::RobotSpec& robot);
 };
 
-/// What a drive without a `limits` block accepts, from its joint's URDF limits (`hal.drive_defaults`).
-struct DriveDefaults {
-  double kp_max = 1000.0;         ///< [Nm/rad]
-  double kd_max = 50.0;           ///< [Nm s/rad]
-  double position_margin = 0.5;   ///< [rad] beyond the URDF position limits
-  double velocity_scale = 1.5;    ///< × the URDF velocity limit
-  double torque_scale = 1.0;      ///< × the URDF effort limit
-  static DriveDefaults load(const Config& drive_defaults);
-};
-
-/// A drive's limits (drive units) from its joint's limits (`dc.q_lower`, `dc.q_upper`, sign and
-/// offset set) and the defaults.
-DriveLimits default_limits(const DriveDefaults& defaults, const DriveConfig& dc, double v_max, double tau_max);
-
-/// A drive for every model joint with the defaults' limits (sign 1, offset 0, no bus): what the
-/// hal's command check uses where a configuration maps no drives (a simulated robot).
-std::vector<DriveConfig> default_drives(const model::RobotSpec& robot, const DriveDefaults& defaults = {});
-
-/// The hal's check of a JOINT_COMMAND against the first `controlled` of `drives`: the command's
-/// own check (size, non-finite values, negative gains), then in run mode every joint's q_des, qd_des,
-/// kp, kd and τ_ff inside its drive's range (drive side). Empty when acceptable, else the first
-/// reason. The simulator applies the same check, so that what the hal refuses is refused there too.
-std::string check_command(const JointCommand& c, const std::vector<DriveConfig>& drives, int controlled);
+/// The drives' defaults and the command check the hal shares with the simulator (hpr/drive/drive.hpp).
+using drive::check_command;
+using drive::DriveDefaults;
 
 /// Opens the transports of the configured buses. `emulator_side` swaps local and remote for udp.
 std::vector<std::unique_ptr<CanTransport>> open_buses(const HalConfig& c, bool emulator_side);

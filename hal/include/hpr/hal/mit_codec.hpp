@@ -14,18 +14,13 @@
 #include <cstdint>
 #include <optional>
 
+#include "hpr/drive/drive.hpp"
 #include "hpr/hal/can.hpp"
 
 namespace hpr::hal {
 
 /// Per-drive scaling: the ranges the 12- and 16-bit fields span (drive units: rad, rad/s, Nm).
-struct DriveLimits {
-  double p_min = -12.5, p_max = 12.5;
-  double v_min = -45.0, v_max = 45.0;
-  double kp_min = 0.0, kp_max = 500.0;
-  double kd_min = 0.0, kd_max = 5.0;
-  double t_min = -18.0, t_max = 18.0;
-};
+using drive::DriveLimits;
 
 /// One impedance command in drive units: τ = τ_ff + kp (p_des − p) + kd (v_des − v).
 struct DriveCommand {
