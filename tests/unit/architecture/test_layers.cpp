@@ -3,9 +3,9 @@
 
 #include <filesystem>
 #include <fstream>
-#include <random>
 
 #include "layers.hpp"
+#include "scratch_dir.hpp"
 
 namespace fs = std::filesystem;
 using hpr::arch::read_layers;
@@ -23,18 +23,14 @@ std::string joined(const std::vector<std::string>& lines) {
 /// A scratch tree of files, removed at the end.
 class Tree {
  public:
-  Tree() : root_(fs::temp_directory_path() / ("hpr-layers-" + std::to_string(std::random_device{}()))) { fs::create_directories(root_); }
-  ~Tree() { fs::remove_all(root_); }
-  Tree(const Tree&) = delete;
-  Tree& operator=(const Tree&) = delete;
   void write(const std::string& path, const std::string& text) const {
-    fs::create_directories((root_ / path).parent_path());
-    std::ofstream(root_ / path) << text;
+    fs::create_directories((root() / path).parent_path());
+    std::ofstream(root() / path) << text;
   }
-  [[nodiscard]] const fs::path& root() const { return root_; }
+  [[nodiscard]] const fs::path& root() const { return dir_.path(); }
 
  private:
-  fs::path root_;
+  hpr::test::ScratchDir dir_{"layers"};
 };
 
 /// Three layers: base (a header), mid and top each with a library whose header includes what it

@@ -13,27 +13,14 @@
 
 #include "hpr/experiments/bisection.hpp"
 #include "hpr/experiments/search.hpp"
+#include "scratch_dir.hpp"
 
 namespace {
 
 using namespace hpr::experiments;
 namespace fs = std::filesystem;
 
-/// An empty folder of the test's own, removed with everything in it when the test ends.
-struct ScratchDir {
-  fs::path path;
-  explicit ScratchDir(const std::string& name)
-      : path(fs::temp_directory_path() / ("hpr-search-" + name + "-" + std::to_string(::getpid()))) {
-    fs::remove_all(path);
-    fs::create_directories(path);
-  }
-  ~ScratchDir() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
-  ScratchDir(const ScratchDir&) = delete;
-  ScratchDir& operator=(const ScratchDir&) = delete;
-};
+using hpr::test::ScratchDir;
 
 /// A configuration file of its own for each test (the key hashes its content).
 SearchSpec spec_in(const fs::path& dir, const std::string& config_text = "robot: {}\n") {
@@ -77,8 +64,8 @@ std::vector<std::string> lines_of(const fs::path& file) {
 }
 
 TEST(Search, FindsWhatTheBisectionFindsAndKeepsEveryTrialInTheStore) {
-  const ScratchDir scratch("store");
-  const fs::path& dir = scratch.path;
+  const ScratchDir scratch("search-store");
+  const fs::path& dir = scratch.path();
   const SearchSpec spec = spec_in(dir);
   const SearchStore store(dir / "trials");
   ThresholdTrials robot{37.3};
@@ -97,8 +84,8 @@ TEST(Search, FindsWhatTheBisectionFindsAndKeepsEveryTrialInTheStore) {
 }
 
 TEST(Search, WhatTheStoreHoldsIsNeverRunAgainWhereverTheSearchWasCut) {
-  const ScratchDir scratch("resume");
-  const fs::path& dir = scratch.path;
+  const ScratchDir scratch("search-resume");
+  const fs::path& dir = scratch.path();
   const SearchSpec spec = spec_in(dir);
   const SearchStore store(dir / "trials");
   ThresholdTrials first{52.1};
@@ -129,8 +116,8 @@ TEST(Search, WhatTheStoreHoldsIsNeverRunAgainWhereverTheSearchWasCut) {
 }
 
 TEST(Search, ALastLineTornByAKilledWriterIsIgnoredAndOneElsewhereIsRefusedNamingTheLine) {
-  const ScratchDir scratch("torn");
-  const fs::path& dir = scratch.path;
+  const ScratchDir scratch("search-torn");
+  const fs::path& dir = scratch.path();
   const SearchSpec spec = spec_in(dir);
   const SearchStore store(dir / "trials");
   ThresholdTrials robot{30.0};
@@ -156,8 +143,8 @@ TEST(Search, ALastLineTornByAKilledWriterIsIgnoredAndOneElsewhereIsRefusedNaming
 }
 
 TEST(Search, AnInconclusiveTrialRunsAgainAndCountsAsNotRecovered) {
-  const ScratchDir scratch("inconclusive");
-  const fs::path& dir = scratch.path;
+  const ScratchDir scratch("search-inconclusive");
+  const fs::path& dir = scratch.path();
   const SearchSpec spec = spec_in(dir);
   int runs = 0, retries = 0;
   SearchEvents events;
@@ -187,8 +174,8 @@ TEST(Search, AnInconclusiveTrialRunsAgainAndCountsAsNotRecovered) {
 }
 
 TEST(Search, ASpecSurvivesItsJsonExactly) {
-  const ScratchDir scratch("json");
-  const fs::path& dir = scratch.path;
+  const ScratchDir scratch("search-json");
+  const fs::path& dir = scratch.path();
   SearchSpec s = spec_in(dir);
   s.base.direction_deg = 1.0 / 3.0;
   s.base.peak = 65.000000000000014;
@@ -207,8 +194,8 @@ TEST(Search, ASpecSurvivesItsJsonExactly) {
 }
 
 TEST(Search, TheKeyChangesWithTheSpecAndTheConfigurationsContent) {
-  const ScratchDir scratch("key");
-  const fs::path& dir = scratch.path;
+  const ScratchDir scratch("search-key");
+  const fs::path& dir = scratch.path();
   const SearchSpec s = spec_in(dir);
   const std::string key = s.key();
   EXPECT_EQ(key.size(), 16U);

@@ -11,6 +11,7 @@
 #include "hpr/common/args.hpp"
 #include "hpr/common/config.hpp"
 #include "hpr/experiments/tuning.hpp"
+#include "scratch_dir.hpp"
 
 namespace {
 
@@ -57,9 +58,8 @@ TEST(Tuning, AnUnknownNameIsRefusedNamingTheKnownOnes) {
 }
 
 TEST(Tuning, TheConfiguredValueIsReadWhereTheConfigurationKeepsIt) {
-  const auto dir = std::filesystem::temp_directory_path() / "hpr-tuning-test";
-  std::filesystem::create_directories(dir);
-  const auto file = (dir / "robot.yaml").string();
+  const hpr::test::ScratchDir dir("tuning");
+  const auto file = (dir.path() / "robot.yaml").string();
   std::ofstream(file) << "reference_gen:\n  alpha: 0.85\n  y:\n    lean_budget_negative: [4.5]\n"
                       << "motion_opt:\n  weights:\n    cam: 2.5\n";
   const hpr::Config cfg = hpr::Config::load(file);

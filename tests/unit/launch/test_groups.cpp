@@ -10,6 +10,7 @@
 #include "hpr/common/config.hpp"
 #include "hpr/launch/groups.hpp"
 #include "hpr/graph/data_flow.hpp"
+#include "scratch_dir.hpp"
 
 namespace {
 
@@ -18,7 +19,8 @@ using hpr::launch::GroupsFile;
 
 std::string write(const std::string& text) {
   static int n = 0;
-  const std::string path = std::filesystem::temp_directory_path() / ("hpr_groups_" + std::to_string(::getpid()) + "_" + std::to_string(n++) + ".yaml");
+  static const hpr::test::ScratchDir dir("groups");
+  const std::string path = dir.path() / (std::to_string(n++) + ".yaml");
   std::ofstream(path) << text;
   return path;
 }

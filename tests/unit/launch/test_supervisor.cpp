@@ -15,6 +15,7 @@
 
 #include "hpr/common/time.hpp"
 #include "hpr/launch/supervisor.hpp"
+#include "scratch_dir.hpp"
 
 namespace {
 
@@ -35,7 +36,8 @@ struct Fixture {
     GroupSpec g;
     g.name = "test";
     g.processes = std::move(ps);
-    dir = std::filesystem::temp_directory_path() / ("hpr_sup_" + std::to_string(::getpid()) + "_" + std::to_string(counter++));
+    static const hpr::test::ScratchDir scratch("supervisor");
+    dir = scratch.path() / std::to_string(counter++);
     std::filesystem::create_directories(dir);
     sup = std::make_unique<Supervisor>(g, host, dir, launcher);
   }
@@ -224,9 +226,8 @@ TEST(Supervisor, HangsAreJudgedOnceTheGroupIsUpTheSilenceCountedFromThen) {
 
 TEST(Supervisor, AWatchedProcessWhoseHealthStopsIsHungAndACriticalOneIsReported) {
   // The supervisor's clock is the caller's: HEALTH arrivals and steps at chosen times.
-  const std::string rate_file =
-      (std::filesystem::temp_directory_path() / ("hpr_sup_rate_" + std::to_string(::getpid()))).string();
-  std::filesystem::remove(rate_file);
+  const hpr::test::ScratchDir scratch("supervisor-rate");
+  const std::string rate_file = (scratch.path() / "rate").string();
   ProcessSpec c = proc("controller", "echo $HPR_HEALTH_RATE_HZ > " + rate_file + "; exec sleep 30"),
               m = proc("monitor", "exec sleep 30"), u = proc("unwatched", "exec sleep 30");
   c.critical = true;

@@ -14,6 +14,7 @@
 #include "hpr/model/algorithms.hpp"
 #include "hpr/onboard/robot_draft.hpp"
 #include "model_fixture.hpp"
+#include "scratch_dir.hpp"
 #include "shell.hpp"
 
 namespace {
@@ -24,8 +25,8 @@ using namespace hpr;
 // paths resolve as for a user's file) and loads it as the processes do.
 model::RobotSpec write_and_load(const onboard::RobotDraft& draft, const std::string& urdf, const std::string& file) {
   namespace fs = std::filesystem;
-  const fs::path dir = fs::temp_directory_path() / ("hpr_draft_" + std::to_string(::getpid()));
-  fs::create_directories(dir);
+  static const hpr::test::ScratchDir scratch("draft");
+  const fs::path& dir = scratch.path();
   const fs::path out = dir / file;
   const std::string text = onboard::write_config(draft, test::read_file(test::source_dir() + "/config/templates/robot.yaml"),
                                                  fs::relative(urdf, dir).string(), "test");
