@@ -172,19 +172,11 @@ HalConfig HalConfig::load(const Config& c, const model::RobotSpec& robot) {
   const std::map<std::string, int> bus_index = load_buses(c, h.buses);
   if (c.has("sensors")) h.sensor_bus = bus_of(c.section("sensors"), "bus", bus_index);
 
-  const DriveDefaults defaults = DriveDefaults::load(c.has("drive_defaults") ? c.section("drive_defaults") : c);
   h.controlled = m.nj;
-  h.drives.assign(static_cast<std::size_t>(m.nj) + m.held_joint_name.size(), DriveConfig{});
   std::set<std::pair<int, int>> ids;
-  for (const Config& d : c.items("drives")) {
-    const int j = drive::drive_joint(d, m);
-    DriveConfig& dc = h.drives[static_cast<std::size_t>(j)];
-    if (dc.joint_index >= 0) {
-      throw ConfigError(d.file() + ": " + d.full_key("joint") + ": joint '" + d.string("joint") + "' is mapped twice");
-    }
+  h.drives = drive::read_drives<DriveConfig>(c, robot, [&](const Config& d, DriveConfig& dc) {
     dc.bus = bus_of(d, "bus", bus_index);
     dc.id = static_cast<int>(d.integer("id", 1, MitCodec::kMaxDriveId));
-    drive::load_joint_drive(d, j, robot, defaults, dc);
     const DriveProtocol bus_protocol = h.buses[static_cast<std::size_t>(dc.bus)].protocol;
     dc.protocol = d.has("protocol") ? (d.choice("protocol", {"mit", "cia402"}) == "cia402" ? DriveProtocol::kCia402 : DriveProtocol::kMit)
                                     : bus_protocol;
@@ -218,14 +210,7 @@ HalConfig HalConfig::load(const Config& c, const model::RobotSpec& robot) {
       throw ConfigError(d.file() + ": " + d.full_key("id") + ": drive id " + std::to_string(dc.id) + " is used twice on bus '" +
                         h.buses[static_cast<std::size_t>(dc.bus)].name + "'");
     }
-  }
-  for (std::size_t j = 0; j < h.drives.size(); ++j) {
-    if (h.drives[j].joint_index < 0) {
-      const std::string name = j < static_cast<std::size_t>(m.nj) ? m.joint_name[j] : m.held_joint_name[j - static_cast<std::size_t>(m.nj)];
-      throw ConfigError(c.file() + ": " + c.full_key("drives") + ": joint '" + name + "' has no drive" +
-                        (j < static_cast<std::size_t>(m.nj) ? "" : " (a held joint: the hal holds it)"));
-    }
-  }
+  });
   return h;
 }
 

@@ -6,18 +6,6 @@
 
 namespace hpr::drive {
 
-namespace {
-
-std::pair<double, double> range(const Config& c, const std::string& key, double lo, double hi) {
-  if (!c.has(key)) return {lo, hi};
-  const auto v = c.reals(key, 2);
-  if (!(v[0] < v[1])) throw ConfigError(c.file() + ": " + c.full_key(key) + ": [" + std::to_string(v[0]) + ", " +
-                                        std::to_string(v[1]) + "] is not an interval with min < max");
-  return {v[0], v[1]};
-}
-
-}  // namespace
-
 DriveLimits default_limits(const DriveDefaults& dd, const JointDrive& d, double v_max, double tau_max) {
   DriveLimits l;
   if (std::isfinite(d.q_lower) && std::isfinite(d.q_upper) && d.q_lower > -1e8) {
@@ -57,6 +45,17 @@ std::vector<JointDrive> default_drives(const model::RobotSpec& robot, const Driv
   return out;
 }
 
+namespace {
+
+std::pair<double, double> range(const Config& c, const std::string& key, double lo, double hi) {
+  if (!c.has(key)) return {lo, hi};
+  const auto v = c.reals(key, 2);
+  if (!(v[0] < v[1])) throw ConfigError(c.file() + ": " + c.full_key(key) + ": [" + std::to_string(v[0]) + ", " +
+                                        std::to_string(v[1]) + "] is not an interval with min < max");
+  return {v[0], v[1]};
+}
+
+/// The joint an entry of `hal.drives` names: a controlled joint's index, or nj + k for the k-th held one.
 int drive_joint(const Config& d, const model::Model& m) {
   const std::string joint = d.string("joint");
   for (std::size_t k = 0; k < m.held_joint_name.size(); ++k) {
@@ -69,6 +68,7 @@ int drive_joint(const Config& d, const model::Model& m) {
   }
 }
 
+/// An entry of `hal.drives` into `dc` (joint `j`): its sign, offset, and limits in drive units.
 void load_joint_drive(const Config& d, int j, const model::RobotSpec& robot, const DriveDefaults& defaults, JointDrive& dc) {
   const model::Model& m = robot.model;
   dc.joint = d.string("joint");
@@ -103,27 +103,37 @@ void load_joint_drive(const Config& d, int j, const model::RobotSpec& robot, con
   }
 }
 
-std::vector<JointDrive> load_joint_drives(const Config& c, const model::RobotSpec& robot) {
+}  // namespace
+
+void read_drive_entries(const Config& c, const model::RobotSpec& robot, const std::function<JointDrive&(std::size_t j)>& slot,
+                        const std::function<void(const Config& entry, std::size_t j)>& more) {
   const model::Model& m = robot.model;
   const DriveDefaults defaults = DriveDefaults::load(c.has("drive_defaults") ? c.section("drive_defaults") : c);
-  std::vector<JointDrive> drives(static_cast<std::size_t>(m.nj) + m.held_joint_name.size());
+  const std::size_t n = static_cast<std::size_t>(m.nj) + m.held_joint_name.size();
+  std::vector<char> mapped(n, 0);
   for (const Config& d : c.items("drives")) {
-    d.known({"bus", "id", "protocol", "cia402", "eds"});  // the hal's
     const int j = drive_joint(d, m);
-    JointDrive& dc = drives[static_cast<std::size_t>(j)];
-    if (dc.joint_index >= 0) {
+    const auto ju = static_cast<std::size_t>(j);
+    if (mapped[ju] != 0) {
       throw ConfigError(d.file() + ": " + d.full_key("joint") + ": joint '" + d.string("joint") + "' is mapped twice");
     }
-    load_joint_drive(d, j, robot, defaults, dc);
+    mapped[ju] = 1;
+    load_joint_drive(d, j, robot, defaults, slot(ju));
+    if (more) more(d, ju);
   }
-  for (std::size_t j = 0; j < drives.size(); ++j) {
-    if (drives[j].joint_index < 0) {
+  for (std::size_t j = 0; j < n; ++j) {
+    if (mapped[j] == 0) {
       const std::string name = j < static_cast<std::size_t>(m.nj) ? m.joint_name[j] : m.held_joint_name[j - static_cast<std::size_t>(m.nj)];
       throw ConfigError(c.file() + ": " + c.full_key("drives") + ": joint '" + name + "' has no drive" +
                         (j < static_cast<std::size_t>(m.nj) ? "" : " (a held joint: the hal holds it)"));
     }
   }
-  return drives;
+}
+
+std::vector<JointDrive> load_joint_drives(const Config& c, const model::RobotSpec& robot) {
+  return read_drives<JointDrive>(c, robot, [](const Config& entry, JointDrive&) {
+    entry.known({"bus", "id", "protocol", "cia402", "eds"});  // the hal's
+  });
 }
 
 std::string check_joint_command(const JointCommand& c, int i, const JointDrive& d) {

@@ -72,9 +72,8 @@ struct HalConfig {
   static HalConfig load(const Config& hal_section, const model::RobotSpec& robot);
 };
 
-/// The drives' defaults and the command check the hal shares with the simulator (hpr/drive/drive.hpp).
+/// The command check the hal shares with the simulator (hpr/drive/drive.hpp).
 using drive::check_command;
-using drive::DriveDefaults;
 
 /// Opens the transports of the configured buses. `emulator_side` swaps local and remote for udp.
 std::vector<std::unique_ptr<CanTransport>> open_buses(const HalConfig& c, bool emulator_side);

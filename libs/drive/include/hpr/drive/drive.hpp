@@ -5,6 +5,7 @@
 /// drive units, and the hal's check of a JOINT_COMMAND against them. The simulator refuses what the
 /// hal refuses by calling the same check; the hal adds its bus, id and protocol (hpr/hal/hal.hpp).
 #include <concepts>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -53,14 +54,28 @@ DriveLimits default_limits(const DriveDefaults& defaults, const JointDrive& d, d
 /// check uses where a configuration maps no drives (a simulated robot).
 std::vector<JointDrive> default_drives(const model::RobotSpec& robot, const DriveDefaults& defaults = {});
 
-/// The joint an entry of `hal.drives` names: a controlled joint's index, or nj + k for the k-th held one.
-int drive_joint(const Config& entry, const model::Model& m);
-/// An entry of `hal.drives` into `d` (joint `j`): its sign, offset, and limits in drive units (from
-/// the joint's limits, the model's or for a held joint the URDF's; a `limits` block overrides).
-void load_joint_drive(const Config& entry, int j, const model::RobotSpec& robot, const DriveDefaults& defaults, JointDrive& d);
-/// The drives the `hal` section maps, one per model joint in model order, then one per held joint:
-/// every joint mapped once. Only the joints' side is read (the bus, id and protocol are the hal's,
-/// which loads the whole section).
+/// Reads each entry of the `hal` section's `drives` list once: the joint it names (every joint, held
+/// ones included, mapped exactly once: an error names the joint mapped twice or left without a
+/// drive), its sign, offset and limits in drive units into `slot(j)` (from the joint's limits, the
+/// model's or for a held joint the URDF's, with the section's drive_defaults; a `limits` block
+/// overrides), then `more(entry, j)` for what the reader adds. j is the model joint, or nj + k for
+/// the k-th held joint; `slot` must serve j < nj + the held joints.
+void read_drive_entries(const Config& hal_section, const model::RobotSpec& robot, const std::function<JointDrive&(std::size_t j)>& slot,
+                        const std::function<void(const Config& entry, std::size_t j)>& more);
+
+/// The drives the `hal` section maps, one per model joint in model order, then one per held joint
+/// (read_drive_entries), each completed by `more` (the hal: its bus, id and protocol).
+template <std::derived_from<JointDrive> Drive>
+std::vector<Drive> read_drives(const Config& hal_section, const model::RobotSpec& robot,
+                               const std::function<void(const Config& entry, Drive& drive)>& more) {
+  std::vector<Drive> drives(static_cast<std::size_t>(robot.model.nj) + robot.model.held_joint_name.size());
+  read_drive_entries(hal_section, robot, [&](std::size_t j) -> JointDrive& { return drives[j]; },
+                     [&](const Config& entry, std::size_t j) { more(entry, drives[j]); });
+  return drives;
+}
+
+/// The joints' side of the `hal` section's drives, for a reader that is not the hal (the
+/// simulator): the bus, id and protocol of each entry are left to the hal, which loads them.
 std::vector<JointDrive> load_joint_drives(const Config& hal_section, const model::RobotSpec& robot);
 
 /// Whether joint i of `c` (run mode) is inside drive `d`'s ranges: empty when it is, else the reason.
