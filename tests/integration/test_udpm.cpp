@@ -116,9 +116,11 @@ TEST_P(TypedInput, ReadsWhatLiblcmPublishesAndRefusesAForeignDatagramWithoutLosi
   o.authenticate = false;
   o.health_period_s = 10.0;
   o.receive_direct = GetParam();
-  hpr::node::Runtime rt("test", url, o);
+  static constexpr hpr::Read kReads[] = {{.channel = "SENSORS"}};
+  static constexpr hpr::Ports kPorts{.name = "test", .reads = kReads, .writes = {}};
+  hpr::node::Runtime rt(kPorts, "test", url, o);
   EXPECT_EQ(rt.receives_directly(), GetParam());
-  auto& in = rt.subscribe<humanoid::robot_sensors_t>("SENSORS");
+  auto& in = rt.subscribe(hpr::Channel<humanoid::robot_sensors_t>{"SENSORS"});
   lcm::LCM sender(url);
   ASSERT_TRUE(sender.good());
   const auto wait_for_count = [&](std::int64_t n) {

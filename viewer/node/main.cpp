@@ -35,6 +35,18 @@ namespace {
 using namespace hpr;
 namespace fs = std::filesystem;
 
+/// The viewer's ports: it reads every channel it shows (undecoded, sampled at the display rate)
+/// and writes none.
+const Ports& viewer_ports() {
+  static const std::vector<Read> reads = [] {
+    std::vector<Read> r;
+    for (const auto& c : viewer::channels()) r.push_back(Read{.channel = c.name, .use = "shown"});
+    return r;
+  }();
+  static const Ports ports{.name = "viewer", .reads = reads, .writes = {}};
+  return ports;
+}
+
 /// The latest raw message of each shown channel; decoded only when sampled (at the display rate).
 class Sampler {
  public:
@@ -46,8 +58,9 @@ class Sampler {
       // HEALTH (one per node) and PUSH (rare) are forwarded message by message.
       slots_[c].every_message = chans[c].name == hpr::msg::channels::kHealth.name || chans[c].name == hpr::msg::channels::kPush.name;
       // Room for a display period of messages at 1 kHz (the loop below reads them in batches).
-      rt.lcm().subscribe(rt.channel(chans[c].name), &Slot::handle, &slots_[c])->setQueueCapacity(1000);
       slots_[c].sampler = this;
+      rt.transport().subscribe_bytes(
+          chans[c].name, [slot = &slots_[c]](const std::uint8_t* data, std::size_t size) { slot->handle(data, size); }, 1000);
     }
   }
 
@@ -70,13 +83,12 @@ class Sampler {
     bool fresh = false;
     std::vector<std::uint8_t> data;
     Sampler* sampler = nullptr;
-    void handle(const lcm::ReceiveBuffer* rbuf, const std::string& /*channel*/) {
-      const auto* p = static_cast<const std::uint8_t*>(rbuf->data);
+    void handle(const std::uint8_t* p, std::size_t size) {
       if (every_message) {
-        sampler->send(*this, std::vector<std::uint8_t>(p, p + rbuf->data_size));
+        sampler->send(*this, std::vector<std::uint8_t>(p, p + size));
         return;
       }
-      data.assign(p, p + rbuf->data_size);
+      data.assign(p, p + size);
       fresh = true;
     }
   };
@@ -205,7 +217,7 @@ int main(int argc, char** argv) {
     }
 
     node::RuntimeOptions ro = node::runtime_options(cfg, 1.0 / rate);
-    node::Runtime rt(cl.name, node::lcm_url(cl, cfg), ro);
+    node::Runtime rt(viewer_ports(), cl.name, node::lcm_url(cl, cfg), ro);
     viewer::Server server(opt, std::move(display), nullptr);
     Sampler sampler(rt, server);
     rt.every(1.0 / rate, [&] {

@@ -30,6 +30,12 @@
 
 namespace {
 
+// The bench's channels, and what its processes read and write.
+constexpr hpr::Channel<humanoid::robot_sensors_t> kHop{"BENCH_HOP"}, kPing{"PING"}, kPong{"PONG"};
+constexpr hpr::Read kBenchReads[] = {{.channel = "BENCH_HOP"}, {.channel = "PING"}, {.channel = "PONG"}};
+constexpr std::string_view kBenchWrites[] = {"PING", "PONG"};
+constexpr hpr::Ports kBenchPorts{.name = "bench_lcm_hop", .reads = kBenchReads, .writes = kBenchWrites};
+
 enum class Mode { kRaw, kTyped, kTypedLiblcm };
 const char* name(Mode m) { return m == Mode::kRaw ? "raw" : m == Mode::kTyped ? "typed" : "typed-liblcm"; }
 hpr::node::RuntimeOptions options(Mode m) {
@@ -64,9 +70,9 @@ void receive(const std::string& url, Mode mode, int count, int fd) {
   std::vector<double> lat;
   lat.reserve(static_cast<size_t>(count));
   if (mode != Mode::kRaw) {
-    hpr::node::Runtime rt("bench_rx", url, options(mode));
-    rt.subscribe<humanoid::robot_sensors_t>(
-        "BENCH_HOP",
+    hpr::node::Runtime rt(kBenchPorts, "bench_rx", url, options(mode));
+    rt.subscribe(
+        kHop,
         [](const humanoid::robot_sensors_t& m) { return m.num_joints == 27 ? std::string() : std::string("size"); },
         [&](const humanoid::robot_sensors_t& m) { lat.push_back(static_cast<double>(now_ns() - m.utime) * 1e-3); });
     rt.spin_until([&] { return static_cast<int>(lat.size()) >= count; }, 3.0 * count / 1000.0 + 10.0);
@@ -153,10 +159,10 @@ void run(const std::string& url, Mode mode, int count, double rate, int joints) 
 void echo(const std::string& url, Mode mode, int count) {
   int n = 0;
   if (mode != Mode::kRaw) {
-    hpr::node::Runtime rt("bench_echo", url, options(mode));
-    auto out = rt.advertise<humanoid::robot_sensors_t>("PONG");
-    rt.subscribe<humanoid::robot_sensors_t>(
-        "PING", [](const humanoid::robot_sensors_t& m) { return m.num_joints > 0 ? std::string() : std::string("size"); },
+    hpr::node::Runtime rt(kBenchPorts, "bench_echo", url, options(mode));
+    auto out = rt.advertise(kPong);
+    rt.subscribe(
+        kPing, [](const humanoid::robot_sensors_t& m) { return m.num_joints > 0 ? std::string() : std::string("size"); },
         [&](const humanoid::robot_sensors_t& m) {
           out.publish(m);
           ++n;
@@ -204,9 +210,9 @@ void ping_pong(const std::string& url, Mode mode, int count, int joints) {
   m.encode(raw.data(), 0, m.getEncodedSize());
   const bool typed = mode != Mode::kRaw;
   if (typed) {
-    rt = std::make_unique<hpr::node::Runtime>("bench_ping", url, options(mode));
-    out = rt->advertise<humanoid::robot_sensors_t>("PING");
-    rt->subscribe<humanoid::robot_sensors_t>("PONG", {}, [&](const humanoid::robot_sensors_t&) { record(); });
+    rt = std::make_unique<hpr::node::Runtime>(kBenchPorts, "bench_ping", url, options(mode));
+    out = rt->advertise(kPing);
+    rt->subscribe(kPong, {}, [&](const humanoid::robot_sensors_t&) { record(); });
   } else {
     raw_lcm = std::make_unique<lcm::LCM>(url);
     raw_lcm->subscribe("PONG", &H::on, &h);

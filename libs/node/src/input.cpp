@@ -5,9 +5,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "hpr/common/time.hpp"
-#include "hpr/node/runtime.hpp"
+#include "hpr/common/log.hpp"
+#include "hpr/node/input.hpp"
 
 namespace hpr::node {
 
@@ -21,12 +23,12 @@ void InputBase::accept(std::int64_t tick, std::int64_t utime, std::int64_t sourc
   ++count_;
 }
 
-void InputBase::notify() { runtime_.on_input(*this); }
+void InputBase::notify() { events_.on_input(*this); }
 
 void InputBase::reject(std::size_t bytes, const std::string& why) {
   ++errors_;
   last_error_ = why;
-  runtime_.on_reject(*this, bytes, why);
+  events_.on_reject(*this, bytes, why);
 }
 
 bool InputBase::authentic(const void* bytes, std::size_t n, const auth::Key* key) {
@@ -37,13 +39,13 @@ bool InputBase::authentic(const void* bytes, std::size_t n, const auth::Key* key
 }
 
 bool InputBase::in_window(std::int64_t tick) const {
-  return tick_ < 0 || (tick >= tick_ && tick - tick_ <= runtime_.options_.tick_window);
+  return tick_ < 0 || (tick >= tick_ && tick - tick_ <= rules_.tick_window);
 }
 
 std::string InputBase::implausible_time(std::int64_t tick, std::int64_t utime, double now) const {
   // utime 0: the source's clock has not started (an estimator that is still initialising).
   if (tick_ < 0 || (utime_ == 0 && utime >= 0)) return {};
-  const RuntimeOptions& o = runtime_.options_;
+  const StreamRules& o = rules_;
   // In seconds, as doubles: a corrupted utime may be anywhere in int64's range.
   const double dt = (static_cast<double>(utime) - static_cast<double>(utime_)) * 1e-6;
   const double allowed = static_cast<double>(tick - tick_) * o.tick_period_max_s + std::max(0.0, now - receive_time_) + o.time_slack_s;
@@ -69,11 +71,11 @@ void InputBase::hold(std::size_t bytes, std::int64_t tick, const std::string& wh
   held_ = true;
   held_tick_ = tick;
   ++out_of_window_;
-  const double quiet = runtime_.options_.source_quiet_s;
+  const double quiet = rules_.source_quiet_s;
   if (why == "tick") {
     const std::string where = tick > tick_ ? fmt::format("{} ahead of", tick - tick_) : fmt::format("{} behind", tick_ - tick);
     reject(bytes, fmt::format("tick {} is {} the last tick {} (window {}): held until the stream is quiet for {} s", tick, where,
-                              tick_, runtime_.options_.tick_window, quiet));
+                              tick_, rules_.tick_window, quiet));
   } else {
     reject(bytes, fmt::format("{}: held until the stream is quiet for {} s", why, quiet));
   }
@@ -82,7 +84,7 @@ void InputBase::hold(std::size_t bytes, std::int64_t tick, const std::string& wh
 
 double InputBase::follow_time() const {
   if (!held_) return std::numeric_limits<double>::infinity();
-  return advance_time_ + runtime_.options_.source_quiet_s;
+  return advance_time_ + rules_.source_quiet_s;
 }
 
 void InputBase::follow_if_quiet(double now) {
@@ -93,21 +95,16 @@ void InputBase::follow_if_quiet(double now) {
   ++follows_;
   log::warn("{}: following tick {} (no tick near {} for {:.3f} s: the source restarted or its clock jumped)", channel_,
             new_tick, old_tick, quiet);
-  runtime_.on_follow(*this, old_tick, new_tick);
+  events_.on_follow(*this, old_tick, new_tick);
   adopt_held();
 }
 
 void InputBase::restart_stream() { tick_ = -1; }
 
 bool InputBase::repeats_waiting_step(std::int64_t tick) {
-  if (tick != tick_ || tick_ < 0) return false;
-  for (const auto& t : runtime_.triggers_) {
-    if (t.primary == this && t.pending_tick == tick && t.pending_tick > t.last_tick) {
-      ++repeats_;
-      return true;
-    }
-  }
-  return false;
+  if (tick != tick_ || tick_ < 0 || !events_.step_waits_at(*this, tick)) return false;
+  ++repeats_;
+  return true;
 }
 
 }  // namespace hpr::node

@@ -168,4 +168,36 @@ std::vector<std::string> violations(const Report& r, const std::map<std::string,
   return out;
 }
 
+std::map<std::string, int> read_size_limits(const fs::path& document) {
+  std::ifstream in(document);
+  if (!in) throw std::runtime_error("cannot read " + document.string());
+  static const std::regex row(R"(^\|\s*`([^`]+)`\s*\|\s*(\d+)\s*\|)");
+  std::map<std::string, int> limits;
+  std::string line;
+  while (std::getline(in, line)) {
+    std::smatch m;
+    if (std::regex_search(line, m, row)) limits[m[1].str()] = std::stoi(m[2].str());
+  }
+  return limits;
+}
+
+std::vector<std::string> oversized(const fs::path& root, const std::map<std::string, int>& limits) {
+  std::vector<std::string> out;
+  for (const auto& [folder, most] : limits) {
+    if (!fs::is_directory(root / folder)) {
+      out.push_back(folder + ": in the size table, not in the tree");
+      continue;
+    }
+    for (const fs::path& file : cpp_files(root / folder)) {
+      std::ifstream in(file);
+      int lines = 0;
+      for (std::string l; std::getline(in, l);) ++lines;
+      if (lines > most) {
+        out.push_back(fs::relative(file, root).generic_string() + ": " + std::to_string(lines) + " lines, at most " + std::to_string(most));
+      }
+    }
+  }
+  return out;
+}
+
 }  // namespace hpr::arch

@@ -1,7 +1,8 @@
 #pragma once
 /// \file
 /// The layer check of the tree (docs/ARCHITECTURE.md): the layer table read from the document, every
-/// `#include` of every C++ file read from the sources, and what breaks the order.
+/// `#include` of every C++ file read from the sources, and what breaks the order; and the size
+/// table, against the length of each file.
 #include <filesystem>
 #include <map>
 #include <string>
@@ -38,5 +39,13 @@ std::string folder_of(const std::string& relative_path, const std::map<std::stri
 /// What breaks the order, one line each: an edge to the same or a higher layer, a cycle between
 /// folders, an unplaced file, a missing folder. Empty when the tree keeps to the table.
 std::vector<std::string> violations(const Report& report, const std::map<std::string, int>& layers);
+
+/// Folder → the most lines a C++ file under it may have, from the document's size table: each row
+/// `| \`folder\` | N |`. Empty when the document has none.
+std::map<std::string, int> read_size_limits(const std::filesystem::path& document);
+
+/// The C++ files under `root` longer than their folder's limit, one line each ("path: N lines, at
+/// most M"), and a folder of the table that `root` does not have.
+std::vector<std::string> oversized(const std::filesystem::path& root, const std::map<std::string, int>& limits);
 
 }  // namespace hpr::arch

@@ -8,7 +8,9 @@
 #include "scratch_dir.hpp"
 
 namespace fs = std::filesystem;
+using hpr::arch::oversized;
 using hpr::arch::read_layers;
+using hpr::arch::read_size_limits;
 using hpr::arch::scan;
 using hpr::arch::violations;
 
@@ -113,3 +115,31 @@ TEST(Layers, TheTreeIncludesOnlyDownward) {
   const auto v = violations(report, layers);
   EXPECT_TRUE(v.empty()) << "the tree breaks the layer order of docs/ARCHITECTURE.md:\n" << joined(v);
 }
+
+namespace {
+
+TEST(Sizes, AFileLongerThanItsFoldersLimitIsNamedWithItsLength) {
+  Tree t;
+  t.write("docs/ARCHITECTURE.md", "| folder | lines |\n|---|---|\n| `small` | 3 |\n| `gone` | 10 |\n");
+  t.write("small/src/short.cpp", "a\nb\nc\n");
+  t.write("small/include/long.hpp", "a\nb\nc\nd\n");
+  t.write("large/any.cpp", "a\nb\nc\nd\ne\n");  // no limit
+  const auto limits = read_size_limits(t.root() / "docs/ARCHITECTURE.md");
+  ASSERT_EQ(limits.size(), 2U);
+  EXPECT_EQ(limits.at("small"), 3);
+  const auto v = oversized(t.root(), limits);
+  ASSERT_EQ(v.size(), 2U) << joined(v);
+  EXPECT_EQ(v[0], "gone: in the size table, not in the tree");
+  EXPECT_EQ(v[1], "small/include/long.hpp: 4 lines, at most 3");
+}
+
+// The tree keeps to the size table of docs/ARCHITECTURE.md (the node runtime in parts).
+TEST(Sizes, TheTreeKeepsToTheSizeTable) {
+  const fs::path root = HPR_TEST_SOURCE_DIR;
+  const auto limits = read_size_limits(root / "docs/ARCHITECTURE.md");
+  ASSERT_TRUE(limits.count("libs/node")) << "docs/ARCHITECTURE.md has no size row for libs/node";
+  const auto v = oversized(root, limits);
+  EXPECT_TRUE(v.empty()) << "files longer than docs/ARCHITECTURE.md allows:\n" << joined(v);
+}
+
+}  // namespace

@@ -24,6 +24,25 @@ namespace {
 using hpr::node::Runtime;
 using hpr::node::RuntimeOptions;
 
+// The channels these tests read and write, all declared by one test process.
+constexpr hpr::Channel<humanoid::robot_sensors_t> kSensors{"SENSORS"}, kState{"STATE"}, kOperatorLike{"OPERATOR_LIKE"}, kS{"S"};
+constexpr hpr::Channel<humanoid::balance_status_t> kBalance{"BALANCE"}, kMarked{"MARKED"};
+constexpr hpr::Channel<humanoid::operator_t> kOperator{"OPERATOR"};
+constexpr hpr::Channel<humanoid::health_t> kHealth{"HEALTH"};
+constexpr hpr::Read kTestReads[] = {{.channel = "SENSORS"}, {.channel = "STATE"}, {.channel = "OPERATOR_LIKE"}, {.channel = "S"},
+                                    {.channel = "BALANCE"}, {.channel = "MARKED"}, {.channel = "OPERATOR"}, {.channel = "HEALTH"}};
+constexpr std::string_view kTestWrites[] = {"SENSORS", "STATE", "OPERATOR_LIKE", "S", "BALANCE", "MARKED", "OPERATOR"};
+constexpr hpr::Ports kTestPorts{.name = "test", .reads = kTestReads, .writes = kTestWrites};
+
+/// Publishes `m` as it is (its own source, unsigned or signed with `key`): another sender on `channel`.
+template <class Msg>
+void inject(Runtime& rt, std::string_view channel, const Msg& m, const hpr::auth::Key* key = nullptr) {
+  std::vector<std::uint8_t> bytes;
+  const int n = hpr::node::encode_message(m, bytes, key);
+  ASSERT_GT(n, 0);
+  rt.transport().publish_bytes(channel, bytes.data(), static_cast<std::size_t>(n));
+}
+
 class TickStream : public ::testing::Test {
  protected:
   static RuntimeOptions options() {
@@ -42,18 +61,18 @@ class TickStream : public ::testing::Test {
     m.tick = tick;
     m.utime = utime.value_or(tick * 1000);
     m.source = source;
-    rt.lcm().publish(channel, &m);
+    inject(rt, channel, m);
     rt.spin_once(0.0);
   }
   void send_balance(std::int64_t tick) {
     humanoid::balance_status_t m{};
     m.tick = tick;
-    rt.lcm().publish("BALANCE", &m);
+    inject(rt, "BALANCE", m);
     rt.spin_once(0.0);
   }
 
-  Runtime rt{"test", "memq://", options()};
-  hpr::node::Input<humanoid::robot_sensors_t>& sensors = rt.subscribe<humanoid::robot_sensors_t>("SENSORS");
+  Runtime rt{kTestPorts, "test", "memq://", options()};
+  hpr::node::Input<humanoid::robot_sensors_t>& sensors = rt.subscribe(kSensors);
   std::vector<std::int64_t> stepped;
 };
 
@@ -173,12 +192,12 @@ TEST_F(TickStream, ASecondSourceInsideTheWindowIsHeldUntilTheFollowedOneIsQuiet)
 // What a process publishes carries its identity, at the offset the readers' rule assumes, for every
 // clocked type; the other types have no source.
 TEST(SourceIdentity, OutputsStampTheProcessIdentityOnEveryClockedType) {
-  Runtime a{"a", "memq://", RuntimeOptions{}};
-  Runtime b{"b", "memq://", RuntimeOptions{}};
+  Runtime a{kTestPorts, "a", "memq://", RuntimeOptions{}};
+  Runtime b{kTestPorts, "b", "memq://", RuntimeOptions{}};
   EXPECT_NE(a.source_id(), 0);
   EXPECT_NE(a.source_id(), b.source_id());
-  auto out = a.advertise<humanoid::robot_sensors_t>("S");
-  auto& in = a.subscribe<humanoid::robot_sensors_t>("S");
+  auto out = a.advertise(kS);
+  auto& in = a.subscribe(kS);
   humanoid::robot_sensors_t m{};
   m.tick = 3;
   m.source = 99;  // whatever the message holds, the process's identity goes out
@@ -222,7 +241,7 @@ TEST_F(TickStream, ASourceThatJumpedAheadIsFollowedOnceTheOldStreamIsQuiet) {
 }
 
 TEST_F(TickStream, ASyncedInputFromBeforeTheRestartIsNotTakenAsCurrent) {
-  auto& balance = rt.subscribe<humanoid::balance_status_t>("BALANCE");
+  auto& balance = rt.subscribe(kBalance);
   std::vector<bool> timed_out;
   rt.on_tick(sensors, {{&balance, 0, {}}}, 0.02, [&](const hpr::node::TickInfo& info) {
     stepped.push_back(info.tick);
@@ -248,7 +267,7 @@ TEST_F(TickStream, ASyncedInputFromBeforeTheRestartIsNotTakenAsCurrent) {
 }
 
 TEST_F(TickStream, AnOptionalInputThatMissedItsTimeoutIsNotWaitedForUntilItIsBack) {
-  auto& balance = rt.subscribe<humanoid::balance_status_t>("BALANCE");
+  auto& balance = rt.subscribe(kBalance);
   rt.on_tick(sensors, {{&balance, 0, {}, true}}, 0.2, [&](const hpr::node::TickInfo& info) { stepped.push_back(info.tick); });
   send_balance(1);
   send(1);
@@ -273,7 +292,7 @@ TEST_F(TickStream, AnOptionalInputThatMissedItsTimeoutIsNotWaitedForUntilItIsBac
 }
 
 TEST_F(TickStream, AnInputThatIsNotOptionalIsWaitedForEveryTick) {
-  auto& balance = rt.subscribe<humanoid::balance_status_t>("BALANCE");
+  auto& balance = rt.subscribe(kBalance);
   rt.on_tick(sensors, {{&balance, 0, {}}}, 0.3, [&](const hpr::node::TickInfo& info) { stepped.push_back(info.tick); });
   send_balance(1);
   send(1);
@@ -286,7 +305,7 @@ TEST_F(TickStream, AnInputThatIsNotOptionalIsWaitedForEveryTick) {
 }
 
 TEST_F(TickStream, InputsThatAreNotStreamsAcceptAnyTick) {
-  auto& other = rt.subscribe<humanoid::robot_sensors_t>("OPERATOR_LIKE");
+  auto& other = rt.subscribe(kOperatorLike);
   send(100, "OPERATOR_LIKE");
   send(3, "OPERATOR_LIKE");  // another sender's counter
   send(1'000'000, "OPERATOR_LIKE");
@@ -300,11 +319,11 @@ TEST_F(TickStream, ARepeatOfAWaitingTickIsDroppedSoTheStepUsesTheFirstMessage) {
   // optimiser's command only on a usable estimate. The mark (imu_gyro_B[0]: 1 usable, -1 flagged)
   // stands for the estimator's status; the copy's time is its tick's, as a republished sample's is.
   double state_mark = 0;
-  auto& state = rt.subscribe<humanoid::robot_sensors_t>("STATE", [&](const humanoid::robot_sensors_t& m) {
+  auto& state = rt.subscribe(kState, [&](const humanoid::robot_sensors_t& m) {
     state_mark = m.imu_gyro_B[0];
     return std::string();
   });
-  auto& balance = rt.subscribe<humanoid::balance_status_t>("BALANCE");
+  auto& balance = rt.subscribe(kBalance);
   std::vector<double> used_mark;
   rt.on_tick(state, {{&balance, 0, [&] { return state_mark >= 0; }}}, 10.0, [&](const hpr::node::TickInfo& info) {
     stepped.push_back(info.tick);
@@ -315,7 +334,7 @@ TEST_F(TickStream, ARepeatOfAWaitingTickIsDroppedSoTheStepUsesTheFirstMessage) {
     m.tick = tick;
     m.utime = tick * 1000;
     m.imu_gyro_B[0] = mark;
-    rt.lcm().publish("STATE", &m);
+    inject(rt, "STATE", m);
     rt.spin_once(0.0);
   };
   send_state(1, 1);
@@ -353,7 +372,7 @@ TEST_F(TickStream, AStepSeesWhatTheCallbackOfTheMessageThatReleasedItDid) {
   // The wbc marks the motion optimiser's command as received in its callback and uses it in the
   // step that command releases: the callback runs before that step, also for the very first message.
   bool have_balance = false;
-  auto& marked = rt.subscribe<humanoid::balance_status_t>("MARKED", {}, [&](const humanoid::balance_status_t&) { have_balance = true; });
+  auto& marked = rt.subscribe(kMarked, {}, [&](const humanoid::balance_status_t&) { have_balance = true; });
   std::vector<bool> had;
   rt.on_tick(sensors, {{&marked, 0, {}}}, 10.0, [&](const hpr::node::TickInfo& info) {
     stepped.push_back(info.tick);
@@ -363,7 +382,7 @@ TEST_F(TickStream, AStepSeesWhatTheCallbackOfTheMessageThatReleasedItDid) {
   EXPECT_TRUE(stepped.empty()) << "stepped before its synced input";
   humanoid::balance_status_t m{};
   m.tick = 0;
-  rt.lcm().publish("MARKED", &m);
+  inject(rt, "MARKED", m);
   rt.spin_once(0.0);
   ASSERT_EQ(stepped, (std::vector<std::int64_t>{0}));
   EXPECT_TRUE(had[0]) << "the step of tick 0 ran before the callback of the message it waited for";
@@ -476,8 +495,8 @@ TEST(BusyPoll, EveryTickIsSteppedAndTheNextArrivalIsEstimated) {
   o.health_period_s = 10.0;
   o.spin_s = 2e-4;
   o.authenticate = false;
-  Runtime rt{"test", "memq://", o};
-  auto& sensors = rt.subscribe<humanoid::robot_sensors_t>("SENSORS");
+  Runtime rt{kTestPorts, "test", "memq://", o};
+  auto& sensors = rt.subscribe(kSensors);
   std::vector<std::int64_t> stepped;
   rt.on_tick(sensors, {}, 0.0, [&](const hpr::node::TickInfo& info) { stepped.push_back(info.tick); });
   EXPECT_EQ(rt.next_arrival(), 0.0) << "no estimate before two arrivals";
@@ -485,7 +504,7 @@ TEST(BusyPoll, EveryTickIsSteppedAndTheNextArrivalIsEstimated) {
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
     humanoid::robot_sensors_t m{};
     m.tick = k;
-    rt.lcm().publish("SENSORS", &m);
+    inject(rt, "SENSORS", m);
     rt.spin_once(0.0);
   }
   ASSERT_EQ(stepped.size(), 50U);
@@ -517,10 +536,10 @@ humanoid::operator_t enable_request() {
 
 TEST(Authentication, AnInputOfASignedTypeTakesOnlyWhatTheKeySigned) {
   (void)hpr::auth::load_or_create_key(hpr::auth::key_path());
-  Runtime rt{"test", "memq://", RuntimeOptions{}};
-  auto& in = rt.subscribe<humanoid::operator_t>("OPERATOR");
-  auto& health = rt.subscribe<humanoid::health_t>("HEALTH");
-  auto out = rt.advertise<humanoid::operator_t>("OPERATOR");
+  Runtime rt{kTestPorts, "test", "memq://", RuntimeOptions{}};
+  auto& in = rt.subscribe(kOperator);
+  auto& health = rt.subscribe(kHealth);
+  auto out = rt.advertise(kOperator);
   const humanoid::operator_t m = enable_request();
 
   out.publish(m);
@@ -528,11 +547,11 @@ TEST(Authentication, AnInputOfASignedTypeTakesOnlyWhatTheKeySigned) {
   EXPECT_EQ(in.count(), 1);
   EXPECT_EQ(int{in.latest().command}, int{humanoid::operator_t::COMMAND_ENABLE});
 
-  rt.lcm().publish("OPERATOR", &m);  // unsigned: a sender without the key
+  inject(rt, "OPERATOR", m);  // unsigned: a sender without the key
   rt.spin_once(0.0);
   hpr::auth::Key other = hpr::auth::load_key(hpr::auth::key_path());
   other.bytes[0] ^= 0xff;
-  hpr::node::publish_signed(rt.lcm(), "OPERATOR", m, other);
+  inject(rt, "OPERATOR", m, &other);
   rt.spin_once(0.0);
   // One byte of a signed message changed (the command: damp instead of enable).
   std::vector<std::uint8_t> bytes;
@@ -543,7 +562,7 @@ TEST(Authentication, AnInputOfASignedTypeTakesOnlyWhatTheKeySigned) {
   std::vector<std::uint8_t> damp_bytes;
   ASSERT_EQ(hpr::node::encode_message(damp, damp_bytes, nullptr), n);
   std::copy(damp_bytes.begin(), damp_bytes.end() - 32, bytes.begin());  // the enable's code kept
-  rt.lcm().publish("OPERATOR", bytes.data(), static_cast<unsigned>(n));
+  rt.transport().publish_bytes("OPERATOR", bytes.data(), static_cast<std::size_t>(n));
   rt.spin_once(0.0);
 
   EXPECT_EQ(in.count(), 1);
@@ -561,11 +580,11 @@ TEST(Authentication, AnInputOfASignedTypeTakesOnlyWhatTheKeySigned) {
 TEST(Authentication, OffTakesAnySenderAndSignsNothing) {
   RuntimeOptions o;
   o.authenticate = false;
-  Runtime rt{"test", "memq://", o};
+  Runtime rt{kTestPorts, "test", "memq://", o};
   EXPECT_EQ(rt.deployment_key(), nullptr);
-  auto& in = rt.subscribe<humanoid::operator_t>("OPERATOR");
+  auto& in = rt.subscribe(kOperator);
   const humanoid::operator_t m = enable_request();
-  rt.lcm().publish("OPERATOR", &m);
+  inject(rt, "OPERATOR", m);
   rt.spin_once(0.0);
   EXPECT_EQ(in.count(), 1);
   EXPECT_EQ(in.unauthenticated(), 0);
@@ -575,9 +594,9 @@ TEST(Authentication, ANodeWithoutTheKeyFileRefusesToStartNamingIt) {
   const std::string missing = std::string(HPR_TEST_WORK_DIR) + "/no-such-folder/lcm.key";
   const std::string saved = hpr::auth::key_path();
   ::setenv("HPR_LCM_KEY_FILE", missing.c_str(), 1);
-  Runtime rt{"test", "memq://", RuntimeOptions{}};
+  Runtime rt{kTestPorts, "test", "memq://", RuntimeOptions{}};
   try {
-    (void)rt.subscribe<humanoid::operator_t>("OPERATOR");
+    (void)rt.subscribe(kOperator);
     ADD_FAILURE() << "subscribed without a key";
   } catch (const hpr::auth::AuthError& e) {
     EXPECT_NE(std::string(e.what()).find(missing + " does not exist"), std::string::npos) << e.what();
@@ -593,7 +612,7 @@ namespace channels = hpr::msg::channels;
 
 // A process reads and writes only what its declared ports list: a node that drifts from its
 // declaration stops at start, naming the channel. The runtime's own OPERATOR subscription (live
-// parameters) is not the process's; a tool (no declaration) is not checked.
+// parameters) is not the process's.
 TEST(RuntimeDeclarations, AProcessReadsAndWritesOnlyTheChannelsItsDeclarationLists) {
   RuntimeOptions o;
   o.authenticate = false;
@@ -620,13 +639,15 @@ TEST(RuntimeDeclarations, AProcessReadsAndWritesOnlyTheChannelsItsDeclarationLis
     EXPECT_NE(std::string(e.what()).find("motion_opt publishes JOINT_COMMAND"), std::string::npos) << e.what();
   }
   // A process that declares no OPERATOR has its live parameters set over it all the same.
-  static constexpr hpr::Read kSensors[] = {{hpr::channel::kRobotSensors, 0, true, false, "the sample"}};
-  Runtime estimator{hpr::Ports{"estimator", kSensors, {}}, "estimator", "memq://", o};
+  static constexpr hpr::Read kSensorReads[] = {{hpr::channel::kRobotSensors, 0, true, false, "the sample"}};
+  Runtime estimator{hpr::Ports{"estimator", kSensorReads, {}}, "estimator", "memq://", o};
   EXPECT_NO_THROW((void)estimator.parameters());
   EXPECT_THROW(estimator.subscribe(channels::kOperator), std::logic_error);
-  Runtime tool{"lcm_latency", "memq://", o};
-  EXPECT_NO_THROW(tool.subscribe(channels::kSimTruth));
-  EXPECT_NO_THROW((void)tool.advertise(channels::kJointCommand));
+  // Undecoded bytes are held to the declaration too.
+  EXPECT_NO_THROW(rt.transport().subscribe_bytes(hpr::channel::kRobotState, [](const std::uint8_t*, std::size_t) {}));
+  EXPECT_THROW(rt.transport().subscribe_bytes(hpr::channel::kJointCommand, [](const std::uint8_t*, std::size_t) {}), std::logic_error);
+  const std::uint8_t byte = 0;
+  EXPECT_THROW(rt.transport().publish_bytes(hpr::channel::kJointCommand, &byte, 1), std::logic_error);
 }
 
 }  // namespace

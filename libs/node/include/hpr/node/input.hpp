@@ -2,10 +2,12 @@
 /// \file
 /// A node's typed inputs: the state of one subscribed channel (InputBase) and its decoded message
 /// (Input<Msg>), held to the rules of a clocked input (hpr/node/runtime.hpp has them in full,
-/// docs/SAFETY.md the reasons). A Runtime creates them (Runtime::subscribe).
+/// docs/SAFETY.md the reasons). A Transport creates them (Transport::subscribe) and tells the
+/// node's scheduler what they accept, refuse and follow (InputEvents).
 
 #include <lcm/lcm-cpp.hpp>
 
+#include <cstddef>
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -17,7 +19,37 @@
 
 namespace hpr::node {
 
-class Runtime;
+class InputBase;
+
+/// The limits of a tick stream (RuntimeOptions holds them, from the configuration's lcm section).
+struct StreamRules {
+  /// [ticks] How far ahead of its last tick a tick stream's next tick may be.
+  std::int64_t tick_window = 1000;
+  /// [s] How long a tick stream must be quiet before its input follows a new one (a restarted
+  /// source, or ticks that jumped beyond the window).
+  double source_quiet_s = 0.1;
+  /// [s] The longest clock period per tick of a tick stream's source: its time may advance by this
+  /// much per tick beyond the wall time elapsed (a lockstep source runs faster than the wall clock).
+  double tick_period_max_s = 0.01;
+  /// [s] Beyond that, how far a message's time may run ahead (delivery jitter).
+  double time_slack_s = 0.05;
+};
+
+/// What an input tells the node about its messages (the node's Scheduler answers).
+class InputEvents {
+ public:
+  /// A message was accepted (after the subscriber's callback ran).
+  virtual void on_input(InputBase& in) = 0;
+  /// A message of `bytes` was refused (or held) for `why`.
+  virtual void on_reject(InputBase& in, std::size_t bytes, const std::string& why) = 0;
+  /// `in` follows a new tick stream (its source restarted, or its clock jumped).
+  virtual void on_follow(InputBase& in, std::int64_t old_tick, std::int64_t new_tick) = 0;
+  /// Whether a step on `in` waits at `tick` for its synced inputs (a repeat of that tick is dropped).
+  [[nodiscard]] virtual bool step_waits_at(const InputBase& in, std::int64_t tick) const = 0;
+
+ protected:
+  ~InputEvents() = default;
+};
 
 /// Type-independent state of one subscribed channel.
 class InputBase {
@@ -55,7 +87,8 @@ class InputBase {
   [[nodiscard]] std::int64_t unauthenticated() const { return unauthenticated_; }
 
  protected:
-  InputBase(Runtime& rt, std::string channel) : runtime_(rt), channel_(std::move(channel)) {}
+  InputBase(InputEvents& events, const StreamRules& rules, std::string channel)
+      : events_(events), rules_(rules), channel_(std::move(channel)) {}
   /// Records an accepted message of `tick`; then the subscriber's callback runs, then notify()
   /// releases the steps waiting for it (so a step sees what the callback did with the message).
   void accept(std::int64_t tick, std::int64_t utime, std::int64_t source);
@@ -78,14 +111,15 @@ class InputBase {
   void restart_stream();
   /// Makes the held message the latest one (validating it first); false when it is refused.
   virtual bool adopt_held() = 0;
-  /// Takes one message's bytes as they came off the channel (the Runtime's own receive path, or
+  /// Takes one message's bytes as they came off the channel (the Transport's own receive path, or
   /// liblcm's).
   virtual void deliver(const void* data, std::size_t size) = 0;
   /// Whether a message of `tick` repeats the tick of a step that waits for its synced inputs; if
   /// so it is counted, and the caller drops it.
   bool repeats_waiting_step(std::int64_t tick);
 
-  Runtime& runtime_;
+  InputEvents& events_;
+  const StreamRules& rules_;
   std::string channel_;
   std::int64_t tick_ = -1, count_ = 0, errors_ = 0;
   std::int64_t utime_ = 0;  ///< time [us] of the latest valid message
@@ -99,7 +133,8 @@ class InputBase {
   std::int64_t source_ = 0;
   /// Whether `bytes` carry the code of `key` (null: authentication off); if not, counts and rejects.
   bool authentic(const void* bytes, std::size_t n, const auth::Key* key);
-  friend class Runtime;
+  friend class Transport;
+  friend class Scheduler;
 };
 
 /// A typed input. `Msg` is an lcm-gen type with an int64 `tick` field.
@@ -111,9 +146,10 @@ class Input final : public InputBase {
   using Callback = std::function<void(const Msg&)>;
 
   /// `key`: the key a signed type's code is checked with (null: not checked). `lcm`: subscribes
-  /// there; null: the Runtime delivers the channel's messages itself.
-  Input(Runtime& rt, lcm::LCM* lcm, std::string channel, Validator validate, Callback on_message, const auth::Key* key = nullptr)
-      : InputBase(rt, std::move(channel)), validate_(std::move(validate)), on_message_(std::move(on_message)), key_(key) {
+  /// there; null: the Transport delivers the channel's messages itself.
+  Input(InputEvents& events, const StreamRules& rules, lcm::LCM* lcm, std::string channel, Validator validate, Callback on_message,
+        const auth::Key* key = nullptr)
+      : InputBase(events, rules, std::move(channel)), validate_(std::move(validate)), on_message_(std::move(on_message)), key_(key) {
     if (lcm != nullptr) lcm->subscribe(channel_, &Input::on_lcm, this);
   }
 

@@ -2,7 +2,11 @@
 /// \file
 /// The node runtime shared by every process of the stack.
 ///
-/// A Runtime owns the LCM handle, typed inputs and outputs, the event loop and HEALTH reporting:
+/// A Runtime is a process's node: its Transport (hpr/node/transport.hpp: LCM, the typed inputs and
+/// outputs, held to the process's declared ports), its Scheduler (hpr/node/scheduler.hpp: steps,
+/// resets and timers), its Health (hpr/node/health.hpp: faults, lifecycle, step times, HEALTH), its
+/// ParameterServer (hpr/node/parameter_server.hpp: OPERATOR and PARAMS) and the loop that waits
+/// for messages and runs them. What a node sees:
 ///  - Inputs decode into a preallocated message; a message that fails to decode or to validate is
 ///    counted, reported in HEALTH and logged (rate limited), never a crash.
 ///  - A tick trigger runs the node's step when the primary input has a new tick and every synced
@@ -45,70 +49,37 @@
 ///    process name (parameters("wbc")), so an OPERATOR set addressed to "wbc.com.stiffness.z"
 ///    reaches the wbc wherever it runs, and PARAMS answers in that name.
 
-#include <lcm/lcm-cpp.hpp>
-
 #include <cstdint>
 #include <functional>
 #include <limits>
-#include <map>
 #include <memory>
-#include <optional>
 #include <string>
 #include <vector>
 
-#include "hpr/node/input.hpp"
-#include "hpr/node/lifecycle.hpp"
-#include "hpr/node/output.hpp"
-#include "hpr/node/udpm.hpp"
 #include "hpr/common/auth.hpp"
 #include "hpr/common/channel.hpp"
 #include "hpr/common/config.hpp"
-#include "hpr/common/log.hpp"
-#include "hpr/common/stats.hpp"
-#include "hpr/common/time.hpp"
 #include "hpr/common/parameters.hpp"
 #include "hpr/common/ports.hpp"
+#include "hpr/node/health.hpp"
+#include "hpr/node/input.hpp"
+#include "hpr/node/lifecycle.hpp"
+#include "hpr/node/output.hpp"
+#include "hpr/node/parameter_server.hpp"
+#include "hpr/node/scheduler.hpp"
+#include "hpr/node/transport.hpp"
 
 namespace hpr::node {
 
-/// An input that must reach the triggering tick (plus `tick_offset`) before the step runs.
-struct Sync {
-  InputBase* input;
-  std::int64_t tick_offset = 0;
-  /// Whether the step needs this input at the pending tick (empty: always). An input the step will
-  /// not use (a wbc that damps has no use for the motion optimiser's command) is not waited for,
-  /// so a lockstep chain runs on at full rate without it.
-  std::function<bool()> needed;
-  /// An optional input (from a component the step can do without) that misses the timeout once is
-  /// marked absent: it is not waited for until its next message, and HEALTH says so. A lockstep
-  /// chain whose optional component died thus runs on at full rate rather than one step per timeout.
-  bool optional = false;
-};
-
-/// What the step is told about its tick.
-struct TickInfo {
-  std::int64_t tick = 0;        ///< tick of the primary input
-  bool timed_out = false;       ///< a synced input did not arrive within the timeout
-  std::vector<const InputBase*> late;  ///< the synced inputs that had not arrived
-};
-
-struct RuntimeOptions {
+/// The node's options (the configuration's lcm section: runtime_options()); the tick streams'
+/// limits are the StreamRules it derives from.
+struct RuntimeOptions : StreamRules {
   std::string channel_prefix;   ///< prepended to every channel name
   double health_period_s = 0.1; ///< HEALTH rate
   double deadline_s = 1e-3;     ///< a step longer than this counts as a deadline miss
   /// A channel's decode fault clears this long after its last rejected message (the count in
   /// HEALTH.decode_errors stays).
   double decode_fault_quiet_s = 2.0;
-  /// [ticks] How far ahead of its last tick a tick stream's next tick may be.
-  std::int64_t tick_window = 1000;
-  /// [s] How long a tick stream must be quiet before its input follows a new one (a restarted
-  /// source, or ticks that jumped beyond the window).
-  double source_quiet_s = 0.1;
-  /// [s] The longest clock period per tick of a tick stream's source: its time may advance by this
-  /// much per tick beyond the wall time elapsed (a lockstep source runs faster than the wall clock).
-  double tick_period_max_s = 0.01;
-  /// [s] Beyond that, how far a message's time may run ahead (delivery jitter).
-  double time_slack_s = 0.05;
   /// Whether the signed types (the commands and every clocked channel) are authenticated
   /// (lcm.authentication): their inputs check the code with the key of auth::key_path(), their
   /// outputs sign.
@@ -131,93 +102,85 @@ struct RuntimeOptions {
   std::shared_ptr<const Config> configuration;
 };
 
-/// An OPERATOR request answered on PARAMS.
-struct ParameterRequest {
-  std::int64_t utime = 0;
-  std::string source;
-  bool accepted = false;
-  std::string result;
-};
-
 class Runtime {
  public:
-  using StepFn = std::function<void(const TickInfo&)>;
+  using StepFn = Scheduler::StepFn;
 
-  /// Opens LCM on `lcm_url` (throws LcmError with the fix when multicast is not routable).
-  Runtime(std::string node_name, const std::string& lcm_url, RuntimeOptions options = {});
-  /// A process of the stack, which may read and write only what `declared` lists (its ports,
-  /// hpr/common/ports.hpp): another channel throws std::logic_error naming both, so a node that
-  /// drifts from its declaration fails at start.
+  /// Process `declared` (its ports, hpr/common/ports.hpp) as node `node_name` on `lcm_url`; it may
+  /// read and write only what `declared` lists (Transport). Throws LcmError with the fix when
+  /// multicast is not routable.
   Runtime(const Ports& declared, std::string node_name, const std::string& lcm_url, RuntimeOptions options = {});
   ~Runtime();
   Runtime(const Runtime&) = delete;
   Runtime& operator=(const Runtime&) = delete;
 
-  /// liblcm, for what the typed inputs and outputs do not cover (raw publishing, a recorder's
-  /// subscriptions). From the first call on, the loop also serves liblcm's own subscriptions.
-  [[nodiscard]] lcm::LCM& lcm() {
-    raw_lcm_used_ = true;
-    return *lcm_;
-  }
-  /// The descriptor that becomes readable when a message for a typed input is waiting (for a loop
-  /// of the node's own that polls other descriptors too and then calls spin_once(0)).
-  [[nodiscard]] int receive_fd() const;
-  /// Whether the typed inputs are read from the Runtime's own socket (RuntimeOptions::receive_direct).
-  [[nodiscard]] bool receives_directly() const { return receiver_ != nullptr; }
+  // The parts.
+  [[nodiscard]] Transport& transport() { return transport_; }
+  [[nodiscard]] Scheduler& scheduler() { return scheduler_; }
+  [[nodiscard]] Health& health() { return health_; }
+  [[nodiscard]] const Health& health() const { return health_; }
   [[nodiscard]] const std::string& name() const { return name_; }
-  /// The full channel name with the configured prefix.
-  [[nodiscard]] std::string channel(const std::string& name) const { return options_.channel_prefix + name; }
 
-  /// Subscribes to `ch` (hpr/msg/channels.hpp); a process may read only what it declares.
+  // Transport.
   template <class Msg>
   Input<Msg>& subscribe(const Channel<Msg>& ch, typename Input<Msg>::Validator validate = {},
                         typename Input<Msg>::Callback on_message = {}) {
-    return subscribe<Msg>(std::string(ch.name), std::move(validate), std::move(on_message));
+    return transport_.subscribe(ch, std::move(validate), std::move(on_message));
   }
-  /// Publishes on `ch`; a process may write only what it declares.
   template <class Msg>
   Output<Msg> advertise(const Channel<Msg>& ch) {
-    return advertise<Msg>(std::string(ch.name));
+    return transport_.advertise(ch);
   }
-  /// The same by name (a test's or a tool's own channel).
-  template <class Msg>
-  Input<Msg>& subscribe(const std::string& name, typename Input<Msg>::Validator validate = {},
-                        typename Input<Msg>::Callback on_message = {}) {
-    check_declared(name, false);
-    return make_input<Msg>(name, std::move(validate), std::move(on_message));
-  }
-  template <class Msg>
-  Output<Msg> advertise(const std::string& name) {
-    check_declared(name, true);
-    const auth::Key* key = nullptr;
-    if constexpr (auth::Signed<Msg>) key = deployment_key();
-    return Output<Msg>(lcm_.get(), channel(name), key, source_id_);
-  }
-  /// This process's identity on the clocked channels it publishes (random, nonzero, chosen at start).
-  [[nodiscard]] std::int64_t source_id() const { return source_id_; }
+  [[nodiscard]] std::string channel(std::string_view name) const { return transport_.channel(name); }
+  [[nodiscard]] std::int64_t source_id() const { return transport_.source_id(); }
+  const auth::Key* deployment_key() { return transport_.deployment_key(); }
+  [[nodiscard]] bool authenticates() const { return transport_.authenticates(); }
+  /// The descriptor that becomes readable when a message for a typed input is waiting (for a loop
+  /// of the node's own that polls other descriptors too and then calls spin_once(0)).
+  [[nodiscard]] int receive_fd() const { return transport_.receive_fd(); }
+  [[nodiscard]] bool receives_directly() const { return transport_.receives_directly(); }
+  [[nodiscard]] std::int64_t decode_errors() const { return transport_.decode_errors(); }
 
-  /// The deployment's key (the code of every signed type: the commands and the clocked channels),
-  /// read on first use (throws auth::AuthError when it cannot be); null when authentication is off
-  /// (then logs once that anyone may command and feed the robot).
-  const auth::Key* deployment_key();
-  [[nodiscard]] bool authenticates() const { return options_.authenticate; }
-
-  /// Runs `step` for every new tick of `primary` once the `synced` inputs have caught up, or after
-  /// `timeout_s` without them (TickInfo::timed_out), or at once when the next primary tick arrives
-  /// first (real time: never fall behind the robot's clock). A tick older than the last stepped one
-  /// is ignored.
-  void on_tick(InputBase& primary, std::vector<Sync> synced, double timeout_s, StepFn step);
+  // Scheduler.
+  void on_tick(InputBase& primary, std::vector<Sync> synced, double timeout_s, StepFn step) {
+    scheduler_.on_tick(primary, std::move(synced), timeout_s, std::move(step));
+  }
   /// Calls `reset` when `primary` follows a new tick stream (its source restarted, or its clock
   /// jumped): the node's algorithm starts again from the new clock's first tick.
-  void on_restart(InputBase& primary, std::function<void()> reset);
-  /// Calls `fn` every `period_s` of wall-clock time (monotonic) from the loop.
-  void every(double period_s, std::function<void()> fn);
-  /// A dropout is never silently held: while `input` (once heard) has been silent for more than
-  /// `timeout_s` of wall-clock time, calls `fn` every `timeout_s` (a node republishes its last
-  /// output flagged stale), holds fault `fault` ("no ROBOT_SENSORS for 35 ms") and logs once when
-  /// the input went silent and once when it is back.
-  void while_silent(const InputBase& input, double timeout_s, const std::string& fault, std::function<void()> fn);
+  void on_restart(InputBase& primary, std::function<void()> reset) { scheduler_.on_restart(primary, std::move(reset)); }
+  void every(double period_s, std::function<void()> fn) { scheduler_.every(period_s, std::move(fn)); }
+  /// A dropout is never silently held (Scheduler::while_silent).
+  void while_silent(const InputBase& input, double timeout_s, const std::string& fault, std::function<void()> fn) {
+    scheduler_.while_silent(input, timeout_s, fault, std::move(fn));
+  }
+  [[nodiscard]] double next_arrival() const { return scheduler_.next_arrival(); }
 
+  // Health.
+  void report(StepOutcome outcome) { health_.report(outcome); }
+  void report(const StepReport& component) { health_.report(component); }
+  [[nodiscard]] Lifecycle lifecycle() const { return health_.lifecycle(); }
+  void record_step(std::int64_t tick, double seconds) { health_.record_step(tick, seconds); }
+  void count_stale() { health_.count_stale(); }
+  void set_fault(const std::string& key, const std::string& text, bool fatal = false,
+                 double clear_after_s = std::numeric_limits<double>::infinity()) {
+    health_.set_fault(key, text, fatal, clear_after_s);
+  }
+  void clear_fault(const std::string& key) { health_.clear_fault(key); }
+  [[nodiscard]] bool has_fault(const std::string& key) const { return health_.has_fault(key); }
+  [[nodiscard]] std::string fault_text(const std::string& key) const { return health_.fault_text(key); }
+  void publish_health() { health_.publish(stop_requested(), !scheduler_.steps_on_input()); }
+  [[nodiscard]] const RollingStats& cycle_stats() const { return health_.cycle_stats(); }
+  [[nodiscard]] std::int64_t deadline_misses() const { return health_.deadline_misses(); }
+
+  // Parameters.
+  /// The node's live parameters (the first call subscribes to OPERATOR; PARAMS announces them once
+  /// the loop runs).
+  ParameterSet& parameters() { return parameters_.parameters(name_); }
+  /// The live parameters answered under the name `node` (a component this process runs).
+  ParameterSet& parameters(const std::string& node) { return parameters_.parameters(node); }
+  void publish_parameters(const ParameterSet& set, const ParameterRequest* request) { parameters_.publish(set, request); }
+
+  // The loop.
   /// Processes messages until stop is requested. Returns the process exit code (0).
   int run();
   /// Processes messages until `done()` holds, `timeout_s` passes or stop is requested.
@@ -228,134 +191,21 @@ class Runtime {
   void request_stop() { stop_ = true; }
   [[nodiscard]] bool stop_requested() const;
 
-  /// What the step being run did, for the node's lifecycle (reported in HEALTH): an on_tick step
-  /// that reports nothing was running. Outside an on_tick step (a node on its own clock), it
-  /// applies at once.
-  void report(StepOutcome outcome);
-  /// A component's tick (hpr/common/component.hpp): the faults it raised are set and those it
-  /// cleared cleared, under the component's keys, and an outcome other than running is reported as
-  /// above (a running one leaves what an earlier component of the same step reported).
-  void report(const StepReport& component);
-  [[nodiscard]] Lifecycle lifecycle() const { return lifecycle_.state(); }
-
-  /// Records one step's compute time (on_tick steps are timed automatically).
-  void record_step(std::int64_t tick, double seconds);
-  /// Counts a step that ran without a fresh input.
-  void count_stale() { ++stale_inputs_; }
-  /// Sets or clears a named fault shown in HEALTH; a fault makes the state DEGRADED (or FAULT). One
-  /// set with `clear_after_s` clears by itself that long after its last set (monotonic time).
-  void set_fault(const std::string& key, const std::string& text, bool fatal = false,
-                 double clear_after_s = std::numeric_limits<double>::infinity());
-  void clear_fault(const std::string& key);
-  [[nodiscard]] bool has_fault(const std::string& key) const { return faults_.count(key) != 0; }
-  /// The text of fault `key` ("" when it is not set).
-  [[nodiscard]] std::string fault_text(const std::string& key) const {
-    const auto it = faults_.find(key);
-    return it == faults_.end() ? std::string() : it->second.text;
-  }
-  void publish_health();
-
-  /// The node's live parameters. The first call subscribes to OPERATOR (sets and gets addressed to
-  /// this node) and advertises PARAMS, published once the loop runs and in answer to each request.
-  ParameterSet& parameters() { return parameters(name_); }
-  /// The live parameters answered under the name `node` (a component this process runs).
-  ParameterSet& parameters(const std::string& node);
-  /// Publishes PARAMS of `set`: the current values, and the answer to the request `request` (may be null).
-  void publish_parameters(const ParameterSet& set, const ParameterRequest* request);
-
-  [[nodiscard]] std::int64_t decode_errors() const;
-  /// When the next message of a stepping input is due on the monotonic clock: its last arrival plus
-  /// the moving average of its arrival intervals (0 before two have arrived). The busy-poll window
-  /// (RuntimeOptions::spin_s) is centred on it.
-  [[nodiscard]] double next_arrival() const;
-  [[nodiscard]] const RollingStats& cycle_stats() const { return cycle_; }
-  [[nodiscard]] std::int64_t deadline_misses() const { return deadline_misses_; }
-
  private:
-  /// Throws std::logic_error when this runtime is a process whose declaration does not list
-  /// `channel` among its reads (or, `write`, its writes).
-  void check_declared(const std::string& channel, bool write) const;
-  /// An input on `name`, declared or not (the runtime's own OPERATOR input for live parameters is
-  /// not the process's).
-  template <class Msg>
-  Input<Msg>& make_input(const std::string& name, typename Input<Msg>::Validator validate, typename Input<Msg>::Callback on_message) {
-    const auth::Key* key = nullptr;
-    if constexpr (auth::Signed<Msg>) key = deployment_key();
-    auto in = std::make_unique<Input<Msg>>(*this, receiver_ ? nullptr : lcm_.get(), channel(name), std::move(validate),
-                                           std::move(on_message), key);
-    auto& ref = *in;
-    if (receiver_) by_channel_[ref.channel()].push_back(&ref);
-    inputs_.push_back(std::move(in));
-    return ref;
-  }
-  friend class InputBase;
-  struct Trigger {
-    InputBase* primary;
-    std::vector<Sync> synced;
-    double timeout_s;
-    StepFn step;
-    std::int64_t last_tick = -1;
-    std::int64_t pending_tick = -1;
-    double deadline = 0.0;
-    std::vector<char> absent;  ///< per synced input: optional and not waited for
-    double arrival = 0.0;      ///< when the newest primary tick arrived
-    double period = 0.0;       ///< moving average of the primary's arrival intervals (0: unknown)
-  };
-  struct Timer {
-    double period, next;
-    std::function<void()> fn;
-  };
-  void on_input(InputBase& in);
-  void on_reject(InputBase& in, std::size_t bytes, const std::string& why);
-  /// `in` follows a new tick stream: the triggers it drives start again from its next tick.
-  void on_follow(InputBase& in, std::int64_t old_tick, std::int64_t new_tick);
-  void follow_quiet_streams(double now);
-  void mark_absent(Trigger& t, std::size_t i);
-  void check_triggers(double now);
-  void run_timers(double now);
-  double next_wakeup(double now) const;
-  /// Reads what is waiting on the own socket and hands each message to its channel's inputs.
-  void receive_direct();
+  /// Publishes HEALTH when its period has passed.
+  void publish_health_when_due(double now);
 
   std::string name_;
-  std::optional<Ports> declared_;  ///< a process's ports (none: a tool or a test, unchecked)
   RuntimeOptions options_;
-  std::unique_ptr<lcm::LCM> lcm_;
-  std::unique_ptr<UdpmReceiver> receiver_;  ///< the typed inputs' socket (null: through liblcm)
-  std::map<std::string, std::vector<InputBase*>, std::less<>> by_channel_;  ///< with receiver_
-  MessageSink deliver_;                     ///< receive_direct's sink, made once
-  std::int64_t refused_reported_ = 0;
-  bool raw_lcm_used_ = false;
-  std::vector<std::unique_ptr<InputBase>> inputs_;
-  std::vector<Trigger> triggers_;
-  std::vector<Timer> timers_;
-  std::vector<std::pair<InputBase*, std::function<void()>>> restarts_;
+  // Each part is given the ones it reports to before they are built; none calls another while
+  // being built.
+  Transport transport_;
+  Health health_;
+  Scheduler scheduler_;
+  ParameterServer parameters_;
   bool stop_ = false;
   bool configuration_checked_ = false;
-
-  RollingStats cycle_{1000};
-  std::int64_t steps_ = 0, last_tick_ = -1, deadline_misses_ = 0, stale_inputs_ = 0;
-  std::int64_t steps_at_rate_time_ = 0;
-  double rate_time_ = 0.0, rate_hz_ = 0.0;
-  double last_health_ = 0.0, start_time_ = 0.0, last_reject_log_ = -1e9;
-  struct Fault {
-    std::string text;
-    bool fatal;
-    double expires;  ///< monotonic time at which it clears by itself (inf: never)
-  };
-  std::map<std::string, Fault> faults_;
-  /// Applies `changed` (an event's result) to the log.
-  void log_lifecycle(bool changed, Lifecycle from);
-  LifecycleMachine lifecycle_;
-  bool in_step_ = false;
-  StepOutcome step_outcome_ = StepOutcome::kRunning;
-  std::vector<std::uint8_t> health_buffer_;
-  std::vector<std::unique_ptr<ParameterSet>> parameters_;  ///< one per name answered
-  bool parameters_announced_ = false;
-  std::string last_request_;  // source and utime of the last OPERATOR request handled (copies repeat it)
-  std::unique_ptr<auth::Key> key_;
-  bool warned_unauthenticated_ = false;
-  std::int64_t source_id_ = 0;
+  double last_health_ = 0.0;
 };
 
 /// Exit codes shared by every process.
