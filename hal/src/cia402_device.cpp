@@ -26,8 +26,8 @@ std::string record(const std::string& index, const std::string& name, int subs) 
 
 std::string Cia402Device::default_eds(std::uint32_t rated_torque_mnm) {
   std::string e =
-      "; A CiA 402 servo drive as the drive emulator presents it: cyclic synchronous position, velocity\n"
-      "; and torque (0x6502), three PDOs with dynamic mapping, heartbeat producer.\n"
+      "; A CiA 402 servo drive as the drive emulator presents it: cyclic synchronous position and torque\n"
+      "; (0x6502), three PDOs with dynamic mapping, heartbeat producer.\n"
       "[FileInfo]\nFileName=hpr_emulated_drive.eds\nFileVersion=1\nDescription=hpr drive emulator, CiA 402\n\n"
       "[DeviceInfo]\nVendorName=hpr\nProductName=Emulated CiA 402 drive\n\n";
   e += var("1000", "Device type", "0x0007", "ro", "0x00020192") + var("1001", "Error register", "0x0005", "ro", "0", true) +
@@ -50,7 +50,8 @@ std::string Cia402Device::default_eds(std::uint32_t rated_torque_mnm) {
        var("6060", "Modes of operation", "0x0002", "rw", "0", true) + var("6061", "Modes of operation display", "0x0002", "ro", "0", true) +
        var("6064", "Position actual value", "0x0004", "ro", "0", true) + var("606C", "Velocity actual value", "0x0004", "ro", "0", true) +
        var("6071", "Target torque", "0x0003", "rww", "0", true) + var("6076", "Motor rated torque", "0x0007", "rw", std::to_string(rated_torque_mnm)) +
-       var("6077", "Torque actual value", "0x0003", "ro", "0", true) + var("6502", "Supported drive modes", "0x0007", "ro", "0x00000380");
+       var("6077", "Torque actual value", "0x0003", "ro", "0", true) + var("607A", "Target position", "0x0004", "rww", "0", true) +
+       var("6502", "Supported drive modes", "0x0007", "ro", "0x00000280");
   return e;
 }
 
@@ -74,6 +75,7 @@ void Cia402Device::reset(bool communication_only, std::vector<CanFrame>& out) {
   }
   rpdo_pending_ = false;
   applied_torque_ = 0;
+  applied_position_ = 0;
   booted_ = false;
   power_on(out);
 }
@@ -150,6 +152,7 @@ void Cia402Device::on_frame(const CanFrame& f, double now, std::vector<CanFrame>
           out.push_back(emergency(node_, Emergency{0, 0}));
         }
         applied_torque_ = static_cast<std::int16_t>(sdo_.value(kTargetTorque, 0).value_or(0));
+        applied_position_ = static_cast<std::int32_t>(static_cast<std::uint32_t>(sdo_.value(kTargetPosition, 0).value_or(0)));
         rpdo_pending_ = false;
       }
       sdo_.set(kModesOfOperationDisplay, 0, sdo_.value(kModesOfOperation, 0).value_or(0));
@@ -196,6 +199,12 @@ void Cia402Device::set_actual(std::int32_t position, std::int32_t velocity, std:
 std::int16_t Cia402Device::target_torque() const {
   const bool cst = static_cast<std::int8_t>(sdo_.value(kModesOfOperation, 0).value_or(0)) == kModeCyclicSyncTorque;
   return sm_.enabled() && cst ? applied_torque_ : 0;
+}
+
+std::optional<std::int32_t> Cia402Device::target_position() const {
+  const bool csp = static_cast<std::int8_t>(sdo_.value(kModesOfOperation, 0).value_or(0)) == kModeCyclicSyncPosition;
+  if (!sm_.enabled() || !csp) return std::nullopt;
+  return applied_position_;
 }
 
 bool Cia402Device::fault_reaction() const {

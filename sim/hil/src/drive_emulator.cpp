@@ -6,11 +6,13 @@
 namespace hpr::hal {
 
 EmulatorOptions EmulatorOptions::load(const Config& c) {
-  c.reject_unknown({"drive_timeout", "drive_damping_kd", "drop_reply_probability", "corrupt_probability", "fault_joint", "fault_code",
+  c.reject_unknown({"drive_timeout", "drive_damping_kd", "position_kp", "position_kd", "drop_reply_probability", "corrupt_probability", "fault_joint", "fault_code",
                     "fault_at", "bus_off_bus", "bus_off_at", "seed", "duration"});
   EmulatorOptions o;
   o.drive_timeout = c.real_or("drive_timeout", o.drive_timeout, 1e-3, 10.0);
   o.drive_damping_kd = c.real_or("drive_damping_kd", o.drive_damping_kd, 0.0, 1e4);
+  o.position_kp = c.real_or("position_kp", o.position_kp, 0.0, 1e5);
+  o.position_kd = c.real_or("position_kd", o.position_kd, 0.0, 1e4);
   o.drop_reply_probability = c.real_or("drop_reply_probability", 0.0, 0.0, 1.0);
   o.corrupt_probability = c.real_or("corrupt_probability", 0.0, 0.0, 1.0);
   o.fault_joint = c.string_or("fault_joint", "");
@@ -235,9 +237,14 @@ void DriveEmulator::step(double now) {
     double kp = 0, kd = 0, q_des = 0, qd_des = 0, tau = 0;
     const bool faulted = this->faulted(i);
     if (const Cia402Device* dev = devices_[i].get()) {
-      // Cyclic synchronous torque; a fault reaction brakes dynamically (the drive's own damping).
+      // Cyclic synchronous torque, or position through the drive's own loop; a fault reaction
+      // brakes dynamically (the drive's own damping).
       if (dev->fault_reaction()) {
         kd = options_.drive_damping_kd;
+      } else if (const auto counts = dev->target_position()) {
+        kp = options_.position_kp;
+        kd = options_.position_kd;
+        q_des = dc.sign * static_cast<double>(*counts) * dc.cia402.rad_per_count() + dc.offset;
       } else {
         tau = dc.sign * dev->target_torque() * dc.cia402.nm_per_permille();
       }

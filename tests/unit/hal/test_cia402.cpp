@@ -272,7 +272,7 @@ TEST(Cia402Master, ReadsWhatTheDriveIsBeforeConfiguringIt) {
   EXPECT_NE(io.master.fault_text().find("profile 401, not a CiA 402 drive"), std::string::npos) << io.master.fault_text();
   // A drive without cyclic synchronous torque.
   eds = Cia402Device::default_eds(500);
-  eds.replace(eds.find("0x00000380"), 10, "0x00000080");
+  eds.replace(eds.find("0x00000280"), 10, "0x00000080");
   Link csp(eds);
   csp.start();
   EXPECT_NE(csp.master.fault_text().find("no cyclic synchronous torque (bit 9)"), std::string::npos) << csp.master.fault_text();
@@ -301,6 +301,31 @@ TEST(Cia402Device, AnswersOnlyWhatItsMappingSaysAndRejectsAWrongLengthRpdo) {
   EXPECT_EQ(out[1].len, 4);
   const std::uint16_t sw = static_cast<std::uint16_t>(out[0].data[0] | (out[0].data[1] << 8));
   EXPECT_EQ(decode_statusword(sw), canopen::DriveState::kSwitchOnDisabled);
+}
+
+// Cyclic synchronous position (mode 8): the target position (0x607A) taken at the SYNC after an
+// RPDO, while Operation enabled in that mode only; in torque mode the torque alone.
+TEST(Cia402Device, TakesTheTargetPositionAtTheSyncInCyclicSynchronousPositionOnly) {
+  Link l;
+  l.start();
+  for (int k = 0; k < 20 && !l.device.drive().enabled(); ++k) l.tick(true);
+  ASSERT_TRUE(l.device.drive().enabled());
+  EXPECT_FALSE(l.device.target_position().has_value()) << "cyclic synchronous torque";
+  std::vector<CanFrame> out;
+  l.device.on_frame(sdo_download(5, {kTargetPosition, 0}, static_cast<std::uint32_t>(-12345), 4), l.now, out);
+  l.device.on_frame(sdo_download(5, {kModesOfOperation, 0}, static_cast<std::uint32_t>(kModeCyclicSyncPosition), 1), l.now, out);
+  ASSERT_EQ(out.size(), 2u);
+  EXPECT_EQ(out[0].data[0], 0x60) << "download confirmed";
+  EXPECT_EQ(out[1].data[0], 0x60) << "download confirmed";
+  EXPECT_NE(l.device.target_position().value_or(0), -12345) << "not before the SYNC";
+  l.tick(true, 1.0);
+  ASSERT_TRUE(l.device.target_position().has_value());
+  EXPECT_EQ(*l.device.target_position(), -12345);
+  EXPECT_EQ(l.device.target_torque(), 0) << "no torque set-point in position mode";
+  EXPECT_EQ(l.device.object(kModesOfOperationDisplay, 0).value_or(0), static_cast<std::uint64_t>(kModeCyclicSyncPosition));
+  l.device.on_frame(sdo_download(5, {kModesOfOperation, 0}, static_cast<std::uint32_t>(kModeCyclicSyncTorque), 1), l.now, out);
+  l.tick(true);
+  EXPECT_FALSE(l.device.target_position().has_value());
 }
 
 // Frame times against the classic worst-case formula of CAN schedulability analysis (Davis et al.,

@@ -163,7 +163,7 @@ TEST(HalConfig, Cia402DrivesAreCheckedAgainstTheirDataSheetAndTheSensorBus) {
     EXPECT_EQ(d.protocol, d.bus == 0 ? hal::DriveProtocol::kCia402 : hal::DriveProtocol::kMit) << d.joint << " on bus " << d.bus;
   }
   // An EDS of a drive without cyclic synchronous torque.
-  const auto modes = eds.find("0x00000380");
+  const auto modes = eds.find("0x00000280");
   ASSERT_NE(modes, std::string::npos);
   eds.replace(modes, 10, "0x00000080");
   std::ofstream(dir + "/csp_only.eds") << eds;

@@ -158,8 +158,12 @@ class Cia402Device {
 
   [[nodiscard]] canopen::NmtState nmt() const { return nmt_; }
   [[nodiscard]] const canopen::DriveStateMachine& drive() const { return sm_; }
-  /// The target torque (0x6071) applied at the last SYNC, while Operation enabled (else 0).
+  /// The target torque (0x6071) applied at the last SYNC, while Operation enabled in cyclic
+  /// synchronous torque (else 0).
   [[nodiscard]] std::int16_t target_torque() const;
+  /// The target position (0x607A) applied at the last SYNC, while Operation enabled in cyclic
+  /// synchronous position (else none): the drive closes the position loop with its own gains.
+  [[nodiscard]] std::optional<std::int32_t> target_position() const;
   /// The drive reacts to a fault (damping, then off).
   [[nodiscard]] bool fault_reaction() const;
   [[nodiscard]] std::optional<std::uint64_t> object(std::uint16_t index, std::uint8_t subindex) const { return sdo_.value(index, subindex); }
@@ -183,6 +187,7 @@ class Cia402Device {
   canopen::NmtState nmt_ = canopen::NmtState::kBootUp;
   canopen::DriveStateMachine sm_;
   std::int16_t applied_torque_ = 0;  ///< 0x6071 as the last SYNC took it
+  std::int32_t applied_position_ = 0;  ///< 0x607A as the last SYNC took it
   bool rpdo_pending_ = false;        ///< an RPDO arrived since the last SYNC
   double last_rpdo_ = -1e9, last_heartbeat_ = -1e9;
   std::int64_t syncs_ = 0;

@@ -19,6 +19,9 @@ namespace hpr::hal {
 struct EmulatorOptions {
   double drive_timeout = 0.02;       ///< [s] without a command frame: the drive damps by itself
   double drive_damping_kd = 10.0;    ///< [Nm s/rad]
+  /// A CiA 402 drive's own position loop in cyclic synchronous position (mode 8), at the joint.
+  double position_kp = 1000.0;       ///< [Nm/rad]
+  double position_kd = 20.0;         ///< [Nm s/rad]
   double drop_reply_probability = 0; ///< per reply of a drive in motor mode (seeded: reproducible)
   double corrupt_probability = 0;    ///< per reply of a drive in motor mode: sent with a wrong length
   std::string fault_joint;           ///< this drive reports `fault_code` from `fault_at` [s sim time]
