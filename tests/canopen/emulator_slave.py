@@ -10,9 +10,6 @@ CanopenReference.* runs it against a drive emulator it started and reads those l
         --port 22000 --node 3 --eds emulated_drive.eds
 """
 
-import argparse
-import json
-import logging
 import statistics
 import sys
 import threading
@@ -24,20 +21,12 @@ from canopen.profiles.p402 import BaseNode402
 from canopen.sdo.exceptions import SdoAbortedError
 
 from cannelloni_bus import CannelloniBus
+from report import arguments, check, log_warnings, summary
 
 # The actual values a drive reports as they are (not its data sheet's defaults).
 PROCESS_VALUES = {0x6041, 0x6061, 0x6064, 0x606C, 0x6077}
 CONTROLWORD, STATUSWORD, MODE, MODE_DISPLAY = 0x6040, 0x6041, 0x6060, 0x6061
 POSITION_ACTUAL, VELOCITY_ACTUAL, TARGET_TORQUE, TORQUE_ACTUAL, TARGET_POSITION = 0x6064, 0x606C, 0x6071, 0x6077, 0x607A
-
-failures = 0
-
-
-def check(name, ok, detail=""):
-    global failures
-    failures += 0 if ok else 1
-    print(json.dumps({"check": name, "ok": bool(ok), "detail": detail}), flush=True)
-
 
 class Heartbeats:
     """Every heartbeat of the node, with its arrival time (a boot-up is state 0)."""
@@ -94,17 +83,13 @@ def wait_until(predicate, timeout):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--host", default="127.0.0.1")
-    ap.add_argument("--port", type=int, required=True, help="the bus's hal-side port (the emulator listens on port + 1)")
+    ap = arguments(__doc__, "the bus's hal-side port (the emulator listens on port + 1)")
     ap.add_argument("--node", type=int, required=True, help="the drive's node id on that bus")
-    ap.add_argument("--eds", required=True, help="the emulated drive's data sheet")
     ap.add_argument("--period", type=float, default=0.01, help="[s] SYNC and RPDO period")
     ap.add_argument("--rpdo-timeout", type=float, default=1.0, help="[s] the emulator's drive_timeout")
     ap.add_argument("--counts-per-rad", type=float, required=True, help="position increments per joint radian")
     a = ap.parse_args()
-    # python-canopen's own warnings (what it finds odd about the drive) go to the test's output.
-    logging.basicConfig(level=logging.WARNING, stream=sys.stderr, format="python-canopen %(levelname)s %(name)s: %(message)s")
+    log_warnings()
 
     bus = CannelloniBus((a.host, a.port), (a.host, a.port + 1))
     network = canopen.Network(bus)
@@ -120,8 +105,7 @@ def main():
         network.sync.stop()
         node.pdo.stop()
         network.disconnect()
-    print(json.dumps({"summary": {"failures": failures, "malformed_datagrams": bus.malformed}}), flush=True)
-    return 0 if failures == 0 else 1
+    return summary(bus)
 
 
 def run(a, network, node, beats, emcys):

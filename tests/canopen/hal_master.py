@@ -12,9 +12,6 @@ drive's heartbeat stops ({"heartbeat_stopped": node}) so the test can see the ha
         --port 22000 --buses 10 --nodes 1,2,3 --eds emulated_drive.eds --heartbeat-ms 20
 """
 
-import argparse
-import json
-import logging
 import socket
 import sys
 import threading
@@ -24,15 +21,7 @@ import canopen
 from canopen.objectdictionary import ODVariable
 
 from cannelloni_bus import CannelloniBus
-
-failures = 0
-
-
-def check(name, ok, detail=""):
-    global failures
-    failures += 0 if ok else 1
-    print(json.dumps({"check": name, "ok": bool(ok), "detail": detail}), flush=True)
-
+from report import announce, arguments, check, log_warnings, summary
 
 class Wire:
     """What the hal sends to the drives: NMT commands and SDO requests, with the drives' answers."""
@@ -123,16 +112,13 @@ def pdo_order_problems(writes):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--host", default="127.0.0.1")
-    ap.add_argument("--port", type=int, required=True, help="the hal's base port (bus b: port + 2b, the drives' side + 2b + 1)")
+    ap = arguments(__doc__, "the hal's base port (bus b: port + 2b, the drives' side + 2b + 1)")
     ap.add_argument("--buses", type=int, required=True, help="buses the hal has (the others are only listened to)")
     ap.add_argument("--nodes", required=True, help="node ids of the first bus's drives, comma-separated")
-    ap.add_argument("--eds", required=True)
     ap.add_argument("--heartbeat-ms", type=int, required=True, help="the producer time the hal writes (hal.canopen.heartbeat_ms)")
     ap.add_argument("--timeout", type=float, default=30.0, help="[s] for the hal to start the drives")
     a = ap.parse_args()
-    logging.basicConfig(level=logging.WARNING, stream=sys.stderr, format="python-canopen %(levelname)s %(name)s: %(message)s")
+    log_warnings()
     nodes = [int(n) for n in a.nodes.split(",")]
 
     # The other buses' drive side, so that the hal's datagrams to them land somewhere.
@@ -151,7 +137,7 @@ def main():
         boot_on_reset(network, local)
         locals_[n] = local
     network.connect()
-    print(json.dumps({"ready": True}), flush=True)
+    announce(ready=True)
 
     end = time.monotonic() + a.timeout
     while time.monotonic() < end and not all(l.nmt.state == "OPERATIONAL" for l in locals_.values()):
@@ -192,13 +178,12 @@ def main():
     # The hal watches the heartbeat: one drive's stops.
     stopped = nodes[-1]
     locals_[stopped].nmt.stop_heartbeat()
-    print(json.dumps({"heartbeat_stopped": stopped}), flush=True)
+    announce(heartbeat_stopped=stopped)
     time.sleep(1.0)
     network.disconnect()
     for s in sinks:
         s.close()
-    print(json.dumps({"summary": {"failures": failures, "malformed_datagrams": bus.malformed}}), flush=True)
-    return 0 if failures == 0 else 1
+    return summary(bus)
 
 
 if __name__ == "__main__":
