@@ -116,7 +116,7 @@ TEST_P(TypedInput, ReadsWhatLiblcmPublishesAndRefusesAForeignDatagramWithoutLosi
   o.authenticate = false;
   o.health_period_s = 10.0;
   o.receive_direct = GetParam();
-  static constexpr hpr::Read kReads[] = {{.channel = "SENSORS"}};
+  static constexpr hpr::Read kReads[] = {{"SENSORS", 0, false, false, "the input read"}};
   static constexpr hpr::Ports kPorts{.name = "test", .reads = kReads, .writes = {}};
   hpr::node::Runtime rt(kPorts, "test", url, o);
   EXPECT_EQ(rt.receives_directly(), GetParam());

@@ -20,7 +20,7 @@ struct EchoPorts {
   std::vector<std::string_view> writes;
   EchoPorts() {
     hpr::test::for_each_type([&]<class Msg>(const char* channel) { echoes.push_back(std::string(channel) + "_ECHO"); });
-    hpr::test::for_each_type([&]<class Msg>(const char* channel) { reads.push_back(hpr::Read{.channel = channel}); });
+    hpr::test::for_each_type([&]<class Msg>(const char* channel) { reads.push_back(hpr::Read{channel, 0, false, false, "echoed"}); });
     writes.assign(echoes.begin(), echoes.end());
   }
   [[nodiscard]] hpr::Ports ports() const { return {.name = "lcm_echo_node", .reads = reads, .writes = writes}; }

@@ -40,7 +40,7 @@ namespace fs = std::filesystem;
 const Ports& viewer_ports() {
   static const std::vector<Read> reads = [] {
     std::vector<Read> r;
-    for (const auto& c : viewer::channels()) r.push_back(Read{.channel = c.name, .use = "shown"});
+    for (const auto& c : viewer::channels()) r.push_back(Read{c.name, 0, false, false, "shown"});
     return r;
   }();
   static const Ports ports{.name = "viewer", .reads = reads, .writes = {}};

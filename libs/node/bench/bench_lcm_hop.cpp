@@ -32,7 +32,9 @@ namespace {
 
 // The bench's channels, and what its processes read and write.
 constexpr hpr::Channel<humanoid::robot_sensors_t> kHop{"BENCH_HOP"}, kPing{"PING"}, kPong{"PONG"};
-constexpr hpr::Read kBenchReads[] = {{.channel = "BENCH_HOP"}, {.channel = "PING"}, {.channel = "PONG"}};
+constexpr hpr::Read kBenchReads[] = {{"BENCH_HOP", 0, false, false, "the hop measured"},
+                                     {"PING", 0, false, false, "the echo's input"},
+                                     {"PONG", 0, false, false, "the echo"}};
 constexpr std::string_view kBenchWrites[] = {"PING", "PONG"};
 constexpr hpr::Ports kBenchPorts{.name = "bench_lcm_hop", .reads = kBenchReads, .writes = kBenchWrites};
 

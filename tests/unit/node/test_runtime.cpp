@@ -29,8 +29,9 @@ constexpr hpr::Channel<humanoid::robot_sensors_t> kSensors{"SENSORS"}, kState{"S
 constexpr hpr::Channel<humanoid::balance_status_t> kBalance{"BALANCE"}, kMarked{"MARKED"};
 constexpr hpr::Channel<humanoid::operator_t> kOperator{"OPERATOR"};
 constexpr hpr::Channel<humanoid::health_t> kHealth{"HEALTH"};
-constexpr hpr::Read kTestReads[] = {{.channel = "SENSORS"}, {.channel = "STATE"}, {.channel = "OPERATOR_LIKE"}, {.channel = "S"},
-                                    {.channel = "BALANCE"}, {.channel = "MARKED"}, {.channel = "OPERATOR"}, {.channel = "HEALTH"}};
+constexpr hpr::Read test_read(std::string_view channel) { return {channel, 0, false, false, "a test's input"}; }
+constexpr hpr::Read kTestReads[] = {test_read("SENSORS"), test_read("STATE"),  test_read("OPERATOR_LIKE"), test_read("S"),
+                                    test_read("BALANCE"), test_read("MARKED"), test_read("OPERATOR"),      test_read("HEALTH")};
 constexpr std::string_view kTestWrites[] = {"SENSORS", "STATE", "OPERATOR_LIKE", "S", "BALANCE", "MARKED", "OPERATOR"};
 constexpr hpr::Ports kTestPorts{.name = "test", .reads = kTestReads, .writes = kTestWrites};
 
