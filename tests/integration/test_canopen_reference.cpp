@@ -68,45 +68,56 @@ std::set<std::string> verdicts(const std::string& out, std::vector<nlohmann::jso
   return seen;
 }
 
-/// python-canopen's folder, or "" (the test is skipped) when it is not there; fails when Debian's
-/// python3-can is missing.
-std::string python_canopen() {
-  const std::string dir = HPR_PYTHON_CANOPEN_DIR;
-  if (!fs::exists(fs::path(dir) / "canopen" / "__init__.py")) return "";
-  EXPECT_EQ(hpr::test::run_command({"/usr/bin/python3", "-c", "import can"}).exit_code, 0)
-      << "Debian's python3-can is missing (tools/install-deps installs it)";
-  return dir;
-}
+/// Each check: skipped without python-canopen (failed without Debian's python3-can); the stack's
+/// configuration with the test's overrides (`sets`), its hal section, and the drives' data sheet.
+class CanopenReference : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (!fs::exists(fs::path(canopen_dir) / "canopen" / "__init__.py")) {
+      GTEST_SKIP() << "python-canopen is not at '" << canopen_dir << "' (configure with -DHPR_PYTHON_CANOPEN_DIR)";
+    }
+    ASSERT_EQ(hpr::test::run_command({"/usr/bin/python3", "-c", "import can"}).exit_code, 0)
+        << "Debian's python3-can is missing (tools/install-deps installs it)";
+  }
+  /// Loads the configuration with `overrides` into `hal`.
+  void configure(std::vector<std::string> overrides) {
+    sets = std::move(overrides);
+    const hpr::Config cfg = hpr::Config::load(cfg_path, sets);
+    hal = hpr::hal::HalConfig::load(cfg.section("hal"), hpr::model::RobotSpec::load(cfg.section("robot")));
+  }
+  /// The process's command line: the configuration and the overrides.
+  [[nodiscard]] std::vector<std::string> args() const {
+    std::vector<std::string> a = {"--config", cfg_path};
+    for (const auto& s : sets) a.insert(a.end(), {"--set", s});
+    return a;
+  }
+  /// The emulated drive's data sheet with its rated torque [N m], as a file; its path.
+  [[nodiscard]] std::string write_eds(double rated_torque) const {
+    const std::string eds = (dir.path() / "emulated_drive.eds").string();
+    std::ofstream(eds) << hpr::hal::Cia402Device::default_eds(static_cast<std::uint32_t>(std::lround(rated_torque * 1e3)));
+    return eds;
+  }
 
-std::string file_text(const std::string& path) {
-  std::ifstream in(path);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
+  const std::string canopen_dir = HPR_PYTHON_CANOPEN_DIR;
+  const std::string tests = hpr::test::source_dir() + "/tests/canopen";
+  const std::string cfg_path = hpr::test::source_dir() + "/config/toro.yaml";
+  const hpr::test::ScratchDir dir{"canopen-reference"};
+  std::vector<std::string> sets;
+  hpr::hal::HalConfig hal;
+};
 
-TEST(CanopenReference, PythonCanopenMasterDrivesTheEmulatorsCia402Drive) {
-  const std::string canopen_dir = python_canopen();
-  if (canopen_dir.empty()) GTEST_SKIP() << "python-canopen is not at '" HPR_PYTHON_CANOPEN_DIR "' (configure with -DHPR_PYTHON_CANOPEN_DIR)";
+TEST_F(CanopenReference, PythonCanopenMasterDrivesTheEmulatorsCia402Drive) {
   // Ports beside the hil tests' (22000 + 40 k, 20 of them for ten buses).
   const int port = 22020 + 40 * (::getpid() % 250);
-  const std::string cfg_path = hpr::test::source_dir() + "/config/toro.yaml";
-  const std::vector<std::string> sets = {"hal.udp_base_port=" + std::to_string(port), "hal.clock=realtime", "hal.protocol=cia402",
-                                         "emulator.drive_timeout=1.0"};
+  configure({"hal.udp_base_port=" + std::to_string(port), "hal.clock=realtime", "hal.protocol=cia402", "emulator.drive_timeout=1.0"});
   // The drive the master talks to: node 3 on the first bus (a hip's yaw joint, which gravity
   // hardly loads), its data sheet and its position units as the emulator has them.
-  const hpr::Config cfg = hpr::Config::load(cfg_path, sets);
-  const auto robot = hpr::model::RobotSpec::load(cfg.section("robot"));
-  const auto hal = hpr::hal::HalConfig::load(cfg.section("hal"), robot);
   const auto drive = std::find_if(hal.drives.begin(), hal.drives.end(), [](const auto& d) { return d.bus == 0 && d.id == 3; });
   ASSERT_NE(drive, hal.drives.end());
-  const hpr::test::ScratchDir dir{"canopen-reference"};
-  const std::string eds = (dir.path() / "emulated_drive.eds").string();
-  std::ofstream(eds) << hpr::hal::Cia402Device::default_eds(static_cast<std::uint32_t>(std::lround(drive->cia402.rated_torque * 1e3)));
+  const std::string eds = write_eds(drive->cia402.rated_torque);
 
   hpr::test::ProcessGroup group;
-  std::vector<std::string> args = {"--config", cfg_path};
-  for (const auto& s : sets) args.insert(args.end(), {"--set", s});
-  group.start("drive_emulator", args);
-  const std::string tests = hpr::test::source_dir() + "/tests/canopen";
+  group.start("drive_emulator", args());
   const auto r = hpr::test::run_command({"env", "PYTHONPATH=" + canopen_dir + ":" + tests, "/usr/bin/python3", tests + "/emulator_slave.py",
                                          "--port", std::to_string(port), "--node", "3", "--eds", eds, "--counts-per-rad",
                                          std::to_string(1.0 / drive->cia402.rad_per_count()), "--rpdo-timeout", "1.0"});
@@ -118,19 +129,13 @@ TEST(CanopenReference, PythonCanopenMasterDrivesTheEmulatorsCia402Drive) {
 // The hal as master: python-canopen LocalNodes (CiA 301: SDO server, NMT slave, heartbeat
 // producer) built from the same data sheet stand for the first bus's three drives; the other
 // buses keep MIT mode. The hal must start them as docs/CAN.md says and notice a heartbeat that stops.
-TEST(CanopenReference, TheHalStartsPythonCanopenSlavesAsDocumented) {
-  const std::string canopen_dir = python_canopen();
-  if (canopen_dir.empty()) GTEST_SKIP() << "python-canopen is not at '" HPR_PYTHON_CANOPEN_DIR "' (configure with -DHPR_PYTHON_CANOPEN_DIR)";
+TEST_F(CanopenReference, TheHalStartsPythonCanopenSlavesAsDocumented) {
   // Below the hil tests' ports and the supervisor's 21000, so both checks may run at once.
   const int port = 12000 + 40 * (::getpid() % 250);
-  const std::string cfg_path = hpr::test::source_dir() + "/config/toro.yaml";
   std::string buses = "hal.buses=[{name: can0, protocol: cia402}";
   for (int b = 1; b < 10; ++b) buses += ", {name: can" + std::to_string(b) + "}";
   buses += "]";
-  const std::vector<std::string> sets = {"hal.udp_base_port=" + std::to_string(port), "hal.clock=realtime", buses};
-  const hpr::Config cfg = hpr::Config::load(cfg_path, sets);
-  const auto robot = hpr::model::RobotSpec::load(cfg.section("robot"));
-  const auto hal = hpr::hal::HalConfig::load(cfg.section("hal"), robot);
+  configure({"hal.udp_base_port=" + std::to_string(port), "hal.clock=realtime", buses});
   std::vector<int> nodes;
   double rated = 0.0;
   for (const auto& d : hal.drives) {
@@ -140,16 +145,13 @@ TEST(CanopenReference, TheHalStartsPythonCanopenSlavesAsDocumented) {
     rated = d.cia402.rated_torque;
   }
   ASSERT_EQ(nodes.size(), 3U);
-  const hpr::test::ScratchDir dir{"canopen-hal-master"};
-  const std::string eds = (dir.path() / "emulated_drive.eds").string();
-  std::ofstream(eds) << hpr::hal::Cia402Device::default_eds(static_cast<std::uint32_t>(std::lround(rated * 1e3)));
+  const std::string eds = write_eds(rated);
   std::string node_list;
   for (int n : nodes) node_list += (node_list.empty() ? "" : ",") + std::to_string(n);
 
   hpr::test::ProcessGroup group;
   hpr::test::LcmListener lcm{group.lcm_url()};
   const auto status = lcm.collect<humanoid::hal_status_t>("HAL_STATUS");
-  const std::string tests = hpr::test::source_dir() + "/tests/canopen";
   const std::string slave_log = (dir.path() / "slaves.log").string(), hal_log = (dir.path() / "hal.log").string();
   hpr::launch::StartOptions py;
   py.env["PYTHONPATH"] = canopen_dir + ":" + tests;
@@ -161,31 +163,29 @@ TEST(CanopenReference, TheHalStartsPythonCanopenSlavesAsDocumented) {
   const auto wait_for_text = [](const std::string& path, const std::string& text, std::chrono::seconds timeout) {
     const auto end = std::chrono::steady_clock::now() + timeout;
     while (std::chrono::steady_clock::now() < end) {
-      if (file_text(path).find(text) != std::string::npos) return true;
+      if (hpr::test::read_file(path).find(text) != std::string::npos) return true;
       std::this_thread::sleep_for(std::chrono::milliseconds(20));
     }
     return false;
   };
-  ASSERT_TRUE(wait_for_text(slave_log, "\"ready\"", std::chrono::seconds(20))) << file_text(slave_log);
+  ASSERT_TRUE(wait_for_text(slave_log, "\"ready\"", std::chrono::seconds(20))) << hpr::test::read_file(slave_log);
   hpr::launch::StartOptions h;
   h.log_file = hal_log;
-  std::vector<std::string> args = {"--config", cfg_path};
-  for (const auto& s : sets) args.insert(args.end(), {"--set", s});
-  group.start("hal", args, h);
+  group.start("hal", args(), h);
   const auto done = group.wait(slaves, std::chrono::seconds(60));
   std::vector<nlohmann::json> announced;
-  const auto seen = verdicts(file_text(slave_log), &announced);
-  EXPECT_EQ(done.exit_code, 0) << file_text(slave_log);
+  const auto seen = verdicts(hpr::test::read_file(slave_log), &announced);
+  EXPECT_EQ(done.exit_code, 0) << hpr::test::read_file(slave_log);
   for (int n : nodes) {
     for (const char* c : {"_nmt_reset_communication_then_start", "_sdo_reads_identity_first", "_sdo_requests_counted",
                           "_sdo_configuration_as_documented", "_pdo_mapping_in_cia301_order"}) {
-      EXPECT_TRUE(seen.count("node" + std::to_string(n) + c)) << "node " << n << ": no verdict " << c << "\n" << file_text(slave_log);
+      EXPECT_TRUE(seen.count("node" + std::to_string(n) + c)) << "node " << n << ": no verdict " << c << "\n" << hpr::test::read_file(slave_log);
     }
   }
   EXPECT_TRUE(seen.count("nmt_started_every_drive"));
   // The hal's side: every drive started, then the silent heartbeat noticed, naming the drive (in
   // HAL_STATUS's reason: the MIT-mode buses, which nothing answers here, hold the hal in fault).
-  const std::string log = file_text(hal_log);
+  const std::string log = hpr::test::read_file(hal_log);
   EXPECT_NE(log.find("CiA 402 drives started in"), std::string::npos) << log;
   const auto stopped = std::find_if(announced.begin(), announced.end(), [](const auto& j) { return j.contains("heartbeat_stopped"); });
   ASSERT_NE(stopped, announced.end());

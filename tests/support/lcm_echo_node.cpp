@@ -1,6 +1,5 @@
 // A node built on the runtime that echoes every message type: "<CHANNEL>" -> "<CHANNEL>_ECHO".
 // Used by the transport tests (round trip between processes, garbage input, SIGTERM).
-#include <algorithm>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -19,21 +18,23 @@ struct EchoPorts {
   std::vector<hpr::Read> reads;
   std::vector<std::string_view> writes;
   EchoPorts() {
-    hpr::test::for_each_type([&]<class Msg>(const char* channel) { echoes.push_back(std::string(channel) + "_ECHO"); });
-    hpr::test::for_each_type([&]<class Msg>(const char* channel) { reads.push_back(hpr::Read{channel, 0, false, false, "echoed"}); });
-    writes.assign(echoes.begin(), echoes.end());
+    hpr::test::for_each_type([&]<class Msg>(const char* channel) {
+      reads.push_back(hpr::Read{channel, 0, false, false, "echoed"});
+      echoes.push_back(std::string(channel) + "_ECHO");
+    });
+    writes.assign(echoes.begin(), echoes.end());  // once every name is in place
   }
   [[nodiscard]] hpr::Ports ports() const { return {.name = "lcm_echo_node", .reads = reads, .writes = writes}; }
 };
 
+/// Visits the types in EchoPorts' order: the k-th type echoes on the k-th name.
 struct Echo {
   hpr::node::Runtime& rt;
   const EchoPorts& ports;
+  std::size_t k = 0;
   template <class Msg>
   void operator()(const char* channel) {
-    const auto read = std::find_if(ports.reads.begin(), ports.reads.end(), [&](const hpr::Read& r) { return r.channel == channel; });
-    const auto k = static_cast<std::size_t>(read - ports.reads.begin());
-    auto out = std::make_shared<hpr::node::Output<Msg>>(rt.advertise(hpr::Channel<Msg>{ports.echoes[k].c_str()}));
+    auto out = std::make_shared<hpr::node::Output<Msg>>(rt.advertise(hpr::Channel<Msg>{ports.echoes[k++].c_str()}));
     rt.subscribe(hpr::Channel<Msg>{channel}, {}, [out](const Msg& m) { out->publish(m); });
   }
 };

@@ -54,7 +54,6 @@ inline CommandResult run_command(const std::vector<std::string>& argv, const std
   return r;
 }
 
-/// The whole content of a text file ("" when it cannot be read).
 /// Brings the supervised groups on `lcm_url` down when it goes out of scope, unless dismissed:
 /// whatever assertion fails in a test, its group does not outlive it (a chain left running loads
 /// the machine under every later test). `prefix` runs the command elsewhere (a host's namespace).
@@ -75,6 +74,7 @@ class GroupDown {
   bool armed_ = true;
 };
 
+/// The whole content of a text file ("" when it cannot be read).
 inline std::string read_file(const std::string& path) {
   std::string out;
   if (FILE* f = std::fopen(path.c_str(), "r")) {

@@ -55,7 +55,7 @@ Runtime::Runtime(const Ports& declared, std::string node_name, const std::string
     : name_(std::move(node_name)),
       options_(std::move(options)),
       transport_(declared, name_, lcm_url, TransportOptions{options_.channel_prefix, options_.authenticate, options_.receive_direct},
-                 scheduler_, options_),
+                 scheduler_, options_, [this] { return stop_requested(); }),
       health_(name_, transport_, options_.deadline_s, options_.decode_fault_quiet_s),
       scheduler_(health_),
       parameters_(transport_, health_) {
@@ -123,8 +123,7 @@ void Runtime::spin_once(double timeout_s) {
     n = poll_for(watched, wake - now);
   }
   if (n > 0) {
-    transport_.receive((fds[0].revents & POLLIN) != 0, extra >= 0 && (fds[1].revents & POLLIN) != 0,
-                       [this] { return stop_requested(); });
+    transport_.receive((fds[0].revents & POLLIN) != 0, extra >= 0 && (fds[1].revents & POLLIN) != 0);
   }
   now = monotonic_s();
   scheduler_.check_triggers(now);

@@ -24,8 +24,8 @@ constexpr std::size_t kDirectDrainBatch = 256;
 }  // namespace
 
 Transport::Transport(const Ports& declared, std::string node, const std::string& lcm_url, TransportOptions options,
-                     InputEvents& events, const StreamRules& rules)
-    : declared_(declared), node_(std::move(node)), options_(std::move(options)), events_(events), rules_(rules) {
+                     InputEvents& events, const StreamRules& rules, std::function<bool()> stop)
+    : declared_(declared), node_(std::move(node)), options_(std::move(options)), events_(events), rules_(rules), stop_(std::move(stop)) {
   lcm_ = open_lcm(lcm_url);
   if (options_.receive_direct && is_udpm_url(lcm_url)) {
     receiver_ = std::make_unique<UdpmReceiver>(parse_udpm_url(with_receive_buffer(lcm_url, kDirectReceiveBufferBytes)));
@@ -77,22 +77,22 @@ int Transport::receive_fd() const { return receiver_ ? receiver_->fd() : lcm_->g
 
 int Transport::extra_fd() const { return receiver_ && bytes_subscribed_ ? lcm_->getFileno() : -1; }
 
-void Transport::handle_lcm(const std::function<bool()>& stop) {
+void Transport::handle_lcm() {
   lcm_->handle();
   // Drain whatever else is already queued, without blocking.
   pollfd more{lcm_->getFileno(), POLLIN, 0};
-  while (!stop() && ::poll(&more, 1, 0) > 0 && (more.revents & POLLIN) != 0) lcm_->handle();
+  while (!stop_() && ::poll(&more, 1, 0) > 0 && (more.revents & POLLIN) != 0) lcm_->handle();
 }
 
-void Transport::receive(bool typed, bool extra, const std::function<bool()>& stop) {
+void Transport::receive(bool typed, bool extra) {
   if (typed) {
     if (receiver_) {
       receive_direct();
     } else {
-      handle_lcm(stop);
+      handle_lcm();
     }
   }
-  if (extra && extra_fd() >= 0) handle_lcm(stop);
+  if (extra && extra_fd() >= 0) handle_lcm();
 }
 
 void Transport::receive_direct() {

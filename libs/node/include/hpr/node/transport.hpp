@@ -47,9 +47,9 @@ class Transport {
 
   /// Opens LCM on `lcm_url` (throws LcmError with the fix when multicast is not routable) for node
   /// `node` of process `declared`. Inputs report to `events` and follow `rules` (both outlive the
-  /// transport).
+  /// transport); a backlog on liblcm's queue is drained until `stop()` holds.
   Transport(const Ports& declared, std::string node, const std::string& lcm_url, TransportOptions options, InputEvents& events,
-            const StreamRules& rules);
+            const StreamRules& rules, std::function<bool()> stop);
   ~Transport();
   Transport(const Transport&) = delete;
   Transport& operator=(const Transport&) = delete;
@@ -74,8 +74,6 @@ class Transport {
   /// Publishes `size` bytes on channel `name` as they are (a tool's or a test's own encoding).
   void publish_bytes(std::string_view name, const void* data, std::size_t size);
 
-  /// The declaration the transport holds the process to.
-  [[nodiscard]] const Ports& declared() const { return declared_; }
   /// The full channel name with the configured prefix.
   [[nodiscard]] std::string channel(std::string_view name) const { return options_.channel_prefix + std::string(name); }
   /// This process's identity on the clocked channels it publishes (random, nonzero, chosen at start).
@@ -93,16 +91,13 @@ class Transport {
   /// liblcm's descriptor when it must be watched besides receive_fd() (the own socket reads the
   /// typed inputs and something subscribed through liblcm); -1 otherwise.
   [[nodiscard]] int extra_fd() const;
-  /// Handles what is waiting on receive_fd() (`typed`) and on extra_fd() (`extra`), without
-  /// blocking; a backlog on liblcm's queue is drained until `stop()` holds.
-  void receive(bool typed, bool extra, const std::function<bool()>& stop);
+  /// Handles what is waiting on receive_fd() (`typed`) and on extra_fd() (`extra`), without blocking.
+  void receive(bool typed, bool extra);
 
   /// Lets each input that holds a new tick stream follow it once its own has been quiet long enough.
   void follow_quiet_streams(double now);
   /// The earliest time an input may follow a held stream (inf: none holds one).
   [[nodiscard]] double next_follow_time() const;
-  /// The typed inputs, in the order they were made.
-  [[nodiscard]] const std::vector<std::unique_ptr<InputBase>>& inputs() const { return inputs_; }
   /// Messages the typed inputs refused (including those held) and those refused for their code.
   [[nodiscard]] std::int64_t decode_errors() const;
   [[nodiscard]] std::int64_t unauthenticated() const;
@@ -132,20 +127,23 @@ class Transport {
     if constexpr (auth::Signed<Msg>) key = deployment_key();
     return Output<Msg>(lcm_.get(), channel(name), key, source_id_);
   }
-  /// Publishes a message the runtime itself sends (HEALTH, PARAMS), unsigned.
+  /// Publishes a message the runtime itself sends (HEALTH, PARAMS), unsigned, through a buffer
+  /// kept between calls.
   template <class Msg>
   void publish_own(std::string_view name, const Msg& m) {
-    lcm_->publish(channel(name), &m);
+    const int used = encode_message(m, own_buffer_, nullptr);
+    if (used >= 0) lcm_->publish(channel(name), own_buffer_.data(), static_cast<unsigned>(used));
   }
   /// Reads what is waiting on the own socket and hands each message to its channel's inputs.
   void receive_direct();
-  void handle_lcm(const std::function<bool()>& stop);
+  void handle_lcm();
 
   Ports declared_;
   std::string node_;
   TransportOptions options_;
   InputEvents& events_;
   const StreamRules& rules_;
+  std::function<bool()> stop_;
   std::unique_ptr<lcm::LCM> lcm_;
   std::unique_ptr<UdpmReceiver> receiver_;  ///< the typed inputs' socket (null: through liblcm)
   std::map<std::string, std::vector<InputBase*>, std::less<>> by_channel_;  ///< with receiver_
@@ -161,6 +159,7 @@ class Transport {
   };
   std::vector<std::unique_ptr<BytesSubscription>> bytes_;
   std::vector<std::unique_ptr<InputBase>> inputs_;
+  std::vector<std::uint8_t> own_buffer_;  ///< HEALTH's and PARAMS's encoding
   std::unique_ptr<auth::Key> key_;
   bool warned_unauthenticated_ = false;
   std::int64_t source_id_ = 0;
