@@ -260,7 +260,9 @@ std::optional<int> read_options(int argc, char** argv, ReplayOptions& o) {
 /// (having said which and where its log is) when one does not come up within 20 s.
 bool start_nodes(hpr::launch::ProcessGroup& group, lcm::LCM& lcm, const ReplayOptions& o) {
   HealthSeen health(lcm);
-  std::vector<std::string> node_args = {"--config", o.config, "--set", "estimator.sensor_timeout=60"};
+  // A recording's commands are as old as the recording: their freshness is not checked in a re-run
+  // (on its private LCM URL, never a robot's).
+  std::vector<std::string> node_args = {"--config", o.config, "--set", "estimator.sensor_timeout=60", "--set", "lcm.command_window_s=0"};
   for (const auto& s : o.sets) node_args.insert(node_args.end(), {"--set", s});
   for (const auto& n : o.nodes) group.start(n, node_args, {}, o.work + "/" + n + ".log");
   const double ready_by = hpr::monotonic_s() + 20.0;
@@ -413,7 +415,7 @@ int main(int argc, char** argv) {
   const hpr::auth::Key key = hpr::auth::load_or_create_key(group.key_path());
   for (Event& ev : flow) {
     if (output_set.count(ev.channel) == 0 && hpr::msg::carries_code(ev.channel) && ev.data.size() >= hpr::auth::kTagBytes) {
-      hpr::auth::sign(ev.data.data(), ev.data.size(), key);
+      hpr::auth::sign(ev.data.data(), ev.data.size(), ev.channel, key);
     }
   }
   // Played inputs the log lacks for a tick: nothing from that tick on can reproduce.

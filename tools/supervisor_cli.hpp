@@ -18,7 +18,9 @@
 #include "hpr/common/auth.hpp"
 #include "hpr/common/channel.hpp"
 #include "hpr/common/log.hpp"
+#include "hpr/common/time.hpp"
 #include "hpr/launch/groups.hpp"
+#include "hpr/node/freshness.hpp"
 
 namespace hpr::supervisor_cli {
 
@@ -54,7 +56,9 @@ std::string tail_file(const std::string& path, int lines);
 /// A typed LCM subscription calling a std::function (this LCM release has no lambda subscribe).
 /// A message that does not decode is counted (errors()) and logged, rate limited, with its
 /// channel and size, instead of LCM's own line per message. With a key, a message without its valid
-/// authentication code is refused the same way before it is decoded (unauthenticated()).
+/// authentication code is refused the same way before it is decoded (unauthenticated()). A command
+/// (SUPERVISOR_COMMAND) is taken only when fresh (hpr/node/freshness.hpp): a copy is dropped, a
+/// stale or replayed one refused and counted (stale()).
 template <class Msg>
 class Subscription {
  public:
@@ -68,10 +72,11 @@ class Subscription {
   Subscription& operator=(const Subscription&) = delete;
   [[nodiscard]] std::int64_t errors() const { return errors_; }
   [[nodiscard]] std::int64_t unauthenticated() const { return unauthenticated_; }
+  [[nodiscard]] std::int64_t stale() const { return stale_; }
 
  private:
   void on(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
-    if (key_ != nullptr && !auth::verify(static_cast<const std::uint8_t*>(rbuf->data), rbuf->data_size, *key_)) {
+    if (key_ != nullptr && !auth::verify(static_cast<const std::uint8_t*>(rbuf->data), rbuf->data_size, channel, *key_)) {
       ++errors_;
       ++unauthenticated_;
       hpr::log::warn("{}: a message of {} bytes refused: no valid authentication code (not signed with {}; {} refused so far)",
@@ -83,6 +88,18 @@ class Subscription {
       hpr::log::warn("{}: a message of {} bytes is not a valid {} ({} so far)", channel, rbuf->data_size, Msg::getTypeName(), errors_);
       return;
     }
+    if constexpr (node::Command<Msg>) {
+      std::string why;
+      switch (freshness_.check(msg_.source, msg_.utime, wall_us(), why)) {
+        case node::CommandFreshness::Verdict::kFresh: break;
+        case node::CommandFreshness::Verdict::kCopy: return;
+        default:
+          ++errors_;
+          ++stale_;
+          hpr::log::warn("{}: a {} refused: {} ({} refused so far)", channel, Msg::getTypeName(), why, stale_);
+          return;
+      }
+    }
     f_(msg_);
   }
   lcm::LCM& lcm_;
@@ -90,7 +107,8 @@ class Subscription {
   const auth::Key* key_ = nullptr;
   lcm::Subscription* sub_ = nullptr;
   Msg msg_{};
-  std::int64_t errors_ = 0, unauthenticated_ = 0;
+  std::int64_t errors_ = 0, unauthenticated_ = 0, stale_ = 0;
+  node::CommandFreshness freshness_;
 };
 
 /// Handles messages for `timeout_s`, and always whatever is already queued.

@@ -94,6 +94,7 @@ void BM_HalTick(benchmark::State& state) {
   double now = 0.0;
   auto one_tick = [&] {
     now += 1e-3;
+    c.tick = tick;
     (void)h.set_command(c, now);
     h.begin_tick(tick++, now);
     drives.answer(now);
@@ -104,7 +105,7 @@ void BM_HalTick(benchmark::State& state) {
   // CiA 402: the start-up (NMT, SDO configuration, NMT start) before the timed ticks.
   for (int k = 0; k < 2000 && !h.starting_drives().empty(); ++k) one_tick();
   if (!h.starting_drives().empty()) state.SkipWithError(("drives did not start: " + h.starting_drives()).c_str());
-  const std::string enabled = h.operator_command(hal::kOperatorEnable, now, "bench");
+  const std::string enabled = h.operator_command(hal::kOperatorEnable, now, "bench", 1);
   if (enabled != "enabled by bench") state.SkipWithError(enabled.c_str());
   for (int k = 0; k < 10; ++k) one_tick();
   const std::int64_t missed_before = h.drives()[0].missed;

@@ -1,5 +1,7 @@
 #include "hpr/hal/cannelloni.hpp"
 
+#include <fmt/format.h>
+
 #include <arpa/inet.h>
 #include <netdb.h>
 #include <netinet/in.h>
@@ -170,8 +172,23 @@ void UdpCannelloniTransport::flush() {
 int UdpCannelloniTransport::receive(std::vector<CanFrame>& out) {
   int got = 0;
   for (;;) {
-    const auto n = ::recv(fd_, buffer_.data(), buffer_.size(), 0);
+    sockaddr_in from{};
+    socklen_t from_len = sizeof from;
+    const auto n = ::recvfrom(fd_, buffer_.data(), buffer_.size(), 0, reinterpret_cast<sockaddr*>(&from), &from_len);
     if (n < 0) break;  // EAGAIN: nothing more
+    // Only the configured peer speaks for the bus: a datagram from any other address or port (a
+    // forged reply, a forged error frame) is refused before it is read.
+    sockaddr_in peer{};
+    std::memcpy(&peer, remote_addr_.data(), sizeof peer);
+    if (from.sin_family != AF_INET || from.sin_port != peer.sin_port ||
+        (peer.sin_addr.s_addr != htonl(INADDR_ANY) && from.sin_addr.s_addr != peer.sin_addr.s_addr)) {
+      ++counters_.foreign;
+      ++counters_.errors;
+      char host[INET_ADDRSTRLEN] = "?";
+      (void)inet_ntop(AF_INET, &from.sin_addr, host, sizeof host);
+      counters_.last_error = fmt::format("a datagram from {}:{} refused: the bus's peer is {}", host, ntohs(from.sin_port), remote_text_);
+      continue;
+    }
     const std::size_t before = out.size();
     const std::string why = cannelloni_decode(std::span<const std::uint8_t>(buffer_.data(), static_cast<std::size_t>(n)), out);
     if (!why.empty()) {

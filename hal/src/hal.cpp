@@ -1,5 +1,7 @@
 #include "hpr/hal/hal.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 
@@ -40,6 +42,12 @@ std::string Hal::set_command(const JointCommand& c, double now) {
     ++rejected_;
     return why;
   }
+  // Only a newer tick renews the command: a JOINT_COMMAND sent again (a hung controller's last one
+  // replayed) does not keep the watchdog from damping.
+  if (have_command_ && c.tick <= command_.tick) {
+    ++repeated_;
+    return fmt::format("tick {} is not newer than the command taken at tick {}: a repeat does not renew it", c.tick, command_.tick);
+  }
   command_ = c;
   have_command_ = true;
   command_time_ = now;
@@ -61,13 +69,18 @@ std::string Hal::fault_conditions() const {
     if (ds.missed_run >= config_.safety.missed_replies_fault) {
       s += (s.empty() ? "" : "; ") + config_.drives[i].joint + " missed " + std::to_string(ds.missed_run) + " replies";
     }
+    if (ds.extra_run >= config_.safety.missed_replies_fault) {
+      s += (s.empty() ? "" : "; ") + config_.drives[i].joint + " answered more than once in " + std::to_string(ds.extra_run) +
+           " ticks in a row";
+    }
   }
   return s;
 }
 
-std::string Hal::operator_command(int command, double now, const std::string& source) {
+std::string Hal::operator_command(int command, double now, const std::string& source, std::int64_t issued_us) {
   switch (command) {
     case kOperatorEnable: {
+      if (issued_us <= safety_.stop_issued_us()) return safety_.enable(now, issued_us, false, {});
       // CiA 402 faults are reset on the operator's request: this enable asks for the reset, the
       // next one enables once the drives report no fault.
       std::string resetting;
@@ -83,12 +96,12 @@ std::string Hal::operator_command(int command, double now, const std::string& so
       if (faults.empty()) {
         for (auto& b : buses_) b->clear_bus_off();
       }
-      const std::string why = safety_.enable(now, !faults.empty(), faults);
+      const std::string why = safety_.enable(now, issued_us, !faults.empty(), faults);
       return why.empty() ? "enabled by " + source : why;
     }
     case kOperatorDamp:
     case kOperatorStop:
-      safety_.damp(now, std::string(command == kOperatorStop ? "stop" : "damp") + " from " + source);
+      safety_.stop(now, issued_us, std::string(command == kOperatorStop ? "stop" : "damp") + " from " + source);
       return "damping (" + source + ")";
     default: return {};
   }
@@ -267,6 +280,13 @@ void Hal::handle_frame(int bus, const CanFrame& f) {
     return;
   }
   DriveStatus& ds = drive_status_[iu];
+  if (ds.replied) {
+    // One reply per drive per tick: a second one (a late reply, a forged frame) never overwrites
+    // the first, nor its fault flag; counted, and a fault when it goes on.
+    ++ds.extra;
+    ds.extra_this_tick = true;
+    return;
+  }
   ds.fault = r->fault;
   ds.temperature = r->temperature;
   take_reply(iu, r->p, r->v, r->t);
@@ -287,6 +307,21 @@ bool Hal::handle_canopen(int bus, const CanFrame& f) {
 void Hal::take_reply(std::size_t i, double p, double v, double t) {
   const DriveConfig& d = config_.drives[i];
   DriveStatus& ds = drive_status_[i];
+  if (ds.have_position) {
+    // The furthest the drive can have turned since the reply taken last, at its largest speed,
+    // plus two steps of its position field.
+    const double v_max = std::max(std::abs(d.limits.v_min), std::abs(d.limits.v_max));
+    const double step = (d.limits.p_max - d.limits.p_min) / 65535.0;
+    const double reach = v_max * std::max(now_ - ds.reply_time, 0.0) + 2.0 * step;
+    if (!(std::abs(p - ds.position) <= reach)) {
+      ++ds.implausible;
+      ++malformed_;
+      return;  // not taken: the tick counts it as missed
+    }
+  }
+  ds.have_position = true;
+  ds.position = p;
+  ds.reply_time = now_;
   ds.replied = true;
   ds.missed_run = 0;
   const auto j = static_cast<Eigen::Index>(i);
@@ -323,6 +358,8 @@ void Hal::end_tick(double now) {
       ++ds.missed;
       ++ds.missed_run;
     }
+    ds.extra_run = ds.extra_this_tick ? ds.extra_run + 1 : 0;
+    ds.extra_this_tick = false;
     std::int32_t bits = 0;
     if (ds.fault != 0) {
       ds.state = kDriveFault;

@@ -1,5 +1,9 @@
 #include "hpr/hal/safety.hpp"
 
+#include <fmt/format.h>
+
+#include <algorithm>
+
 namespace hpr::hal {
 
 const char* to_string(SafetyState s) {
@@ -24,11 +28,20 @@ void SafetyMachine::go(SafetyState s, double now, const std::string& reason) {
   reason_ = reason;
 }
 
-std::string SafetyMachine::enable(double now, bool fault_present, const std::string& fault_text) {
+std::string SafetyMachine::enable(double now, std::int64_t issued_us, bool fault_present, const std::string& fault_text) {
+  if (issued_us <= stop_issued_us_) {
+    return fmt::format("enable refused: issued {:.6f} s before the stop it would lift (a stop holds until an enable sent after it)",
+                       static_cast<double>(stop_issued_us_ - issued_us) * 1e-6);
+  }
   if (fault_present) return "enable refused: " + fault_text;
   if (state_ != SafetyState::kEnabled) entering_ = true;
   go(SafetyState::kEnabled, now, "enabled by the operator");
   return {};
+}
+
+void SafetyMachine::stop(double now, std::int64_t issued_us, const std::string& reason) {
+  stop_issued_us_ = std::max(stop_issued_us_, issued_us);
+  damp(now, reason);
 }
 
 void SafetyMachine::damp(double now, const std::string& reason) {

@@ -160,14 +160,21 @@ void report_lifecycle(node::Runtime& rt, const hal::Hal& h) {
 
 /// The run's figures, when it stops.
 void log_summary(const hal::Hal& h, std::int64_t ticks, const RollingStats& work, const RollingStats& jitter, std::int64_t rejected) {
-  std::int64_t missed = 0;
-  for (const auto& d : h.drives()) missed += d.missed;
+  std::int64_t missed = 0, extra = 0, implausible = 0, foreign = 0;
+  for (const auto& d : h.drives()) {
+    missed += d.missed;
+    extra += d.extra;
+    implausible += d.implausible;
+  }
+  for (const auto& b : h.buses()) foreign += b->counters().foreign;
   log::info("hal stopped after {} ticks: tick work median {:.1f} us, p99 {:.1f} us; {}; "
-            "commands rejected {}, stale ticks {}, malformed frames {}; replies missed {} of {}",
+            "commands rejected {} (repeated ticks {}), stale ticks {}, malformed frames {}; replies missed {} of {}, "
+            "beyond one a tick {}, positions out of reach {}; datagrams from strangers {}",
             ticks, work.median() * 1e6, work.percentile(0.99) * 1e6,
             h.config().lockstep ? std::string("lockstep clock")
                                 : fmt::format("period jitter p99 {:.1f} us, max {:.1f} us", jitter.percentile(0.99) * 1e6, jitter.max() * 1e6),
-            rejected, h.commands_stale(), h.frames_malformed(), missed, ticks * static_cast<std::int64_t>(h.drives().size()));
+            rejected, h.commands_repeated(), h.commands_stale(), h.frames_malformed(), missed,
+            ticks * static_cast<std::int64_t>(h.drives().size()), extra, implausible, foreign);
 }
 
 int run(const node::CommandLine& cl, const Config& cfg) {
@@ -177,7 +184,16 @@ int run(const node::CommandLine& cl, const Config& cfg) {
   hal::HalConfig config = hal::HalConfig::load(hal_cfg, robot);
   const bool enable_on_start = hal_cfg.boolean_or("enable_on_start", false);
   const double duration = hal_cfg.real_or("duration", 0.0, 0.0, 1e7);
-  node::Runtime rt(hal::kPorts, cl.name, node::lcm_url(cl, cfg), node::runtime_options(cfg, config.period));
+  const node::RuntimeOptions options = node::runtime_options(cfg, config.period);
+  // On a real bus anyone on the LCM group could enable the drives without the key: refused.
+  for (const hal::BusConfig& b : config.buses) {
+    if (b.transport == "socketcan" && !options.authenticate) {
+      throw ConfigError(fmt::format("{}: lcm.authentication = off with bus {} on SocketCAN ({}): a hal on a real bus takes commands "
+                                    "signed with the deployment's key only (give it a key file; off is for the UDP emulator)",
+                                    cl.config_path, b.name, b.interface));
+    }
+  }
+  node::Runtime rt(hal::kPorts, cl.name, node::lcm_url(cl, cfg), options);
   hal::Hal h(config, hal::open_buses(config, false), std::make_unique<hal::MitCodec>());
   for (std::size_t b = 0; b < config.buses.size(); ++b) {
     log::info("bus {}: {}", config.buses[b].name, h.buses()[b]->describe());
@@ -205,7 +221,7 @@ int run(const node::CommandLine& cl, const Config& cfg) {
   });
   command_in.follow_ticks();  // a forged or corrupted tick is held back, never applied
   rt.subscribe(msg::channels::kOperator, msg::check_operator, [&](const humanoid::operator_t& m) {
-    const std::string what = h.operator_command(m.command, hal_now(), m.source.empty() ? "operator" : m.source);
+    const std::string what = h.operator_command(m.command, hal_now(), m.source.empty() ? "operator" : m.source, m.utime);
     if (!what.empty()) log::info("OPERATOR {}: {}{}", m.command, what, m.reason.empty() ? "" : " (" + m.reason + ")");
   });
   auto sensors_out = rt.advertise(msg::channels::kRobotSensors);
@@ -247,7 +263,7 @@ int run(const node::CommandLine& cl, const Config& cfg) {
     }
     if (enable_pending && !starting) {
       enable_pending = false;
-      log::info("{}", h.operator_command(humanoid::operator_t::COMMAND_ENABLE, t0, "configuration"));
+      log::info("{}", h.operator_command(humanoid::operator_t::COMMAND_ENABLE, t0, "configuration", wall_us()));
     }
     // utime is the hal's clock (h.sensors().time = t0): monotonic in real time, tick × period in
     // lockstep. The estimator integrates over it, so it must advance as the drives' time does (a

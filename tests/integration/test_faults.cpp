@@ -90,18 +90,18 @@ class Watch {
 
  private:
   /// What the stack (or the test, with the key) sent: a forged or corrupted copy is not the chain's present.
-  bool authentic(const lcm::ReceiveBuffer* rbuf) {
-    return hpr::auth::verify(static_cast<const std::uint8_t*>(rbuf->data), rbuf->data_size, key());
+  bool authentic(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
+    return hpr::auth::verify(static_cast<const std::uint8_t*>(rbuf->data), rbuf->data_size, channel, key());
   }
   void keep_bytes(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
-    if (!authentic(rbuf)) return;
+    if (!authentic(rbuf, channel)) return;
     const auto* data = static_cast<const std::uint8_t*>(rbuf->data);
     bytes[channel].assign(data, data + rbuf->data_size);
   }
   template <class Msg>
   void keep(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
     if constexpr (hpr::auth::Signed<Msg>) {
-      if (!authentic(rbuf)) return;
+      if (!authentic(rbuf, channel)) return;
       keep_bytes(rbuf, channel);
     }
     Msg m;

@@ -90,9 +90,9 @@ TEST(SimNode, LockstepRunsAreIdentical) {
   // Byte for byte, but for the publisher's identity (`source`, bytes 24-31: each process draws its
   // own) and the authentication code over it (the last 32 bytes, each valid for the deployment's key).
   const hpr::auth::Key key = hpr::auth::load_key(hpr::auth::key_path());
-  const auto same = [&key](std::vector<uint8_t> x, std::vector<uint8_t> y) {
+  const auto same = [&key](std::vector<uint8_t> x, std::vector<uint8_t> y, std::string_view channel) {
     if (x.size() < 64 || y.size() < 64) return false;
-    if (!hpr::auth::verify(x.data(), x.size(), key) || !hpr::auth::verify(y.data(), y.size(), key)) return false;
+    if (!hpr::auth::verify(x.data(), x.size(), channel, key) || !hpr::auth::verify(y.data(), y.size(), channel, key)) return false;
     const bool other_source = !std::equal(x.begin() + 24, x.begin() + 32, y.begin() + 24);
     for (auto* v : {&x, &y}) {
       std::fill(v->begin() + 24, v->begin() + 32, 0);
@@ -100,8 +100,8 @@ TEST(SimNode, LockstepRunsAreIdentical) {
     }
     return other_source && x == y;
   };
-  for (size_t k = 0; k < a.first.size(); ++k) ASSERT_TRUE(same(a.first[k], b.first[k])) << "ROBOT_SENSORS tick " << k;
-  for (size_t k = 0; k < a.second.size(); ++k) ASSERT_TRUE(same(a.second[k], b.second[k])) << "SIM_TRUTH tick " << k;
+  for (size_t k = 0; k < a.first.size(); ++k) ASSERT_TRUE(same(a.first[k], b.first[k], "ROBOT_SENSORS")) << "ROBOT_SENSORS tick " << k;
+  for (size_t k = 0; k < a.second.size(); ++k) ASSERT_TRUE(same(a.second[k], b.second[k], "SIM_TRUTH")) << "SIM_TRUTH tick " << k;
   // The push was applied: the last truth message reports its impulse.
   humanoid::sim_truth_t last;
   last.decode(a.second.back().data(), 0, static_cast<int>(a.second.back().size()));

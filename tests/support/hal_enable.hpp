@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "hpr/common/time.hpp"
 #include "lcm_listener.hpp"
 
 namespace hpr::test {
@@ -23,6 +24,7 @@ inline std::string enable_drives(LcmListener& lcm, const std::shared_ptr<std::ve
   if (!lcm.wait_for([&] { return commands->size() > 200; }, commands_within)) return "no JOINT_COMMAND from the control processes";
   humanoid::operator_t op{};
   op.source = "test";
+  op.utime = hpr::wall_us();  // a command is taken only when fresh
   op.command = humanoid::operator_t::COMMAND_ENABLE;
   op.num_params = 0;
   lcm.publish("OPERATOR", op);

@@ -5,6 +5,7 @@
 #include <unistd.h>
 #include <fcntl.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdlib>
 #include <cstdio>
@@ -40,16 +41,35 @@ std::string key_path() {
   } else if (const char* h = std::getenv("HOME"); h != nullptr && *h != '\0') {
     base = std::filesystem::path(h) / ".config";
   } else {
-    base = "/tmp";
+    // No fallback to a shared folder (/tmp): another user could put a key of theirs there.
+    throw AuthError("no LCM key file: neither HPR_LCM_KEY_FILE, XDG_CONFIG_HOME nor HOME is set");
   }
   return (base / "hpr" / "lcm.key").lexically_normal().string();
 }
 
 Key load_key(const std::string& path) {
   init_sodium();
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  // Its folder first: a folder others may write to lets them swap the file.
+  const std::string dir = std::filesystem::path(path).parent_path().string();
+  struct stat ds {};
+  if (::lstat(dir.empty() ? "." : dir.c_str(), &ds) != 0) {
+    if (errno == ENOENT) throw AuthError("LCM key file " + path + " does not exist: " + kCreateHint);
+    throw AuthError("LCM key file " + path + ": cannot stat its folder (" + errno_text() + ")");
+  }
+  if (!S_ISDIR(ds.st_mode)) throw AuthError("LCM key file " + path + ": its folder " + dir + " is not a folder (a symbolic link?)");
+  if (ds.st_uid != ::geteuid()) {
+    throw AuthError("LCM key file " + path + ": its folder " + dir + " belongs to uid " + std::to_string(ds.st_uid) +
+                    ", not to this process's user (uid " + std::to_string(::geteuid()) + ")");
+  }
+  if ((ds.st_mode & (S_IRWXG | S_IRWXO)) != 0) {
+    char mode[8];
+    std::snprintf(mode, sizeof mode, "%04o", static_cast<unsigned>(ds.st_mode & 07777));
+    throw AuthError("LCM key file " + path + ": its folder " + dir + " is open to others (mode " + mode + "): chmod 700 " + dir);
+  }
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NOFOLLOW);
   if (fd < 0) {
     if (errno == ENOENT) throw AuthError("LCM key file " + path + " does not exist: " + kCreateHint);
+    if (errno == ELOOP) throw AuthError("LCM key file " + path + ": a symbolic link (a key file is the file itself)");
     throw AuthError("LCM key file " + path + ": cannot open (" + errno_text() + ")");
   }
   struct stat st {};
@@ -60,6 +80,8 @@ Key load_key(const std::string& path) {
     why = "cannot stat (" + errno_text() + ")";
   } else if (!S_ISREG(st.st_mode)) {
     why = "not a regular file";
+  } else if (st.st_uid != ::geteuid()) {
+    why = "belongs to uid " + std::to_string(st.st_uid) + ", not to this process's user (uid " + std::to_string(::geteuid()) + ")";
   } else if ((st.st_mode & (S_IRWXG | S_IRWXO)) != 0) {
     char mode[8];
     std::snprintf(mode, sizeof mode, "%04o", static_cast<unsigned>(st.st_mode & 07777));
@@ -81,9 +103,13 @@ Key load_or_create_key(const std::string& path) {
   const fs::path dir = fs::path(path).parent_path();
   std::error_code ec;
   if (!dir.empty() && !fs::exists(dir)) {
-    fs::create_directories(dir, ec);
-    if (ec) throw AuthError("LCM key file " + path + ": cannot create " + dir.string() + " (" + ec.message() + ")");
-    fs::permissions(dir, fs::perms::owner_all, ec);
+    // The parents as the umask says, the key's own folder 0700 from its creation (never open for
+    // a moment, whoever creates it at the same time).
+    if (dir.has_parent_path()) fs::create_directories(dir.parent_path(), ec);
+    if (ec) throw AuthError("LCM key file " + path + ": cannot create " + dir.parent_path().string() + " (" + ec.message() + ")");
+    if (::mkdir(dir.c_str(), 0700) != 0 && errno != EEXIST) {
+      throw AuthError("LCM key file " + path + ": cannot create " + dir.string() + " (" + errno_text() + ")");
+    }
   }
   // Written whole under a unique name, then linked to its place: link() fails if another process
   // got there first, and then both use that one.
@@ -109,15 +135,31 @@ Key load_or_create_key(const std::string& path) {
   return load_key(path);
 }
 
-void sign(std::uint8_t* bytes, std::size_t n, const Key& key) {
-  if (n < kTagBytes) return;
-  crypto_generichash(bytes + n - kTagBytes, kTagBytes, bytes, n - kTagBytes, key.bytes.data(), kKeyBytes);
+namespace {
+
+/// The code of `channel` and `bytes[0, n)`: the channel's length (one byte: LCM names have at most
+/// 63) and name first, so that a message signed for one channel does not verify on another.
+void code(std::uint8_t* out, std::string_view channel, const std::uint8_t* bytes, std::size_t n, const Key& key) {
+  crypto_generichash_state state;
+  crypto_generichash_init(&state, key.bytes.data(), kKeyBytes, kTagBytes);
+  const auto length = static_cast<std::uint8_t>(std::min<std::size_t>(channel.size(), 255));
+  crypto_generichash_update(&state, &length, 1);
+  crypto_generichash_update(&state, reinterpret_cast<const unsigned char*>(channel.data()), length);
+  crypto_generichash_update(&state, bytes, n);
+  crypto_generichash_final(&state, out, kTagBytes);
 }
 
-bool verify(const std::uint8_t* bytes, std::size_t n, const Key& key) {
+}  // namespace
+
+void sign(std::uint8_t* bytes, std::size_t n, std::string_view channel, const Key& key) {
+  if (n < kTagBytes) return;
+  code(bytes + n - kTagBytes, channel, bytes, n - kTagBytes, key);
+}
+
+bool verify(const std::uint8_t* bytes, std::size_t n, std::string_view channel, const Key& key) {
   if (n < kTagBytes) return false;
   std::array<std::uint8_t, kTagBytes> expected{};
-  crypto_generichash(expected.data(), kTagBytes, bytes, n - kTagBytes, key.bytes.data(), kKeyBytes);
+  code(expected.data(), channel, bytes, n - kTagBytes, key);
   return crypto_verify_32(expected.data(), bytes + n - kTagBytes) == 0;
 }
 

@@ -14,6 +14,7 @@ LcmSection LcmSection::load(const Config& cfg) {
   o.source_quiet_s = l.real_or("source_quiet_s", o.source_quiet_s, 1e-3, 3600.0);
   o.tick_period_max_s = l.real_or("tick_period_max_s", o.tick_period_max_s, 1e-5, 10.0);
   o.time_slack_s = l.real_or("time_slack_s", o.time_slack_s, 0.0, 10.0);
+  o.command_window_s = l.real_or("command_window_s", o.command_window_s, 0.0, 3600.0);
   o.spin_s = l.real_or("spin_s", o.spin_s, 0.0, 0.1);
   o.receive_direct = l.choice_or("receive", "liblcm", {"liblcm", "direct"}) == "direct";
   o.authenticate = l.choice_or("authentication", "required", {"required", "off"}) == "required";

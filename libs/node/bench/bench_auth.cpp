@@ -43,7 +43,7 @@ hpr::auth::Key key() {
 void BM_EncodeJointCommand(benchmark::State& state) {
   const auto m = make_command(static_cast<int>(state.range(0)));
   std::vector<std::uint8_t> buffer;
-  for (auto _ : state) benchmark::DoNotOptimize(hpr::node::encode_message(m, buffer, nullptr));
+  for (auto _ : state) benchmark::DoNotOptimize(hpr::node::encode_message(m, buffer, "JOINT_COMMAND", nullptr));
   state.counters["bytes"] = static_cast<double>(m.getEncodedSize());
 }
 
@@ -51,15 +51,15 @@ void BM_EncodeAndSignJointCommand(benchmark::State& state) {
   const auto m = make_command(static_cast<int>(state.range(0)));
   const auto k = key();
   std::vector<std::uint8_t> buffer;
-  for (auto _ : state) benchmark::DoNotOptimize(hpr::node::encode_message(m, buffer, &k));
+  for (auto _ : state) benchmark::DoNotOptimize(hpr::node::encode_message(m, buffer, "JOINT_COMMAND", &k));
 }
 
 void BM_VerifyJointCommand(benchmark::State& state) {
   const auto m = make_command(static_cast<int>(state.range(0)));
   const auto k = key();
   std::vector<std::uint8_t> buffer;
-  const int n = hpr::node::encode_message(m, buffer, &k);
-  for (auto _ : state) benchmark::DoNotOptimize(hpr::auth::verify(buffer.data(), static_cast<std::size_t>(n), k));
+  const int n = hpr::node::encode_message(m, buffer, "JOINT_COMMAND", &k);
+  for (auto _ : state) benchmark::DoNotOptimize(hpr::auth::verify(buffer.data(), static_cast<std::size_t>(n), "JOINT_COMMAND", k));
 }
 
 /// Signing `state.range(0)` bytes (the code over all but the last 32).
@@ -67,7 +67,7 @@ void BM_SignBytes(benchmark::State& state) {
   std::vector<std::uint8_t> buffer(static_cast<std::size_t>(state.range(0)), 0x5a);
   const auto k = key();
   for (auto _ : state) {
-    hpr::auth::sign(buffer.data(), buffer.size(), k);
+    hpr::auth::sign(buffer.data(), buffer.size(), "JOINT_COMMAND", k);
     benchmark::DoNotOptimize(buffer.data());
   }
   state.SetBytesProcessed(static_cast<std::int64_t>(state.iterations()) * state.range(0));
@@ -76,8 +76,8 @@ void BM_SignBytes(benchmark::State& state) {
 void BM_VerifyBytes(benchmark::State& state) {
   std::vector<std::uint8_t> buffer(static_cast<std::size_t>(state.range(0)), 0x5a);
   const auto k = key();
-  hpr::auth::sign(buffer.data(), buffer.size(), k);
-  for (auto _ : state) benchmark::DoNotOptimize(hpr::auth::verify(buffer.data(), buffer.size(), k));
+  hpr::auth::sign(buffer.data(), buffer.size(), "JOINT_COMMAND", k);
+  for (auto _ : state) benchmark::DoNotOptimize(hpr::auth::verify(buffer.data(), buffer.size(), "JOINT_COMMAND", k));
   state.SetBytesProcessed(static_cast<std::int64_t>(state.iterations()) * state.range(0));
 }
 

@@ -32,9 +32,27 @@ void InputBase::reject(std::size_t bytes, const std::string& why) {
 }
 
 bool InputBase::authentic(const void* bytes, std::size_t n, const auth::Key* key) {
-  if (key == nullptr || auth::verify(static_cast<const std::uint8_t*>(bytes), n, *key)) return true;
+  if (key == nullptr || auth::verify(static_cast<const std::uint8_t*>(bytes), n, channel_, *key)) return true;
   ++unauthenticated_;
   reject(n, "no valid authentication code: not signed with this deployment's key (" + key->path + ")");
+  return false;
+}
+
+bool InputBase::fresh(const std::string& source, std::int64_t utime, bool stop, std::size_t bytes) {
+  std::string why;
+  switch (freshness_.check(source, utime, wall_us(), why)) {
+    case CommandFreshness::Verdict::kFresh: return true;
+    case CommandFreshness::Verdict::kCopy: ++copies_; return false;
+    case CommandFreshness::Verdict::kStale:
+    case CommandFreshness::Verdict::kReplayed: break;
+  }
+  if (stop) {
+    ++stale_stops_;
+    log::warn("{}: a stop taken although {}", channel_, why);
+    return true;
+  }
+  ++stale_commands_;
+  reject(bytes, why);
   return false;
 }
 
@@ -66,10 +84,23 @@ std::string InputBase::second_source(std::int64_t source) const {
                      static_cast<std::uint64_t>(source), static_cast<std::uint64_t>(source_));
 }
 
-void InputBase::hold(std::size_t bytes, std::int64_t tick, const std::string& why) {
+bool InputBase::retired(std::int64_t source) const {
+  return source != 0 && std::find(retired_.begin(), retired_.end(), source) != retired_.end();
+}
+
+void InputBase::hold(std::size_t bytes, std::int64_t tick, std::int64_t source, const std::string& why) {
   const double now = monotonic_s();
+  // A restarted process draws a new identity: one the input followed once and left is a replay.
+  // (The followed source's own ticks may go back: its upstream restarted.)
+  if (tick_ >= 0 && retired(source)) {
+    ++replays_;
+    reject(bytes, fmt::format("tick {} of source {:016x}, a source this input followed once and left: a replay, never followed", tick,
+                              static_cast<std::uint64_t>(source)));
+    return;
+  }
   held_ = true;
   held_tick_ = tick;
+  held_source_ = source;
   ++out_of_window_;
   const double quiet = rules_.source_quiet_s;
   if (why == "tick") {
@@ -91,6 +122,10 @@ void InputBase::follow_if_quiet(double now) {
   if (!held_ || now < follow_time()) return;
   const std::int64_t old_tick = tick_, new_tick = held_tick_;
   const double quiet = now - advance_time_;
+  if (source_ != 0 && source_ != held_source_) {
+    retired_[retired_next_] = source_;
+    retired_next_ = (retired_next_ + 1) % retired_.size();
+  }
   restart_stream();
   ++follows_;
   log::warn("{}: following tick {} (no tick near {} for {:.3f} s: the source restarted or its clock jumped)", channel_,

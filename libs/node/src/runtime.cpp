@@ -161,6 +161,7 @@ RuntimeOptions runtime_options(const Config& cfg, double deadline_s) {
   o.source_quiet_s = l.source_quiet_s;
   o.tick_period_max_s = l.tick_period_max_s;
   o.time_slack_s = l.time_slack_s;
+  o.command_window_s = l.command_window_s;
   o.spin_s = l.spin_s;
   o.receive_direct = l.receive_direct;
   o.authenticate = l.authenticate;

@@ -21,6 +21,14 @@ namespace {
 /// and steps run between batches of a backlog.
 constexpr std::size_t kDirectDrainBatch = 256;
 
+/// The largest message the own socket takes on a channel the node reads [bytes]: one datagram's
+/// worth. The stack's messages are a few kB (2.4 kB for WHOLEBODY_COMMAND with 27 joints, about 80
+/// bytes more per joint), so a fragmented one is never the stack's; a forged first fragment that
+/// declares more is refused without an allocation (hpr/node/udpm.hpp).
+constexpr std::size_t kMaxReadMessageBytes = 65'536;
+/// What the unfinished fragmented messages of all senders may hold together [bytes].
+constexpr std::size_t kDirectPartialBudget = 1u << 20;
+
 }  // namespace
 
 Transport::Transport(const Ports& declared, std::string node, const std::string& lcm_url, TransportOptions options,
@@ -28,7 +36,11 @@ Transport::Transport(const Ports& declared, std::string node, const std::string&
     : declared_(declared), node_(std::move(node)), options_(std::move(options)), events_(events), rules_(rules), stop_(std::move(stop)) {
   lcm_ = open_lcm(lcm_url);
   if (options_.receive_direct && is_udpm_url(lcm_url)) {
-    receiver_ = std::make_unique<UdpmReceiver>(parse_udpm_url(with_receive_buffer(lcm_url, kDirectReceiveBufferBytes)));
+    const auto limit = [this](std::string_view channel) -> std::size_t {
+      return by_channel_.find(channel) == by_channel_.end() ? 0 : kMaxReadMessageBytes;
+    };
+    receiver_ = std::make_unique<UdpmReceiver>(parse_udpm_url(with_receive_buffer(lcm_url, kDirectReceiveBufferBytes)), limit,
+                                               kDirectPartialBudget);
     deliver_ = [this](std::string_view channel, const std::uint8_t* payload, std::size_t size, std::int64_t /*utime*/) {
       const auto it = by_channel_.find(channel);
       if (it == by_channel_.end()) return;

@@ -125,14 +125,17 @@ std::string LcmDatagrams::feed_fragment(const std::uint8_t* data, std::size_t si
   auto it = partial_.find(sender);
   if (it == partial_.end() || it->second.fragments == 0 || it->second.seqno != seqno || it->second.size != total ||
       it->second.fragments != count) {
-    // A new message: the sender's unfinished one goes, and every other one too if together they
-    // would hold more than the budget.
+    // A new message: only from its first fragment, on a channel read, within its limit and the rate.
+    if (no != 0) return fmt::format("fragment {} of {} of message {} before its first: refused", no, count, seqno);
+    if (std::string refused = refuse_new(channel, total, utime); !refused.empty()) return refused;
+    // The sender's unfinished one goes, and every other one too if together they would hold more
+    // than the budget.
     if (it != partial_.end()) {
       if (it->second.fragments != 0 && it->second.missing > 0) ++dropped_partial_;
       partial_bytes_ -= it->second.payload.size();
       partial_.erase(it);
     }
-    if (partial_bytes_ + total > kMaxPartialBytes) {
+    if (partial_bytes_ + total > budget_) {
       for (const auto& [s, q] : partial_) dropped_partial_ += q.fragments != 0 && q.missing > 0 ? 1 : 0;
       partial_.clear();
       partial_bytes_ = 0;
@@ -147,6 +150,7 @@ std::string LcmDatagrams::feed_fragment(const std::uint8_t* data, std::size_t si
     p.payload.assign(total, 0);
     p.seen.assign(count, false);
     partial_bytes_ += total;
+    peak_partial_bytes_ = std::max(peak_partial_bytes_, partial_bytes_);
   }
   Partial& p = it->second;
   if (p.seen[no]) return {};  // a copy: taken already
@@ -164,7 +168,21 @@ std::string LcmDatagrams::feed_fragment(const std::uint8_t* data, std::size_t si
   return {};
 }
 
-UdpmReceiver::UdpmReceiver(const UdpmUrl& url) : buffer_(kMaxDatagram) {
+std::string LcmDatagrams::refuse_new(std::string_view channel, std::uint32_t total, std::int64_t utime) {
+  const std::size_t limit = limit_ ? limit_(channel) : std::size_t{kMaxMessageBytes};
+  if (limit == 0) return fmt::format("a fragmented message of {} bytes on {}, a channel this node does not read", total, channel);
+  if (total > limit) return fmt::format("a fragmented message of {} bytes on {}, whose messages are at most {} bytes", total, channel, limit);
+  if (utime > tokens_utime_) {
+    tokens_ = std::min(kNewBurst, tokens_ + static_cast<double>(utime - tokens_utime_) * 1e-6 * kNewPerSecond);
+    tokens_utime_ = utime;
+  }
+  if (tokens_ < 1.0) return fmt::format("more than {} new fragmented messages a second: refused", kNewPerSecond);
+  tokens_ -= 1.0;
+  return {};
+}
+
+UdpmReceiver::UdpmReceiver(const UdpmUrl& url, ChannelLimit limit, std::size_t budget)
+    : buffer_(kMaxDatagram), datagrams_(std::move(limit), budget) {
   const auto fail = [&](const char* step) {
     const int err = errno;
     if (fd_ >= 0) ::close(fd_);

@@ -1,4 +1,6 @@
 #pragma once
+
+#include <functional>
 /// \file
 /// The hal and the drive emulator in one process over in-memory buses, stepped in lockstep on a
 /// simulated clock (the hal's tests, MIT mode and CiA 402).
@@ -17,6 +19,13 @@
 
 namespace hpr::test {
 
+/// The time of the next operator command [us, as OPERATOR's utime]: each one after the one before
+/// (a damp or stop holds until an enable issued after it).
+inline std::int64_t issued() {
+  static std::int64_t t = 1'000'000;
+  return ++t;
+}
+
 /// hal and emulator joined by memory buses, stepped tick by tick on a simulated clock.
 struct Rig {
   Config cfg;
@@ -30,6 +39,9 @@ struct Rig {
   double now = 0.0;
   std::int64_t tick = 0;
   bool drives_answer = true;
+  mutable std::int64_t command_tick = -1;  ///< the tick of the last command hold() made
+  /// Called once a tick after the drives answered, before the hal reads the buses (a forger's frames).
+  std::function<void(Rig&)> after_replies;
 
   explicit Rig(const std::vector<std::string>& overrides = {})
       : cfg(Config::load(test::source_dir() + "/config/toro.yaml", overrides)),
@@ -62,14 +74,17 @@ struct Rig {
       emu->report_periodic(static_cast<int>(b), now, *drive_buses[b]);
       drive_buses[b]->flush();
     }
+    if (after_replies) after_replies(*this);
     if (hal_runs) {
       h->receive();
       h->end_tick(now);
     }
     emu->step(now);
   }
+  /// A command holding the standing posture, each one of a newer tick than the one before.
   JointCommand hold() const {
     JointCommand c;
+    c.tick = ++command_tick;
     c.resize(robot.model.nj);
     c.mode = JointCommand::Mode::kRun;
     c.q_des = robot.q_joints_stand;

@@ -1,6 +1,7 @@
 // The wire formats: MIT frames round-trip every field over its range within half a quantisation
 // step and saturate out of range; cannelloni datagrams round-trip and malformed ones are refused.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cstdint>
 
@@ -164,6 +165,38 @@ TEST(Cannelloni, DatagramsRoundTripClassicAndFdFramesBitExactly) {
   EXPECT_EQ((static_cast<std::uint32_t>(buf[5]) << 24 | static_cast<std::uint32_t>(buf[6]) << 16 |
              static_cast<std::uint32_t>(buf[7]) << 8 | buf[8]),
             frames[0].id);
+}
+
+// The attack: a datagram with a valid frame sent to the hal's port from another address or port than
+// the bus's configured peer (a forged reply, a forged bus-off error frame) is refused and counted.
+TEST(Cannelloni, ADatagramFromAnotherThanThePeerIsRefused) {
+  const int hal_port = 47311, peer_port = 47312, stranger_port = 47313;
+  UdpCannelloniTransport hal("can0", {"127.0.0.1", hal_port}, {"127.0.0.1", peer_port});
+  UdpCannelloniTransport peer("can0", {"127.0.0.1", peer_port}, {"127.0.0.1", hal_port});
+  UdpCannelloniTransport stranger("can0", {"127.0.0.1", stranger_port}, {"127.0.0.1", hal_port});
+  CanFrame reply;
+  reply.id = 0x101;
+  reply.len = 8;
+  CanFrame bus_off;
+  bus_off.id = kCanErrFlag | kCanErrBusOff;
+  bus_off.len = 8;
+  stranger.send(reply);
+  stranger.send(bus_off);
+  stranger.flush();
+  peer.send(reply);
+  peer.flush();
+  std::vector<CanFrame> got;
+  for (int k = 0; k < 200 && got.empty(); ++k) {
+    hal.receive(got);
+    if (got.empty()) ::usleep(1000);
+  }
+  ::usleep(20000);
+  hal.receive(got);
+  ASSERT_EQ(got.size(), 1U) << "the peer's frame, and only it";
+  EXPECT_EQ(got[0].id, 0x101U);
+  EXPECT_EQ(hal.counters().foreign, 1);
+  EXPECT_FALSE(hal.counters().bus_off) << "a stranger's error frame set bus-off";
+  EXPECT_NE(hal.counters().last_error.find("refused: the bus's peer is 127.0.0.1:47312"), std::string::npos) << hal.counters().last_error;
 }
 
 TEST(Cannelloni, MalformedDatagramsAreRefusedWholeAndSayWhy) {

@@ -29,9 +29,9 @@ TEST(SafetyMachine, TransitionsOfTheTable) {
   EXPECT_EQ(s.drive_mode(), hal::DriveMode::kOff);
   s.update(0.0, 1e9);
   EXPECT_EQ(s.state(), SafetyState::kOff) << "no command while off is nothing to act on";
-  EXPECT_NE(s.enable(0.0, true, "bus-off on can3"), "") << "enable refused while a fault is present";
+  EXPECT_NE(s.enable(0.0, test::issued(), true, "bus-off on can3"), "") << "enable refused while a fault is present";
   EXPECT_EQ(s.state(), SafetyState::kOff);
-  EXPECT_EQ(s.enable(0.0, false, ""), "");
+  EXPECT_EQ(s.enable(0.0, test::issued(), false, ""), "");
   EXPECT_TRUE(s.entering());
   s.update(0.001, 0.001);
   EXPECT_EQ(s.state(), SafetyState::kEnabled);
@@ -44,10 +44,10 @@ TEST(SafetyMachine, TransitionsOfTheTable) {
   s.update(0.507, 0.0);
   EXPECT_EQ(s.state(), SafetyState::kTorqueOff);
   EXPECT_EQ(s.drive_mode(), hal::DriveMode::kOff);
-  EXPECT_EQ(s.enable(1.0, false, ""), "");
-  s.damp(1.1, "stop from operator");
+  EXPECT_EQ(s.enable(1.0, test::issued(), false, ""), "");
+  s.stop(1.1, test::issued(), "stop from operator");
   EXPECT_EQ(s.state(), SafetyState::kDamping);
-  EXPECT_EQ(s.enable(1.2, false, ""), "");
+  EXPECT_EQ(s.enable(1.2, test::issued(), false, ""), "");
   s.fault(1.3, "r_knee fault code 3");
   EXPECT_EQ(s.state(), SafetyState::kFault);
   EXPECT_EQ(s.drive_mode(), hal::DriveMode::kDamp);
@@ -63,7 +63,7 @@ TEST(Hal, ClosesTheLoopThroughTheCodecAndSensorsMatchTheSimulation) {
   Rig r;
   for (int k = 0; k < 5; ++k) r.tick_once();
   EXPECT_FALSE(r.emu->released()) << "on the gantry until enabled";
-  EXPECT_EQ(r.h->operator_command(hal::kOperatorEnable, r.now, "test"), "enabled by test");
+  EXPECT_EQ(r.h->operator_command(hal::kOperatorEnable, r.now, "test", test::issued()), "enabled by test");
   SensorSample measured;  // what the drives measured when they answered (before the physics step)
   for (int k = 0; k < 500; ++k) {
     ASSERT_EQ(r.h->set_command(r.hold(), r.now), "");
@@ -104,7 +104,7 @@ TEST(Hal, ClosesTheLoopThroughTheCodecAndSensorsMatchTheSimulation) {
 
 TEST(Hal, StaleCommandsDampWithinOneTickThenTorqueOff) {
   Rig r({"hal.safety.torque_off_after=0.2"});
-  (void)r.h->operator_command(hal::kOperatorEnable, r.now, "test");
+  (void)r.h->operator_command(hal::kOperatorEnable, r.now, "test", test::issued());
   for (int k = 0; k < 200; ++k) {
     (void)r.h->set_command(r.hold(), r.now);
     r.tick_once();
@@ -127,13 +127,15 @@ TEST(Hal, StaleCommandsDampWithinOneTickThenTorqueOff) {
 
 TEST(Hal, NonFiniteAndOutOfLimitCommandsAreRejectedAndNeverSent) {
   Rig r;
-  (void)r.h->operator_command(hal::kOperatorEnable, r.now, "test");
+  (void)r.h->operator_command(hal::kOperatorEnable, r.now, "test", test::issued());
   JointCommand good = r.hold();
   for (int k = 0; k < 10; ++k) {
+    good.tick = k;
     ASSERT_EQ(r.h->set_command(good, r.now), "");
     r.tick_once();
   }
   const auto before = r.h->sent();
+  ++good.tick;
   JointCommand bad = good;
   bad.tau_ff(3) = std::nan("");
   EXPECT_NE(r.h->set_command(bad, r.now), "");
@@ -152,9 +154,122 @@ TEST(Hal, NonFiniteAndOutOfLimitCommandsAreRejectedAndNeverSent) {
   }
 }
 
+// A stop latches: an enable issued before it (a recording of one, played after the stop) is refused,
+// whatever its freshness on the group; only an enable issued after the stop lifts it.
+TEST(Hal, AStopHoldsUntilAnEnableIssuedAfterIt) {
+  Rig r;
+  const std::int64_t enable_before = test::issued();
+  ASSERT_EQ(r.h->operator_command(hal::kOperatorEnable, r.now, "test", enable_before), "enabled by test");
+  (void)r.h->set_command(r.hold(), r.now);
+  r.tick_once();
+  const std::int64_t stop_at = test::issued();
+  (void)r.h->operator_command(hal::kOperatorStop, r.now, "operator", stop_at);
+  r.tick_once();
+  EXPECT_EQ(r.h->safety().state(), SafetyState::kDamping);
+  const std::string replayed = r.h->operator_command(hal::kOperatorEnable, r.now, "test", enable_before);
+  EXPECT_NE(replayed.find("enable refused"), std::string::npos) << replayed;
+  EXPECT_NE(r.h->operator_command(hal::kOperatorEnable, r.now, "test", stop_at).find("refused"), std::string::npos)
+      << "an enable as old as the stop does not lift it";
+  EXPECT_EQ(r.h->safety().state(), SafetyState::kDamping);
+  // A later damp from the supervisor latches too; an earlier one does not move the latch back.
+  (void)r.h->operator_command(hal::kOperatorDamp, r.now, "supervisor", stop_at - 10);
+  EXPECT_EQ(r.h->safety().stop_issued_us(), stop_at);
+  EXPECT_EQ(r.h->operator_command(hal::kOperatorEnable, r.now, "test", test::issued()), "enabled by test");
+}
+
+// The stale-command watchdog cannot be kept alive by the last command sent again: only a newer tick
+// renews a command, so the hal damps within its command age as if nothing came.
+TEST(Hal, TheLastCommandSentAgainDoesNotKeepTheDrivesEnabled) {
+  Rig r;
+  (void)r.h->operator_command(hal::kOperatorEnable, r.now, "test", test::issued());
+  const JointCommand last = r.hold();
+  ASSERT_EQ(r.h->set_command(last, r.now), "");
+  r.tick_once();
+  ASSERT_EQ(r.h->safety().state(), SafetyState::kEnabled);
+  int ticks = 0;
+  while (r.h->safety().state() == SafetyState::kEnabled && ticks < 1000) {
+    EXPECT_NE(r.h->set_command(last, r.now).find("not newer"), std::string::npos);
+    r.tick_once();
+    ++ticks;
+  }
+  EXPECT_EQ(r.h->safety().state(), SafetyState::kDamping);
+  EXPECT_EQ(r.h->safety().reason(), "JOINT_COMMAND stale");
+  EXPECT_LE(ticks * 1e-3, r.config.safety.command_max_age + 1.5e-3) << "damped within the command's age, plus a tick";
+  EXPECT_EQ(r.h->commands_repeated(), ticks);
+  EXPECT_EQ(r.h->commands_rejected(), 0);
+}
+
+// The attack on the bus: a forged reply frame after each drive's own. One reply per drive per tick:
+// the first stands (its position, its fault flag), the others are counted, and a drive answered
+// twice for missed_replies_fault ticks in a row is a fault.
+TEST(Hal, ASecondReplyInATickNeverOverwritesTheFirstAndIsAFaultWhenItGoesOn) {
+  Rig r;
+  (void)r.h->operator_command(hal::kOperatorEnable, r.now, "test", test::issued());
+  for (int k = 0; k < 20; ++k) {
+    (void)r.h->set_command(r.hold(), r.now);
+    r.tick_once();
+  }
+  const auto j = static_cast<std::size_t>(r.robot.model.joint_index("r_knee"));
+  const auto& d = r.config.drives[j];
+  hal::MitCodec codec;
+  r.after_replies = [&](Rig& rig) {
+    hal::DriveReply forged;
+    forged.drive_id = d.id;
+    forged.p = d.sign * (rig.sim.sensors().q(static_cast<Eigen::Index>(j)) + 0.01 - d.offset);  // within reach: only the order refuses it
+    forged.fault = 7;
+    auto& bus = *rig.drive_buses[static_cast<std::size_t>(d.bus)];
+    bus.send(codec.encode_reply(forged, d.limits));
+    bus.flush();
+  };
+  const int n = r.config.safety.missed_replies_fault;
+  for (int k = 0; k < n - 1; ++k) {
+    (void)r.h->set_command(r.hold(), r.now);
+    const double q_true = r.sim.sensors().q(static_cast<Eigen::Index>(j));
+    r.tick_once();
+    EXPECT_NEAR(r.h->sensors().q(static_cast<Eigen::Index>(j)), q_true, 1e-3) << "the forged position was taken";
+    EXPECT_EQ(r.h->drives()[j].fault, 0) << "the forged fault flag was taken";
+    EXPECT_EQ(r.h->safety().state(), SafetyState::kEnabled);
+  }
+  EXPECT_EQ(r.h->drives()[j].extra, n - 1);
+  (void)r.h->set_command(r.hold(), r.now);
+  r.tick_once();
+  EXPECT_EQ(r.h->safety().state(), SafetyState::kFault);
+  EXPECT_NE(r.h->fault_conditions().find("r_knee answered more than once"), std::string::npos) << r.h->fault_conditions();
+}
+
+// A reply whose position the drive cannot have reached since its last one, at its largest speed, is
+// refused and counts as missed.
+TEST(Hal, APositionBeyondTheDrivesReachSinceItsLastReplyIsRefused) {
+  Rig r;
+  for (int k = 0; k < 5; ++k) r.tick_once();
+  const auto j = static_cast<std::size_t>(r.robot.model.joint_index("r_knee"));
+  const auto& d = r.config.drives[j];
+  const double q_before = r.h->sensors().q(static_cast<Eigen::Index>(j));
+  const double reach = std::max(std::abs(d.limits.v_min), d.limits.v_max) * 1e-3;  // one tick at full speed
+  hal::MitCodec codec;
+  double offset = 3.0 * reach;
+  r.after_replies = [&](Rig& rig) {
+    hal::DriveReply forged;
+    forged.drive_id = d.id;
+    forged.p = d.sign * (q_before + offset - d.offset);
+    auto& bus = *rig.drive_buses[static_cast<std::size_t>(d.bus)];
+    bus.send(codec.encode_reply(forged, d.limits));
+    bus.flush();
+  };
+  r.drives_answer = false;
+  r.tick_once();
+  EXPECT_EQ(r.h->drives()[j].implausible, 1);
+  EXPECT_EQ(r.h->drives()[j].missed_run, 1) << "a refused reply is a missed one";
+  EXPECT_NEAR(r.h->sensors().q(static_cast<Eigen::Index>(j)), q_before, 1e-9);
+  offset = 0.5 * reach;  // within reach (two ticks since the last reply taken): taken
+  r.tick_once();
+  EXPECT_EQ(r.h->drives()[j].implausible, 1);
+  EXPECT_NEAR(r.h->sensors().q(static_cast<Eigen::Index>(j)), q_before + offset, 1e-3);
+}
+
 TEST(Hal, MissedRepliesFaultAndEnableNeedsThemBack) {
   Rig r;
-  (void)r.h->operator_command(hal::kOperatorEnable, r.now, "test");
+  (void)r.h->operator_command(hal::kOperatorEnable, r.now, "test", test::issued());
   for (int k = 0; k < 20; ++k) {
     (void)r.h->set_command(r.hold(), r.now);
     r.tick_once();
@@ -167,17 +282,17 @@ TEST(Hal, MissedRepliesFaultAndEnableNeedsThemBack) {
   EXPECT_EQ(r.h->safety().state(), SafetyState::kFault);
   EXPECT_EQ(r.h->safety().drive_mode(), hal::DriveMode::kDamp);
   EXPECT_NE(r.h->fault_conditions().find("missed 5 replies"), std::string::npos) << r.h->fault_conditions();
-  EXPECT_NE(r.h->operator_command(hal::kOperatorEnable, r.now, "test").find("refused"), std::string::npos);
+  EXPECT_NE(r.h->operator_command(hal::kOperatorEnable, r.now, "test", test::issued()).find("refused"), std::string::npos);
   r.drives_answer = true;
   (void)r.h->set_command(r.hold(), r.now);
   r.tick_once();
   EXPECT_EQ(r.h->fault_conditions(), "");
-  EXPECT_EQ(r.h->operator_command(hal::kOperatorEnable, r.now, "test"), "enabled by test");
+  EXPECT_EQ(r.h->operator_command(hal::kOperatorEnable, r.now, "test", test::issued()), "enabled by test");
 }
 
 TEST(Hal, BusOffOnOneBusDampsEveryDrive) {
   Rig r({"emulator.bus_off_bus=can4", "emulator.bus_off_at=0.05"});
-  (void)r.h->operator_command(hal::kOperatorEnable, r.now, "test");
+  (void)r.h->operator_command(hal::kOperatorEnable, r.now, "test", test::issued());
   for (int k = 0; k < 100; ++k) {
     (void)r.h->set_command(r.hold(), r.now);
     r.tick_once();
@@ -192,7 +307,7 @@ TEST(Hal, BusOffOnOneBusDampsEveryDrive) {
 
 TEST(Hal, SoftLimitDampsTowardsRestNotTowardsTheCommandedVelocity) {
   Rig r;
-  (void)r.h->operator_command(hal::kOperatorEnable, r.now, "test");
+  (void)r.h->operator_command(hal::kOperatorEnable, r.now, "test", test::issued());
   ASSERT_EQ(r.h->set_command(r.hold(), r.now), "");
   r.h->begin_tick(0, r.now);  // enter motor mode
   const int j = r.robot.model.joint_index("r_knee");
@@ -228,7 +343,7 @@ TEST(Hal, SoftLimitDampsTowardsRestNotTowardsTheCommandedVelocity) {
 TEST(Hal, LockstepTickClosesOnTheEmulatorsClockFrameWhateverTheRepliesDid) {
   Rig r({"hal.clock=lockstep", "emulator.drop_reply_probability=0.2", "emulator.bus_off_bus=can4", "emulator.bus_off_at=0.0"});
   ASSERT_TRUE(r.config.lockstep);
-  (void)r.h->operator_command(hal::kOperatorEnable, 0.0, "test");  // drives in motor mode: losses injected
+  (void)r.h->operator_command(hal::kOperatorEnable, 0.0, "test", test::issued());  // drives in motor mode: losses injected
   std::vector<hal::CanFrame> rx;
   int incomplete = 0;
   for (std::int64_t k = 0; k < 50; ++k) {
@@ -269,7 +384,7 @@ TEST(Hal, LockstepTickClosesOnTheEmulatorsClockFrameWhateverTheRepliesDid) {
 
 TEST(DriveEmulator, DrivesDampByThemselvesWhenTheHalStops) {
   Rig r;
-  (void)r.h->operator_command(hal::kOperatorEnable, r.now, "test");
+  (void)r.h->operator_command(hal::kOperatorEnable, r.now, "test", test::issued());
   for (int k = 0; k < 50; ++k) {
     (void)r.h->set_command(r.hold(), r.now);
     r.tick_once();
@@ -292,7 +407,7 @@ TEST(Hal, HoldsTheHeldJointsOutsideTheCommands) {
   ASSERT_EQ(r.config.drives.size(), 27U);
   ASSERT_EQ(r.config.controlled, 25);
   EXPECT_EQ(r.h->sensors().q.size(), 25);
-  (void)r.h->operator_command(hal::kOperatorEnable, r.now, "test");
+  (void)r.h->operator_command(hal::kOperatorEnable, r.now, "test", test::issued());
   for (int k = 0; k < 1500; ++k) {
     ASSERT_EQ(r.h->set_command(r.hold(), r.now), "");
     r.tick_once();
@@ -314,7 +429,7 @@ TEST(Hal, HoldsTheHeldJointsOutsideTheCommands) {
   }
   EXPECT_FALSE(r.sim.truth().fallen);
   // Damping reaches the held drives too: no stiffness, only damping.
-  (void)r.h->operator_command(hal::kOperatorDamp, r.now, "test");
+  (void)r.h->operator_command(hal::kOperatorDamp, r.now, "test", test::issued());
   r.tick_once();
   for (std::size_t i = 25; i < 27; ++i) {
     EXPECT_EQ(r.h->sent()[i].kp, 0.0);

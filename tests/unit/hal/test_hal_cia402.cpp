@@ -31,7 +31,7 @@ int start_up(Rig& r, int limit = 500) {
 
 TEST(HalCia402, DrivesStartUpEnableAndCloseTheLoopWithSensorsMatchingTheSimulation) {
   Rig r({"hal.protocol=cia402"});
-  EXPECT_NE(r.h->operator_command(hal::kOperatorEnable, r.now, "test").find("starting up"), std::string::npos)
+  EXPECT_NE(r.h->operator_command(hal::kOperatorEnable, r.now, "test", test::issued()).find("starting up"), std::string::npos)
       << "no enable before the drives are configured";
   const int ticks = start_up(r);
   ASSERT_GE(ticks, 0) << r.h->starting_drives() << " / " << r.h->fault_conditions();
@@ -42,7 +42,7 @@ TEST(HalCia402, DrivesStartUpEnableAndCloseTheLoopWithSensorsMatchingTheSimulati
     ASSERT_NE(r.emu->cia402(i), nullptr);
     EXPECT_EQ(r.emu->cia402(i)->object(hpr::hal::canopen::kModesOfOperation, 0), 10u) << r.config.drives[i].joint;
   }
-  EXPECT_EQ(r.h->operator_command(hal::kOperatorEnable, r.now, "test"), "enabled by test");
+  EXPECT_EQ(r.h->operator_command(hal::kOperatorEnable, r.now, "test", test::issued()), "enabled by test");
   SensorSample measured;
   for (int k = 0; k < 1000; ++k) {
     ASSERT_EQ(r.h->set_command(r.hold(), r.now), "");
@@ -65,7 +65,7 @@ TEST(HalCia402, DrivesStartUpEnableAndCloseTheLoopWithSensorsMatchingTheSimulati
   // The joint impedance closes in the hal on the drives' torque interface, one sample late: the
   // robot moves as it does with MIT-mode drives that close it themselves.
   Rig mit;
-  (void)mit.h->operator_command(hal::kOperatorEnable, mit.now, "test");
+  (void)mit.h->operator_command(hal::kOperatorEnable, mit.now, "test", test::issued());
   for (int k = 0; k < 1000; ++k) {
     ASSERT_EQ(mit.h->set_command(mit.hold(), mit.now), "");
     mit.tick_once();
@@ -78,7 +78,7 @@ TEST(HalCia402, DrivesStartUpEnableAndCloseTheLoopWithSensorsMatchingTheSimulati
 TEST(HalCia402, AnEmergencyFaultsTheHalTheDriveBrakesAndTheResetNeedsTheOperator) {
   Rig r({"hal.protocol=cia402", "emulator.fault_joint=r_knee", "emulator.fault_code=8976", "emulator.fault_at=0.2"});
   ASSERT_GE(start_up(r), 0);
-  ASSERT_EQ(r.h->operator_command(hal::kOperatorEnable, r.now, "test"), "enabled by test");
+  ASSERT_EQ(r.h->operator_command(hal::kOperatorEnable, r.now, "test", test::issued()), "enabled by test");
   for (int k = 0; k < 400 && r.h->safety().state() != SafetyState::kFault; ++k) {
     (void)r.h->set_command(r.hold(), r.now);
     r.tick_once();
@@ -99,7 +99,7 @@ TEST(HalCia402, AnEmergencyFaultsTheHalTheDriveBrakesAndTheResetNeedsTheOperator
   }
   // The operator's enable asks for the reset and is refused; the injected fault is still present,
   // so the drive faults again and the next enable is refused too.
-  EXPECT_NE(r.h->operator_command(hal::kOperatorEnable, r.now, "test").find("fault reset requested"), std::string::npos);
+  EXPECT_NE(r.h->operator_command(hal::kOperatorEnable, r.now, "test", test::issued()).find("fault reset requested"), std::string::npos);
   for (int k = 0; k < 20; ++k) r.tick_once();
   EXPECT_NE(r.h->fault_conditions().find("EMCY 0x2310"), std::string::npos) << "the fault persists: " << r.h->fault_conditions();
 }
@@ -107,7 +107,7 @@ TEST(HalCia402, AnEmergencyFaultsTheHalTheDriveBrakesAndTheResetNeedsTheOperator
 TEST(HalCia402, AFaultResetOnRequestBringsTheDriveBack) {
   Rig r({"hal.protocol=cia402"});
   ASSERT_GE(start_up(r), 0);
-  ASSERT_EQ(r.h->operator_command(hal::kOperatorEnable, r.now, "test"), "enabled by test");
+  ASSERT_EQ(r.h->operator_command(hal::kOperatorEnable, r.now, "test", test::issued()), "enabled by test");
   for (int k = 0; k < 50; ++k) {
     (void)r.h->set_command(r.hold(), r.now);
     r.tick_once();
@@ -122,10 +122,10 @@ TEST(HalCia402, AFaultResetOnRequestBringsTheDriveBack) {
   r.drives_answer = true;
   for (int k = 0; k < 5; ++k) r.tick_once();
   EXPECT_NE(r.h->fault_conditions().find("EMCY 0x8250"), std::string::npos) << r.h->fault_conditions();
-  EXPECT_NE(r.h->operator_command(hal::kOperatorEnable, r.now, "test").find("fault reset requested"), std::string::npos);
+  EXPECT_NE(r.h->operator_command(hal::kOperatorEnable, r.now, "test", test::issued()).find("fault reset requested"), std::string::npos);
   for (int k = 0; k < 10; ++k) r.tick_once();
   EXPECT_EQ(r.h->fault_conditions(), "");
-  EXPECT_EQ(r.h->operator_command(hal::kOperatorEnable, r.now, "test"), "enabled by test");
+  EXPECT_EQ(r.h->operator_command(hal::kOperatorEnable, r.now, "test", test::issued()), "enabled by test");
   for (int k = 0; k < 20; ++k) {
     (void)r.h->set_command(r.hold(), r.now);
     r.tick_once();

@@ -39,7 +39,7 @@ constexpr hpr::Ports kTestPorts{.name = "test", .reads = kTestReads, .writes = k
 template <class Msg>
 void inject(Runtime& rt, std::string_view channel, const Msg& m, const hpr::auth::Key* key = nullptr) {
   std::vector<std::uint8_t> bytes;
-  const int n = hpr::node::encode_message(m, bytes, key);
+  const int n = hpr::node::encode_message(m, bytes, rt.transport().channel(channel), key);
   ASSERT_GT(n, 0);
   rt.transport().publish_bytes(channel, bytes.data(), static_cast<std::size_t>(n));
 }
@@ -190,6 +190,36 @@ TEST_F(TickStream, ASecondSourceInsideTheWindowIsHeldUntilTheFollowedOneIsQuiet)
   EXPECT_EQ(stepped.back(), 203);
 }
 
+// The attack: the stream recorded (signed, with its source and consistent ticks and times), then
+// played back while the real source is stopped for 0.5 s. A recording of a source the input has
+// left (the process before its restart) is never followed, each message counted; the real source,
+// back, runs on.
+TEST_F(TickStream, ARecordedStreamOfALeftSourceIsNeverFollowed) {
+  constexpr std::int64_t kBefore = 0x0badc0de, kLive = 0x5eed;
+  rt.on_tick(sensors, {}, 0.0, [&](const hpr::node::TickInfo& info) { stepped.push_back(info.tick); });
+  for (int k = 1; k <= 300; ++k) send(k, "SENSORS", {}, kBefore);
+  // The source restarts (a new identity) and is followed.
+  send(0, "SENSORS", {}, kLive);
+  ASSERT_TRUE(rt.spin_until([&] { return sensors.follows() == 1; }, 5.0));
+  for (int k = 1; k <= 100; ++k) send(k, "SENSORS", {}, kLive);
+  ASSERT_EQ(stepped.back(), 100);
+  // Stopped for 0.5 s; meanwhile the recording of the stream before the restart is played.
+  const double end = hpr::monotonic_s() + 0.5;
+  std::int64_t played = 0;
+  for (int k = 1; hpr::monotonic_s() < end; k = k % 300 + 1) {
+    send(k, "SENSORS", {}, kBefore);
+    ++played;
+    std::this_thread::sleep_for(std::chrono::microseconds(500));
+  }
+  EXPECT_EQ(stepped.back(), 100) << "a replayed tick was stepped";
+  EXPECT_EQ(sensors.follows(), 1) << "the recording was followed";
+  EXPECT_EQ(sensors.source(), kLive);
+  EXPECT_EQ(sensors.replays(), played);
+  EXPECT_NE(sensors.last_error().find("a replay, never followed"), std::string::npos) << sensors.last_error();
+  send(101, "SENSORS", {}, kLive);
+  EXPECT_EQ(stepped.back(), 101);
+}
+
 // What a process publishes carries its identity, at the offset the readers' rule assumes, for every
 // clocked type; the other types have no source.
 TEST(SourceIdentity, OutputsStampTheProcessIdentityOnEveryClockedType) {
@@ -214,7 +244,7 @@ TEST(SourceIdentity, OutputsStampTheProcessIdentityOnEveryClockedType) {
     Msg original;
     filler.fill(original);
     std::vector<std::uint8_t> bytes;
-    const int n = hpr::node::encode_message(original, bytes, nullptr, std::int64_t{-0x0123456789abcdef});
+    const int n = hpr::node::encode_message(original, bytes, {}, nullptr, std::int64_t{-0x0123456789abcdef});
     ASSERT_GT(n, 0) << name;
     Msg decoded;
     ASSERT_EQ(decoded.decode(bytes.data(), 0, n), n) << name;
@@ -528,7 +558,7 @@ namespace {
 
 humanoid::operator_t enable_request() {
   humanoid::operator_t m{};
-  m.utime = 1;
+  m.utime = hpr::wall_us();  // fresh: a command is judged by its time (hpr/node/freshness.hpp)
   m.source = "test";
   m.command = humanoid::operator_t::COMMAND_ENABLE;
   m.reason = "probe";
@@ -556,12 +586,12 @@ TEST(Authentication, AnInputOfASignedTypeTakesOnlyWhatTheKeySigned) {
   rt.spin_once(0.0);
   // One byte of a signed message changed (the command: damp instead of enable).
   std::vector<std::uint8_t> bytes;
-  const int n = hpr::node::encode_message(m, bytes, rt.deployment_key());
+  const int n = hpr::node::encode_message(m, bytes, "OPERATOR", rt.deployment_key());
   ASSERT_GT(n, 40);
   humanoid::operator_t damp = m;
   damp.command = humanoid::operator_t::COMMAND_DAMP;
   std::vector<std::uint8_t> damp_bytes;
-  ASSERT_EQ(hpr::node::encode_message(damp, damp_bytes, nullptr), n);
+  ASSERT_EQ(hpr::node::encode_message(damp, damp_bytes, {}, nullptr), n);
   std::copy(damp_bytes.begin(), damp_bytes.end() - 32, bytes.begin());  // the enable's code kept
   rt.transport().publish_bytes("OPERATOR", bytes.data(), static_cast<std::size_t>(n));
   rt.spin_once(0.0);

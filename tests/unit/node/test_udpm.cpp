@@ -89,11 +89,11 @@ TEST(LcmDatagrams, AShortMessageIsItsChannelAndPayload) {
   EXPECT_TRUE(r.got[1].payload.empty());
 }
 
-TEST(LcmDatagrams, FragmentsMakeOneMessageInAnyOrderAndOnlyWhenAllArrived) {
+TEST(LcmDatagrams, FragmentsMakeOneMessageInAnyOrderAfterTheFirstAndOnlyWhenAllArrived) {
   const Bytes payload = pattern(200'000);
   const std::size_t step = 65'000;
   const std::uint16_t count = 4;
-  for (const std::vector<std::uint16_t>& order : {std::vector<std::uint16_t>{0, 1, 2, 3}, {3, 1, 0, 2}, {2, 3, 1, 0}}) {
+  for (const std::vector<std::uint16_t>& order : {std::vector<std::uint16_t>{0, 1, 2, 3}, {0, 3, 1, 2}, {0, 2, 3, 1}}) {
     Reader r;
     for (std::size_t i = 0; i < order.size(); ++i) {
       EXPECT_EQ(r.feed(fragment("BIG", payload, 9, order[i], count, step), 5, 100 + static_cast<std::int64_t>(i)), "");
@@ -132,7 +132,7 @@ TEST(LcmDatagrams, ANewerMessageDropsTheUnfinishedOneOfItsSender) {
   EXPECT_EQ(r.feed(fragment("X", old_msg, 1, 0, 2, step)), "");
   EXPECT_EQ(r.feed(fragment("X", new_msg, 2, 0, 2, step)), "");
   EXPECT_EQ(r.datagrams.dropped_partial(), 1);
-  EXPECT_EQ(r.feed(fragment("X", old_msg, 1, 1, 2, step)), "");  // the old one's last fragment: starts over, incomplete
+  EXPECT_NE(r.feed(fragment("X", old_msg, 1, 1, 2, step)), "");  // the old one's last fragment: no message to join
   EXPECT_TRUE(r.got.empty());
   EXPECT_EQ(r.feed(fragment("X", new_msg, 2, 0, 2, step)), "");
   EXPECT_EQ(r.feed(fragment("X", new_msg, 2, 1, 2, step)), "");
@@ -152,16 +152,64 @@ TEST(LcmDatagrams, UnfinishedMessagesOfManySendersStayWithinTheBudgetAndTheNextM
   put16(head, 200);
   head.insert(head.end(), {'F', 0, 1, 2, 3});
   for (std::uint64_t sender = 0; sender < 100; ++sender) {
-    EXPECT_EQ(r.feed(head, sender), "");
+    EXPECT_EQ(r.feed(head, sender, 1000 + static_cast<std::int64_t>(sender) * 10'000), "");  // at the rate taken
     EXPECT_LE(r.datagrams.partial_bytes(), LcmDatagrams::kMaxPartialBytes);
   }
   EXPECT_GE(r.datagrams.dropped_partial(), 90);
   EXPECT_TRUE(r.got.empty());
   const Bytes payload = pattern(100'000);
-  EXPECT_EQ(r.feed(fragment("LATER", payload, 3, 0, 2, 60'000), 1000), "");
-  EXPECT_EQ(r.feed(fragment("LATER", payload, 3, 1, 2, 60'000), 1000), "");
+  EXPECT_EQ(r.feed(fragment("LATER", payload, 3, 0, 2, 60'000), 1000, 2'000'000), "");
+  EXPECT_EQ(r.feed(fragment("LATER", payload, 3, 1, 2, 60'000), 1000, 2'000'000), "");
   ASSERT_EQ(r.got.size(), 1u);
   EXPECT_EQ(r.got[0].payload, payload);
+}
+
+/// A first fragment that declares `total` bytes for `channel` (sequence number `seqno`).
+Bytes first_fragment(const std::string& channel, std::uint32_t total, std::uint32_t seqno) {
+  Bytes head;
+  put32(head, 0x4c433033);
+  put32(head, seqno);
+  put32(head, total);
+  put32(head, 0);
+  put16(head, 0);
+  put16(head, 300);
+  head.insert(head.end(), channel.begin(), channel.end());
+  head.push_back(0);
+  head.insert(head.end(), {1, 2, 3, 4});
+  return head;
+}
+
+// The attack: tiny datagrams that each declare a 16 MB message. Nothing is allocated for a channel
+// the node does not read, for more than a read channel's messages can be, for a fragment ahead of
+// its first, or beyond the rate of new messages; the node's own messages still arrive.
+TEST(LcmDatagrams, AFirstFragmentCostsMemoryOnlyOnAReadChannelWithinItsLimitAndRate) {
+  LcmDatagrams d([](std::string_view ch) -> std::size_t { return ch == "ROBOT_SENSORS" ? 65'536 : 0; }, 1u << 20);
+  std::vector<std::string> got;
+  const auto sink = [&](std::string_view ch, const std::uint8_t*, std::size_t, std::int64_t) { got.emplace_back(ch); };
+  const auto feed = [&](const Bytes& b, std::uint64_t sender, std::int64_t utime) { return d.feed(b.data(), b.size(), sender, utime, sink); };
+  for (std::uint32_t k = 0; k < 5000; ++k) {
+    const std::int64_t t = 1'000'000 + k * 1000;  // 1 kHz
+    EXPECT_NE(feed(first_fragment("NOBODY_READS", 16u << 20, k), k, t).find("does not read"), std::string::npos);
+    EXPECT_NE(feed(first_fragment("ROBOT_SENSORS", 16u << 20, k), k, t).find("at most 65536 bytes"), std::string::npos);
+    Bytes later = fragment("ROBOT_SENSORS", pattern(16u << 10), k, 1, 2, 8u << 10);
+    EXPECT_NE(feed(later, k, t).find("before its first"), std::string::npos);
+  }
+  EXPECT_EQ(d.peak_partial_bytes(), 0u) << "an allocation for a refused message";
+  // Within the limit, new messages at a burst: the rate refuses them once the burst is spent, and
+  // the budget bounds what the ones taken hold.
+  int taken = 0, rate_refused = 0;
+  for (std::uint32_t k = 0; k < 1000; ++k) {
+    const std::string why = feed(first_fragment("ROBOT_SENSORS", 60'000, k), 100 + k, 10'000'000);
+    taken += why.empty() ? 1 : 0;
+    rate_refused += why.find("a second") != std::string::npos ? 1 : 0;
+  }
+  EXPECT_EQ(taken, static_cast<int>(LcmDatagrams::kNewBurst));
+  EXPECT_EQ(rate_refused, 1000 - taken);
+  EXPECT_LE(d.peak_partial_bytes(), std::size_t{1} << 20);
+  // A short message of the node is delivered through all this.
+  EXPECT_EQ(feed(short_datagram("ROBOT_SENSORS", {1, 2, 3}), 7, 10'000'001), "");
+  ASSERT_EQ(got.size(), 1u);
+  EXPECT_EQ(got[0], "ROBOT_SENSORS");
 }
 
 TEST(LcmDatagrams, MalformedDatagramsAreRefusedWithTheirReasonAndNothingIsDelivered) {

@@ -33,6 +33,7 @@ std::uint8_t fd_length(std::uint8_t len);
 /// What a transport counts.
 struct BusCounters {
   std::int64_t tx_frames = 0, rx_frames = 0, errors = 0, dropped = 0;
+  std::int64_t foreign = 0;  ///< datagrams refused for coming from another address than the bus's peer (UDP)
   bool bus_off = false;
   std::string last_error;
 };

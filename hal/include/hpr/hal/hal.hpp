@@ -90,6 +90,17 @@ struct DriveStatus {
   std::int64_t missed = 0;
   int missed_run = 0;
   bool replied = false;   ///< this tick
+  /// Replies beyond the first of a tick (never taken: the first one stands), in all and in a row
+  /// of ticks; `safety.missed_replies_fault` ticks in a row is a fault.
+  std::int64_t extra = 0;
+  int extra_run = 0;
+  bool extra_this_tick = false;
+  /// Replies refused for a position the drive cannot have reached since its last reply at its
+  /// largest speed (counted as missed too).
+  std::int64_t implausible = 0;
+  bool have_position = false;
+  double position = 0.0;    ///< [drive units] of the last reply taken
+  double reply_time = 0.0;  ///< [s, hal time] of the last reply taken
 };
 
 class Hal {
@@ -97,10 +108,12 @@ class Hal {
   Hal(HalConfig config, std::vector<std::unique_ptr<CanTransport>> buses, std::unique_ptr<DriveCodec> codec);
 
   /// Takes a JOINT_COMMAND received at `now` [s, monotonic]. A non-finite or out-of-limit command is
-  /// rejected whole and counted (the previous one keeps ageing); returns why, or empty.
+  /// rejected whole and counted (the previous one keeps ageing); so is one whose tick is not newer
+  /// than the command taken (commands_repeated()). Returns why, or empty.
   std::string set_command(const JointCommand& command, double now);
-  /// OPERATOR: enable, damp, stop. Returns a message for the log.
-  std::string operator_command(int command, double now, const std::string& source);
+  /// OPERATOR: enable, damp, stop, issued by `source` at `issued_us` [us, its wall clock]. A damp
+  /// or stop holds until an enable issued after it. Returns a message for the log.
+  std::string operator_command(int command, double now, const std::string& source, std::int64_t issued_us);
 
   void begin_tick(std::int64_t tick, double now);
   /// Drains every bus; returns the frames handled.
@@ -121,6 +134,8 @@ class Hal {
   [[nodiscard]] const std::vector<std::unique_ptr<CanTransport>>& buses() const { return buses_; }
   [[nodiscard]] std::int64_t commands_rejected() const { return rejected_; }
   [[nodiscard]] std::int64_t commands_stale() const { return stale_; }
+  /// JOINT_COMMANDs dropped because their tick was not newer than the command taken.
+  [[nodiscard]] std::int64_t commands_repeated() const { return repeated_; }
   [[nodiscard]] std::int64_t frames_malformed() const { return malformed_; }
   /// The frame each drive was sent this tick (drive units as decoded by a drive; tests).
   [[nodiscard]] const std::vector<DriveCommand>& sent() const { return sent_; }
@@ -136,7 +151,8 @@ class Hal {
   void handle_frame(int bus, const CanFrame& f);
   /// A CiA 402 node's frame; false when it is no frame of a CiA 402 drive on that bus.
   bool handle_canopen(int bus, const CanFrame& f);
-  /// Drive i's sample (drive units) into the sensors or the held positions.
+  /// Drive i's sample (drive units) into the sensors or the held positions, unless its position
+  /// jumped further than the drive's speed allows since its last reply (then refused, counted).
   void take_reply(std::size_t i, double p, double v, double t);
   DriveCommand damping_command(std::size_t i) const;
   /// A CiA 402 drive's frames of this tick (start-up, or RPDO1 with `torque`) onto its bus.
@@ -152,7 +168,7 @@ class Hal {
   JointCommand command_;
   bool have_command_ = false;
   double command_time_ = -1e9;
-  std::int64_t rejected_ = 0, stale_ = 0, malformed_ = 0;
+  std::int64_t rejected_ = 0, stale_ = 0, malformed_ = 0, repeated_ = 0;
   SensorSample sensors_;
   std::vector<DriveStatus> drive_status_;
   std::vector<DriveCommand> sent_;

@@ -9,6 +9,8 @@
 /// Only an explicit enable leaves DAMPING, TORQUE_OFF or FAULT, and an enable is refused while a
 /// fault condition is still present. Damping is kd only towards zero velocity, no feed-forward.
 #include <cstdint>
+#include <cstdint>
+#include <limits>
 #include <string>
 
 namespace hpr::hal {
@@ -29,10 +31,16 @@ class SafetyMachine {
  public:
   explicit SafetyMachine(SafetyConfig config = {}) : config_(config) {}
 
-  /// Operator enable. Refused (returns the reason) while a fault condition is present.
-  std::string enable(double now, bool fault_present, const std::string& fault_text);
-  /// Operator damp or stop, or a supervisor's report: damping now.
+  /// Operator enable issued at `issued_us` (the command's time [us, the sender's wall clock]).
+  /// Refused (returns the reason) while a fault condition is present, and unless it was issued
+  /// after the latest stop: a stop latches (docs/SAFETY.md, "Stops latch").
+  std::string enable(double now, std::int64_t issued_us, bool fault_present, const std::string& fault_text);
+  /// Operator damp or stop issued at `issued_us`: damping now, and held until an enable issued later.
+  void stop(double now, std::int64_t issued_us, const std::string& reason);
+  /// Damping now (a stale command, a report): not latched.
   void damp(double now, const std::string& reason);
+  /// The time the latest operator stop was issued [us] (INT64_MIN: none yet).
+  [[nodiscard]] std::int64_t stop_issued_us() const { return stop_issued_us_; }
   /// A fault condition (drive fault, missed replies, bus-off): FAULT now (damping).
   void fault(double now, const std::string& reason);
   /// Advances the timers: a stale command while enabled damps within this tick; damping or a
@@ -56,6 +64,7 @@ class SafetyMachine {
   SafetyState state_ = SafetyState::kOff;
   bool torque_off_ = false, changed_ = true, entering_ = false;
   double since_ = 0.0;
+  std::int64_t stop_issued_us_ = std::numeric_limits<std::int64_t>::min();
   std::string reason_ = "waiting for an operator enable";
 };
 

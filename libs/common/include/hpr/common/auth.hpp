@@ -10,11 +10,14 @@
 /// or check a 27-joint JOINT_COMMAND where HMAC-SHA-512-256 (crypto_auth) took 12 us (bench_auth).
 ///
 /// A signed type declares `byte mac[32]` as its last field: the encoded message's last 32 bytes are
-/// the code over every byte before them (the LCM fingerprint included). lcm-spy and the log tools
+/// the code over the channel's full name and every byte before them (the LCM fingerprint
+/// included), so that a message is only valid on the channel it was signed for. lcm-spy and the log tools
 /// decode such a message like any other; the code is only checked by the processes that act on it.
 ///
-/// The key is a file of 32 random bytes, readable by its owner only (mode 0600): the one named by
-/// $HPR_LCM_KEY_FILE, else `${XDG_CONFIG_HOME:-$HOME/.config}/hpr/lcm.key`. The supervisor creates it
+/// The key is a file of 32 random bytes, readable by its owner only (mode 0600), owned by the
+/// process's user, not a symbolic link, in a folder of that user's that no one else may open (0700):
+/// the one named by $HPR_LCM_KEY_FILE, else `${XDG_CONFIG_HOME:-$HOME/.config}/hpr/lcm.key` (with
+/// none of the three set, there is no key file: never a shared folder). The supervisor creates it
 /// on first `up`; every host of a deployment holds a copy.
 
 #include <array>
@@ -22,6 +25,7 @@
 #include <cstdint>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 #include <type_traits>
 
 namespace hpr::auth {
@@ -40,11 +44,13 @@ struct Key {
   std::string path;  ///< the file it was read from
 };
 
-/// The deployment's key file: $HPR_LCM_KEY_FILE, else ${XDG_CONFIG_HOME:-$HOME/.config}/hpr/lcm.key.
+/// The deployment's key file: $HPR_LCM_KEY_FILE, else ${XDG_CONFIG_HOME:-$HOME/.config}/hpr/lcm.key;
+/// throws AuthError when none of them is set.
 [[nodiscard]] std::string key_path();
 
-/// Reads the key at `path`; throws AuthError naming the file and what is wrong with it (and how to
-/// create one when it is missing).
+/// Reads the key at `path`; throws AuthError naming the file and what is wrong with it (missing, a
+/// symbolic link, another user's, open to others, its folder another user's or open to others; how
+/// to create one when it is missing).
 [[nodiscard]] Key load_key(const std::string& path);
 
 /// Reads the key at `path`, creating it first (32 random bytes, mode 0600, its folder 0700) when
@@ -52,11 +58,13 @@ struct Key {
 /// caller ends up with the same key.
 [[nodiscard]] Key load_or_create_key(const std::string& path);
 
-/// Writes the code of `bytes[0, n - kTagBytes)` into the last kTagBytes of `bytes` (n >= kTagBytes).
-void sign(std::uint8_t* bytes, std::size_t n, const Key& key);
+/// Writes the code of the message `bytes[0, n - kTagBytes)` published on `channel` (its full name,
+/// prefix included) into the last kTagBytes of `bytes` (n >= kTagBytes).
+void sign(std::uint8_t* bytes, std::size_t n, std::string_view channel, const Key& key);
 
-/// Whether the last kTagBytes of `bytes` are the code of the bytes before them (constant time).
-[[nodiscard]] bool verify(const std::uint8_t* bytes, std::size_t n, const Key& key);
+/// Whether the last kTagBytes of `bytes` are the code of the bytes before them on `channel`
+/// (constant time). A message signed for another channel, or another stack's prefix, does not verify.
+[[nodiscard]] bool verify(const std::uint8_t* bytes, std::size_t n, std::string_view channel, const Key& key);
 
 /// An lcm-gen type that carries a code: `byte mac[32]` as its last field.
 template <class Msg>

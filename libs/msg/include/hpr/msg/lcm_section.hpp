@@ -19,6 +19,7 @@ struct LcmSection {
   double source_quiet_s = 0.1;         ///< [s] quiet time after which a held stream is followed
   double tick_period_max_s = 0.01;     ///< [s] a stream's time may run this much per tick ahead of the wall clock
   double time_slack_s = 0.05;          ///< [s] and this much more
+  double command_window_s = 2.0;       ///< [s] how far a command's time may be from the receiver's clock (0: unchecked)
   double spin_s = 0.0;                 ///< [s] busy-poll window around the next sensor tick
   /// `receive: liblcm` (the default): liblcm's receive thread reads LCM's socket while the node
   /// computes; `direct`: the node's own loop reads it (hpr/node/udpm.hpp; one wake-up per message

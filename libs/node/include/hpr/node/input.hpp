@@ -7,6 +7,7 @@
 
 #include <lcm/lcm-cpp.hpp>
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <functional>
@@ -15,6 +16,7 @@
 
 #include "hpr/common/auth.hpp"
 #include "hpr/common/time.hpp"
+#include "hpr/node/freshness.hpp"
 #include "hpr/node/output.hpp"
 
 namespace hpr::node {
@@ -33,6 +35,9 @@ struct StreamRules {
   double tick_period_max_s = 0.01;
   /// [s] Beyond that, how far a message's time may run ahead (delivery jitter).
   double time_slack_s = 0.05;
+  /// [s] How far a command's time may be from this host's wall clock (hpr/node/freshness.hpp; 0:
+  /// not checked, for re-running a recording).
+  double command_window_s = 2.0;
 };
 
 /// What an input tells the node about its messages (the node's Scheduler answers).
@@ -85,10 +90,18 @@ class InputBase {
   [[nodiscard]] std::int64_t source() const { return source_; }
   /// Messages refused for a missing or wrong authentication code (included in errors()).
   [[nodiscard]] std::int64_t unauthenticated() const { return unauthenticated_; }
+  /// Stream messages refused as replays of a source the input left (included in errors()); never
+  /// followed.
+  [[nodiscard]] std::int64_t replays() const { return replays_; }
+  /// Commands refused as stale or replayed (included in errors()); stops taken although stale.
+  [[nodiscard]] std::int64_t stale_commands() const { return stale_commands_; }
+  [[nodiscard]] std::int64_t stale_stops() const { return stale_stops_; }
+  /// Copies of a command already taken, dropped (not errors).
+  [[nodiscard]] std::int64_t copies() const { return copies_; }
 
  protected:
   InputBase(InputEvents& events, const StreamRules& rules, std::string channel)
-      : events_(events), rules_(rules), channel_(std::move(channel)) {}
+      : events_(events), rules_(rules), channel_(std::move(channel)), freshness_(rules.command_window_s) {}
   /// Records an accepted message of `tick`; then the subscriber's callback runs, then notify()
   /// releases the steps waiting for it (so a step sees what the callback did with the message).
   void accept(std::int64_t tick, std::int64_t utime, std::int64_t source);
@@ -101,8 +114,12 @@ class InputBase {
   [[nodiscard]] std::string implausible_time(std::int64_t tick, std::int64_t utime, double now) const;
   /// Why a message of `source` is not the stream's (empty: it is, or the stream follows none yet).
   [[nodiscard]] std::string second_source(std::int64_t source) const;
-  /// Counts and reports a message held back for its tick or its time (only the newest is kept).
-  void hold(std::size_t bytes, std::int64_t tick, const std::string& why);
+  /// Counts and reports a message of `source` held back for its tick or its time (only the newest
+  /// is kept). A replay is refused outright, never held to be followed: a message of a source the
+  /// input followed once and left (a restarted process draws a new identity, so it is no restart).
+  void hold(std::size_t bytes, std::int64_t tick, std::int64_t source, const std::string& why);
+  /// Whether the input followed `source` once and left it.
+  [[nodiscard]] bool retired(std::int64_t source) const;
   /// When a stream is held and the accepted one has been quiet long enough: follows it.
   void follow_if_quiet(double now);
   /// Monotonic time at which follow_if_quiet() may follow the held stream (inf: nothing held).
@@ -131,6 +148,14 @@ class InputBase {
   std::int64_t held_tick_ = -1, out_of_window_ = 0, implausible_times_ = 0, follows_ = 0, repeats_ = 0;
   std::int64_t unauthenticated_ = 0, second_sources_ = 0;
   std::int64_t source_ = 0;
+  std::int64_t stale_commands_ = 0, stale_stops_ = 0, copies_ = 0, replays_ = 0;
+  std::array<std::int64_t, 16> retired_{};  ///< sources followed once and left, newest at retired_next_ - 1
+  std::size_t retired_next_ = 0;
+  std::int64_t held_source_ = 0;
+  CommandFreshness freshness_;
+  /// Whether a command of `source` at `utime` is to be taken (hpr/node/freshness.hpp): a copy is
+  /// dropped, a stale or replayed one refused (counted) unless `stop` (taken, and logged).
+  bool fresh(const std::string& source, std::int64_t utime, bool stop, std::size_t bytes);
   /// Whether `bytes` carry the code of `key` (null: authentication off); if not, counts and rejects.
   bool authentic(const void* bytes, std::size_t n, const auth::Key* key);
   friend class Transport;
@@ -170,6 +195,9 @@ class Input final : public InputBase {
     } catch (const std::exception& e) {
       why = "not a valid " + std::string(Msg::getTypeName()) + " (" + e.what() + ")";
     }
+    if constexpr (Command<Msg>) {
+      if (why.empty() && !fresh(spare_.source, spare_.utime, acted_on_when_stale(spare_), size)) return;
+    }
     if (why.empty() && stream_) {
       std::string held_why;
       if constexpr (Sourced<Msg>) {
@@ -186,7 +214,7 @@ class Input final : public InputBase {
         // Not validated yet: a validator may act on what it accepts (the simulator applies a command).
         std::swap(held_msg_, spare_);
         held_bytes_ = size;
-        hold(size, held_msg_.tick, held_why);
+        hold(size, held_msg_.tick, source_of(held_msg_), held_why);
         return;
       }
     }

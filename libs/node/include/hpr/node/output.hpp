@@ -9,6 +9,7 @@
 #include <concepts>
 #include <cstdint>
 #include <string>
+#include <string_view>
 #include <type_traits>
 #include <vector>
 
@@ -35,10 +36,11 @@ std::int64_t source_of(const Msg& m) {
 inline constexpr int kSourceOffset = 24;
 
 /// Encodes `m` into `buffer` (grown as needed); a Sourced type is stamped with `source` (0: as the
-/// message holds it), then a signed type with a key gets its authentication code. Returns the
-/// encoded size (negative: not encodable).
+/// message holds it), then a signed type with a key gets its authentication code for `channel` (the
+/// full name it is published on). Returns the encoded size (negative: not encodable).
 template <class Msg>
-int encode_message(const Msg& m, std::vector<std::uint8_t>& buffer, const auth::Key* key, std::int64_t source = 0) {
+int encode_message(const Msg& m, std::vector<std::uint8_t>& buffer, std::string_view channel, const auth::Key* key,
+                   std::int64_t source = 0) {
   const int n = m.getEncodedSize();
   if (buffer.size() < static_cast<std::size_t>(n)) buffer.resize(static_cast<std::size_t>(n));
   const int used = m.encode(buffer.data(), 0, n);
@@ -49,7 +51,7 @@ int encode_message(const Msg& m, std::vector<std::uint8_t>& buffer, const auth::
     }
   }
   if constexpr (auth::Signed<Msg>) {
-    if (used > 0 && key != nullptr) auth::sign(buffer.data(), static_cast<std::size_t>(used), *key);
+    if (used > 0 && key != nullptr) auth::sign(buffer.data(), static_cast<std::size_t>(used), channel, *key);
   }
   return used;
 }
@@ -58,7 +60,7 @@ int encode_message(const Msg& m, std::vector<std::uint8_t>& buffer, const auth::
 template <class Msg>
 void publish_signed(lcm::LCM& lcm, const std::string& channel, const Msg& m, const auth::Key& key) {
   std::vector<std::uint8_t> buffer;
-  const int used = encode_message(m, buffer, &key);
+  const int used = encode_message(m, buffer, channel, &key);
   if (used >= 0) lcm.publish(channel, buffer.data(), static_cast<unsigned>(used));
 }
 
@@ -71,7 +73,7 @@ class Output {
   Output(lcm::LCM* lcm, std::string channel, const auth::Key* key = nullptr, std::int64_t source = 0)
       : lcm_(lcm), channel_(std::move(channel)), key_(key), source_(source) {}
   void publish(const Msg& m) {
-    const int used = encode_message(m, buffer_, key_, source_);
+    const int used = encode_message(m, buffer_, channel_, key_, source_);
     if (used >= 0) lcm_->publish(channel_, buffer_.data(), static_cast<unsigned>(used));
   }
   [[nodiscard]] const std::string& channel() const { return channel_; }

@@ -131,7 +131,7 @@ class Transport {
   /// kept between calls.
   template <class Msg>
   void publish_own(std::string_view name, const Msg& m) {
-    const int used = encode_message(m, own_buffer_, nullptr);
+    const int used = encode_message(m, own_buffer_, {}, nullptr);
     if (used >= 0) lcm_->publish(channel(name), own_buffer_.data(), static_cast<unsigned>(used));
   }
   /// Reads what is waiting on the own socket and hands each message to its channel's inputs.

@@ -45,9 +45,17 @@ UdpmUrl parse_udpm_url(const std::string& url);
 /// datagram's arrival on the host, which on the loopback is the instant it was published.
 using MessageSink = std::function<void(std::string_view channel, const std::uint8_t* payload, std::size_t size, std::int64_t utime)>;
 
+/// The largest message [bytes] a node takes on `channel`; 0: the node does not read it.
+using ChannelLimit = std::function<std::size_t(std::string_view channel)>;
+
 /// Turns LCM datagrams into messages: short ones at once, fragmented ones once every fragment of a
 /// sender's message has arrived (one message in progress per sender, as liblcm: a fragment of a
 /// newer message drops the older one). Pure: no socket, so that it is tested and fuzzed alone.
+///
+/// A fragmented message costs memory only once its first fragment has named a channel the node
+/// reads and declared a size within that channel's limit, and only at a bounded rate: a datagram
+/// that declares 16 MB for a channel nobody reads, or arrives ahead of its first fragment, is
+/// refused without an allocation. (liblcm sends the first fragment first.)
 class LcmDatagrams {
  public:
   /// The largest fragmented payload accepted [bytes] (the stack's largest message is a few kB).
@@ -58,6 +66,14 @@ class LcmDatagrams {
   static constexpr std::size_t kMaxPartialBytes = 32u << 20;
   /// liblcm's limit on a channel name.
   static constexpr std::size_t kMaxChannelLength = 63;
+  /// New fragmented messages taken per second, and at once after a quiet time.
+  static constexpr double kNewPerSecond = 100.0;
+  static constexpr double kNewBurst = 64.0;
+
+  /// `limit`: each channel's largest message (empty: every channel, up to kMaxMessageBytes);
+  /// `budget`: the most the unfinished messages may hold together [bytes].
+  explicit LcmDatagrams(ChannelLimit limit = {}, std::size_t budget = kMaxPartialBytes)
+      : limit_(std::move(limit)), budget_(budget) {}
 
   /// Feeds one datagram from `sender` (any key unique per sending socket) received at `utime`.
   /// Returns an empty string when the datagram was taken (delivered, or kept as a fragment), else
@@ -68,6 +84,8 @@ class LcmDatagrams {
   [[nodiscard]] std::int64_t dropped_partial() const { return dropped_partial_; }
   /// Bytes the unfinished messages hold now.
   [[nodiscard]] std::size_t partial_bytes() const { return partial_bytes_; }
+  /// The largest the unfinished messages have held together [bytes].
+  [[nodiscard]] std::size_t peak_partial_bytes() const { return peak_partial_bytes_; }
 
  private:
   struct Partial {
@@ -81,9 +99,16 @@ class LcmDatagrams {
   };
   std::string feed_fragment(const std::uint8_t* data, std::size_t size, std::uint64_t sender, std::int64_t utime,
                             const MessageSink& sink);
+  /// Why the first fragment of a `total`-byte message on `channel` at `utime` starts no message
+  /// (empty: it does, and a token of the rate was taken).
+  std::string refuse_new(std::string_view channel, std::uint32_t total, std::int64_t utime);
+  ChannelLimit limit_;
+  std::size_t budget_;
   std::unordered_map<std::uint64_t, Partial> partial_;
   std::int64_t dropped_partial_ = 0;
-  std::size_t partial_bytes_ = 0;
+  std::size_t partial_bytes_ = 0, peak_partial_bytes_ = 0;
+  double tokens_ = kNewBurst;
+  std::int64_t tokens_utime_ = 0;
 };
 
 /// A non-blocking socket joined to a udpm URL's group, bound as liblcm binds (SO_REUSEADDR on the
@@ -92,7 +117,8 @@ class LcmDatagrams {
 class UdpmReceiver {
  public:
   /// Throws LcmError when the socket cannot be set up (the message says which step failed).
-  explicit UdpmReceiver(const UdpmUrl& url);
+  /// `limit`: the largest message of each channel the node reads (LcmDatagrams).
+  explicit UdpmReceiver(const UdpmUrl& url, ChannelLimit limit = {}, std::size_t budget = LcmDatagrams::kMaxPartialBytes);
   ~UdpmReceiver();
   UdpmReceiver(const UdpmReceiver&) = delete;
   UdpmReceiver& operator=(const UdpmReceiver&) = delete;
@@ -105,6 +131,7 @@ class UdpmReceiver {
   /// Datagrams refused as not LCM's format, and why the latest was.
   [[nodiscard]] std::int64_t refused() const { return refused_; }
   [[nodiscard]] const std::string& last_refusal() const { return last_refusal_; }
+  [[nodiscard]] const LcmDatagrams& datagrams() const { return datagrams_; }
 
  private:
   int fd_ = -1;
