@@ -231,16 +231,28 @@ int run_supervisor(const launch::GroupSpec& group, const Options& o, const std::
   std::string last_event;
   bool changed = true;
 
-  Subscription health_sub(lcm, hpr::msg::channels::kHealth, [&](const humanoid::health_t& h) {
-    sup.on_health(h.node, h.state, h.lifecycle, h.rate_hz, h.deadline_misses, h.faults, monotonic_s());
-  });
+  // HEALTH is taken only signed with the key, and only from the process this supervisor started
+  // under that node's name (its pid): a forged or replayed HEALTH does not clear a hang.
+  std::int64_t foreign_health = 0;
+  Subscription health_sub(
+      lcm, hpr::msg::channels::kHealth,
+      [&](const humanoid::health_t& h) {
+        if (!sup.started(h.node, h.pid)) {
+          ++foreign_health;
+          hpr::log::warn("HEALTH of {} from pid {} ignored: not the process this supervisor runs as {} ({} so far)", h.node, h.pid, h.node,
+                         foreign_health);
+          return;
+        }
+        sup.on_health(h.node, h.state, h.lifecycle, h.rate_hz, h.deadline_misses, h.faults, monotonic_s());
+      },
+      &key);
   const std::string& me = o.host;
   Subscription status_sub(lcm, hpr::msg::channels::kSupervisorStatus, [&](const Status& s) {
     if (s.host == me || s.group != group.name) return;
     for (int i = 0; i < s.num_processes; ++i) {
       sup.on_remote_ready(s.name[i], s.process_state[i] == Status::PROCESS_READY);
     }
-  });
+  }, &key);
   CommandIntake commands(lcm, key, me, group.name, sup);
   Damper damper(lcm, key, me);
 
@@ -278,7 +290,7 @@ int run_supervisor(const launch::GroupSpec& group, const Options& o, const std::
     }
     if (changed || now - last_status >= 0.5) {
       Status m = make_status(sup, ++seq, last_event, now);
-      lcm.publish(hpr::msg::channels::kSupervisorStatus.name, &m);
+      node::publish_signed(lcm, hpr::msg::channels::kSupervisorStatus.name, m, key);
       last_status = now;
       changed = false;
     }
@@ -288,7 +300,7 @@ int run_supervisor(const launch::GroupSpec& group, const Options& o, const std::
   Status m = make_status(sup, ++seq, commands.down_source.empty() ? "stopped" : "stopped: down by " + commands.down_source, monotonic_s());
   m.state = Status::STATE_STOPPED;
   for (int i = 0; i < 3; ++i) {
-    lcm.publish(hpr::msg::channels::kSupervisorStatus.name, &m);
+    node::publish_signed(lcm, hpr::msg::channels::kSupervisorStatus.name, m, key);
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
   std::cout << fmt::format("[{}] group '{}' stopped on host '{}'", now_text(), group.name, me) << std::endl;

@@ -34,6 +34,7 @@ ClosedLoop::ClosedLoop(const std::string& config_file, const std::vector<std::st
   (void)s.real_or("startup_timeout", 10.0, 0.0, 600.0);
   (void)s.real_or("duration", 0.0, 0.0, 1e7);
   (void)s.boolean_or("publish_truth", true);
+  (void)s.boolean_or("push_input", true);
   (void)s.string_or("scenario", "");
   cfg.check_all_read();
   if (estimator) estimate(sensors_as_received());

@@ -159,7 +159,12 @@ int run(const node::CommandLine& cl, const Config& cfg) {
   auto buses = hal::open_buses(config, true);
   hal::DriveEmulator emu(config, simulator, std::make_unique<hal::MitCodec>(), options);
 
+  const bool push_input = sim_cfg.boolean_or("push_input", true);
   rt.subscribe(msg::channels::kPush, {}, [&](const humanoid::push_t& p) {
+    if (!push_input) {
+      log::warn("PUSH {} refused: sim.push_input is off", p.id);
+      return;
+    }
     std::string why;
     const auto push = sim::from_message(p, robot.model, &why);
     if (!push) {

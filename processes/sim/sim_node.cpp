@@ -18,6 +18,7 @@ SimNodeOptions SimNodeOptions::load(const Config& c) {
   o.startup_timeout = c.real_or("startup_timeout", o.startup_timeout, 0.0, 600.0);
   o.duration = c.real_or("duration", o.duration, 0.0, 1e7);
   o.publish_truth = c.boolean_or("publish_truth", o.publish_truth);
+  o.push_input = c.boolean_or("push_input", o.push_input);
   if (c.has("scenario") && !c.string("scenario").empty()) o.scenario = c.file_path("scenario");
   return o;
 }
@@ -41,6 +42,10 @@ SimNode::SimNode(node::Runtime& rt, Simulator& sim, SimNodeOptions options, std:
       });
   command_in_->follow_ticks();  // a forged or corrupted tick is held back, never applied
   rt.subscribe(msg::channels::kPush, {}, [this](const humanoid::push_t& p) {
+    if (!options_.push_input) {
+      log::warn("PUSH {} refused: sim.push_input is off", p.id);
+      return;
+    }
     std::string why;
     const auto push = from_message(p, sim_.robot().model, &why);
     if (!push) {

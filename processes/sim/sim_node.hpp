@@ -25,6 +25,8 @@ struct SimNodeOptions {
   double duration = 0.0;          ///< [s] simulated time to run, 0 = until stopped
   bool publish_truth = true;
   std::string scenario;           ///< push scenario file
+  /// `sim.push_input`: whether PUSH messages are applied (a test input; off: refused and logged).
+  bool push_input = true;
   static SimNodeOptions load(const Config& sim_section);
 };
 

@@ -179,6 +179,14 @@ class Group {
 
 constexpr std::int64_t kForged = 1'000'000'000;
 
+/// A forger with the key who copies a live message's sender: its identity, with a message count
+/// far enough ahead of the live one's that the counter rule takes it for new (the tick and time
+/// rules are what must hold it).
+template <class Msg>
+void as_the_sender_ahead(Msg& m) {
+  m.source += 1'000'000;
+}
+
 /// Waits until the chain answers: a JOINT_COMMAND in run mode at least `ticks` past `from`.
 bool chain_runs(Watch& w, std::int64_t from, std::int64_t ticks, std::chrono::milliseconds timeout) {
   return w.wait_for([&] {
@@ -213,6 +221,9 @@ FAULTS_TEST(ForgedFutureTicksAreHeldAndARestartedSimulatorIsFollowed) {
   s.tick += kForged;
   e.tick += kForged;
   c.tick += kForged;
+  as_the_sender_ahead(s);
+  as_the_sender_ahead(e);
+  as_the_sender_ahead(c);
   w.publish("ROBOT_SENSORS", s);
   w.publish("ROBOT_STATE", e);
   w.publish("JOINT_COMMAND", c);
@@ -258,6 +269,9 @@ FAULTS_TEST(OneSampleWithAFarTimeInsideTheTickWindowIsHeldAndTheRobotStands) {
   ASSERT_GT(c.utime, 0) << "the wbc's commands carry no time: the time rule cannot hold them";
   for (auto* tick : {&s.tick, &e.tick, &c.tick}) *tick += 600;
   for (auto* utime : {&s.utime, &e.utime, &c.utime}) *utime += kFar;
+  as_the_sender_ahead(s);
+  as_the_sender_ahead(e);
+  as_the_sender_ahead(c);
   w.publish("ROBOT_SENSORS", s);
   w.publish("ROBOT_STATE", e);
   w.publish("JOINT_COMMAND", c);
@@ -284,17 +298,17 @@ FAULTS_TEST(ASecondSenderInsideTheTickWindowIsHeldAndTheRobotStands) {
   ASSERT_TRUE(r.started());
   Watch& w = r.w;
   Group& g = r.g;
-  constexpr std::int64_t kStray = 0x5eed;
+  constexpr std::int64_t kStray = std::int64_t{0x5eed} << 32;  // its identity (the upper 32 bits)
   constexpr int kEach = 50;
   for (int k = 1; k <= kEach; ++k) {
     humanoid::robot_sensors_t s = w.sensors;
-    s.source = kStray;
+    s.source = kStray | k;
     s.tick += 2;
     s.utime += 2000;
     std::fill(s.q.begin(), s.q.end(), 0.0);
     w.publish("ROBOT_SENSORS", s);
     humanoid::joint_command_t c = w.command;
-    c.source = kStray;
+    c.source = kStray | k;
     c.tick += 2;
     std::fill(c.kp.begin(), c.kp.end(), 0.0);
     std::fill(c.kd.begin(), c.kd.end(), 0.0);
@@ -313,7 +327,7 @@ FAULTS_TEST(ASecondSenderInsideTheTickWindowIsHeldAndTheRobotStands) {
                                       << w.health["sim_bullet"].decode_errors;
   for (const char* n : {"estimator", "sim_bullet"}) {
     const std::string log = g.log(n);
-    EXPECT_NE(log.find("0000000000005eed is not the stream's source"), std::string::npos) << n << " did not say why:\n" << log;
+    EXPECT_NE(log.find("source 00005eed is not the stream's source"), std::string::npos) << n << " did not say why:\n" << log;
     EXPECT_EQ(log.find("following tick"), std::string::npos) << n << " followed the second sender:\n" << log;
   }
 }
@@ -469,11 +483,12 @@ FAULTS_TEST(TheBackendRestartedAfterEachProbeResumesStanding) {
       humanoid::robot_sensors_t s = w.sensors;
       s.tick += 200;
       s.utime += std::int64_t{1} << 58;
+      as_the_sender_ahead(s);
       w.publish("ROBOT_SENSORS", s);
     } else if (probe == 1) {  // a second sender a tick ahead of the live one
       for (int k = 0; k < 20; ++k) {
         humanoid::robot_sensors_t s = w.sensors;
-        s.source = 0x5eed;
+        s.source = (std::int64_t{0x5eed} << 32) | k;
         s.tick += 1;
         w.publish("ROBOT_SENSORS", s);
         w.wait_for([] { return false; }, 2ms);
@@ -569,6 +584,69 @@ FAULTS_TEST(AStoppedWbcIsHungAndTheSupervisorDampsWithinTwiceItsHangTime) {
   EXPECT_TRUE(w.wait_for([&] { return w.health["wbc"].lifecycle == humanoid::health_t::LIFECYCLE_DAMPING; }, 5s))
       << "wbc lifecycle " << static_cast<int>(w.health["wbc"].lifecycle);
   EXPECT_EQ(static_cast<int>(w.health["estimator"].lifecycle), int{humanoid::health_t::LIFECYCLE_RUNNING});
+}
+
+// The attack on the supervisor: while the wbc is stopped, HEALTH in its name saying "ok, running"
+// every 20 ms, without the key and with it but from another process. The supervisor takes neither
+// (HEALTH is signed, and taken only from the pid it started under that name) and still damps.
+FAULTS_TEST(AForgedHealthForAHungWbcDoesNotKeepTheSupervisorFromDamping) {
+  const std::string url = hpr::test::unique_lcm_url();
+  Watch w(url);
+  Group g(url);
+  ASSERT_TRUE(g.up()) << g.up_text();
+  ASSERT_TRUE(chain_runs(w, 0, 500, 30s)) << "the chain did not start: " << chain_said(w);
+  const int wbc = g.pid("wbc");
+  ASSERT_GT(wbc, 0);
+  humanoid::health_t forged = w.health["wbc"];
+  ASSERT_EQ(forged.node, "wbc");
+  forged.state = humanoid::health_t::STATE_OK;
+  forged.lifecycle = humanoid::health_t::LIFECYCLE_RUNNING;
+  forged.pid = static_cast<std::int32_t>(::getpid());
+  humanoid::health_t unsigned_copy = forged;
+  unsigned_copy.pid = wbc;  // the right pid, but no code
+  const auto stopped = Clock::now();
+  ASSERT_EQ(::kill(wbc, SIGSTOP), 0);
+  auto next = Clock::now();
+  const bool damped = w.wait_for(
+      [&] {
+        if (Clock::now() >= next) {  // every 20 ms, as often as a node sends HEALTH and more
+          next += 20ms;
+          forged.utime = hpr::wall_us();
+          unsigned_copy.utime = forged.utime;
+          w.publish("HEALTH", forged);
+          w.publish_unsigned("HEALTH", unsigned_copy);
+        }
+        return w.first_damp.has_value();
+      },
+      5s);
+  ::kill(wbc, SIGCONT);
+  ASSERT_TRUE(damped) << "the forged HEALTH kept the supervisor from damping";
+  const double s = std::chrono::duration<double>(*w.first_damp - stopped).count();
+  EXPECT_LT(s, 2.0 * kWbcHungAfterS);
+  EXPECT_NE(w.damp_reason.find("wbc (critical) hung"), std::string::npos) << w.damp_reason;
+  EXPECT_NE(g.log("supervisor").find("HEALTH of wbc from pid " + std::to_string(::getpid()) + " ignored"), std::string::npos)
+      << g.log("supervisor");
+}
+
+// A node reports what it does: with the estimator killed, the wbc (stepped by ROBOT_STATE) says
+// within seconds that it is not stepping and waits, instead of "ok, running".
+FAULTS_TEST(AKilledEstimatorLeavesTheWbcReportingThatItWaits) {
+  const std::string url = hpr::test::unique_lcm_url();
+  Watch w(url);
+  Group g(url);
+  ASSERT_TRUE(g.up()) << g.up_text();
+  ASSERT_TRUE(chain_runs(w, 0, 500, 30s)) << "the chain did not start: " << chain_said(w);
+  ASSERT_EQ(static_cast<int>(w.health["wbc"].lifecycle), int{humanoid::health_t::LIFECYCLE_RUNNING});
+  const int estimator = g.pid("estimator");
+  ASSERT_GT(estimator, 0);
+  ASSERT_EQ(::kill(estimator, SIGKILL), 0);
+  const auto said = [&] {
+    const humanoid::health_t& h = w.health["wbc"];
+    const bool not_stepping = std::any_of(h.faults.begin(), h.faults.end(), [](const std::string& f) { return f.find("not stepping") == 0; });
+    return h.lifecycle == humanoid::health_t::LIFECYCLE_WAITING && h.state == humanoid::health_t::STATE_DEGRADED && not_stepping;
+  };
+  EXPECT_TRUE(w.wait_for(said, 5s)) << "wbc lifecycle " << static_cast<int>(w.health["wbc"].lifecycle) << ", state "
+                                    << static_cast<int>(w.health["wbc"].state);
 }
 
 // The planner is critical (config/groups.yaml): the wbc has no plan to follow without it. Killed,

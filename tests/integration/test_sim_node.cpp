@@ -40,6 +40,7 @@ struct HoldController {
     command_.tick = s.tick;
     humanoid::joint_command_t m;
     hpr::msg::to_message(command_, names_, m);
+    lcm_.stamp(m);  // as the wbc would: its identity and message count
     lcm_.publish("JOINT_COMMAND", m);
   }
   LcmListener& lcm_;
@@ -168,12 +169,14 @@ TEST(SimNode, ACommandTheHalRefusesIsRefusedByTheSimulatorWithTheHalsReason) {
   humanoid::joint_command_t m;
   c.tick = truth->back().tick;
   hpr::msg::to_message(c, names, m);
+  lcm.stamp(m);
   lcm.publish("JOINT_COMMAND", m);
   ASSERT_TRUE(lcm.wait_for([&] { return !health->empty() && health->back().decode_errors == 1; }, 5s));
   c.kp(4) = 900.0;  // inside [0, 1000]
   ASSERT_TRUE(hpr::hal::check_command(c, hal.drives, hal.controlled).empty());
   c.tick = truth->back().tick;
   hpr::msg::to_message(c, names, m);
+  lcm.stamp(m);
   lcm.publish("JOINT_COMMAND", m);
   lcm.spin_for(300ms);
   EXPECT_EQ(health->back().decode_errors, 1) << "a command inside the hal's ranges was refused";

@@ -140,8 +140,9 @@ TEST(Supervisor, UpStatusCriticalDeathRecordAndDownLeaveNothingBehind) {
     EXPECT_NE(spy.out.find(std::string("\n") + c + " "), std::string::npos) << c << " not seen by lcm-spy:\n" << spy.out;
   }
 
-  // 300 messages on HEALTH that do not decode: the supervisor counts them and says so a few times a
-  // second with the count (not LCM's own line per message), and its group stays up.
+  // 300 messages on HEALTH that are not the stack's (no code: HEALTH is signed): the supervisor
+  // counts them and says so a few times a second with the count (not LCM's own line per message),
+  // and its group stays up.
   for (int k = 0; k < 300; ++k) {
     const std::uint8_t junk[3] = {1, 2, static_cast<std::uint8_t>(k)};
     lcm.lcm().publish("HEALTH", junk, sizeof(junk));
@@ -150,8 +151,8 @@ TEST(Supervisor, UpStatusCriticalDeathRecordAndDownLeaveNothingBehind) {
   {
     const std::string text = hpr::test::read_file(run_dir + "/supervisor.log");
     int lines = 0;
-    for (auto p = text.find("HEALTH: a message of 3 bytes is not a valid health_t"); p != std::string::npos;
-         p = text.find("HEALTH: a message of 3 bytes is not a valid health_t", p + 1)) {
+    for (auto p = text.find("HEALTH: a message of 3 bytes refused: no valid authentication code"); p != std::string::npos;
+         p = text.find("HEALTH: a message of 3 bytes refused: no valid authentication code", p + 1)) {
       ++lines;
     }
     EXPECT_GE(lines, 2) << text;

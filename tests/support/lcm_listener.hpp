@@ -6,6 +6,7 @@
 #include <chrono>
 #include <functional>
 #include <memory>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -42,6 +43,12 @@ class LcmListener {
       lcm_.publish(channel, &m);
     }
   }
+  /// Stamps `m` as a process's Output does: this endpoint's identity and its next message count
+  /// (a test that stands in for a process of the stack).
+  template <class Msg>
+  void stamp(Msg& m) {
+    m.source = static_cast<std::int64_t>((std::uint64_t{identity_} << 32) | ++count_);
+  }
   /// Publishes `m` as it is, with whatever its `mac` holds (a sender without the key).
   template <class Msg>
   void publish_unsigned(const std::string& channel, const Msg& m) {
@@ -71,6 +78,8 @@ class LcmListener {
 
  private:
   std::unique_ptr<hpr::auth::Key> key_;
+  std::uint32_t identity_ = std::random_device{}() | 0x80000000U;  // never 0 (unstamped)
+  std::uint32_t count_ = 0;
   template <class Msg>
   struct Handler {
     std::shared_ptr<std::vector<Msg>> out;

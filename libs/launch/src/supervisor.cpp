@@ -116,6 +116,13 @@ bool Supervisor::dependency_ready(const std::string& name) const {
   return std::find(remote_ready_.begin(), remote_ready_.end(), name) != remote_ready_.end();
 }
 
+bool Supervisor::started(const std::string& health_node, pid_t pid) const {
+  for (std::size_t i = 0; i < status_.size(); ++i) {
+    if (slots_[i].spec->health_node == health_node && pid != 0 && status_[i].pid == pid) return true;
+  }
+  return false;
+}
+
 void Supervisor::on_remote_ready(const std::string& name, bool ready) {
   const auto it = std::find(remote_ready_.begin(), remote_ready_.end(), name);
   if (ready && it == remote_ready_.end()) remote_ready_.push_back(name);

@@ -105,6 +105,7 @@ void Health::followed(const InputBase& in, std::int64_t old_tick, std::int64_t n
 void Health::record_step(std::int64_t tick, double seconds) {
   ++steps_;
   last_tick_ = tick;
+  last_step_time_ = monotonic_s();
   cycle_.add(seconds * 1e6);
   if (seconds > deadline_s_) ++deadline_misses_;
 }
@@ -132,6 +133,15 @@ void Health::publish(bool stopping, bool own_clock) {
     h.faults.push_back(f.text);
     fatal = fatal || f.fatal;
   }
+  // A node its inputs step, which has stepped and then stopped (an upstream process killed): it
+  // waits, and says so, rather than report the last step's "running" for as long as one looks.
+  const bool stalled = !own_clock && !stopping && steps_ > 0 && now - last_step_time_ > kStalledAfterS;
+  if (stalled) {
+    h.faults.push_back(fmt::format("not stepping: the last step (tick {}) was {:.1f} s ago; its inputs are silent", last_tick_,
+                                   now - last_step_time_));
+    const Lifecycle before = lifecycle_.state();
+    if (before != Lifecycle::kWaiting && before != Lifecycle::kStopped) log_lifecycle(lifecycle_.on_restart(), before);
+  }
   h.num_faults = static_cast<int32_t>(h.faults.size());
   if (stopping) {
     const Lifecycle before = lifecycle_.state();
@@ -139,7 +149,7 @@ void Health::publish(bool stopping, bool own_clock) {
     h.state = humanoid::health_t::STATE_STOPPING;
   } else if (fatal) {
     h.state = humanoid::health_t::STATE_FAULT;
-  } else if (!faults_.empty()) {
+  } else if (!faults_.empty() || stalled) {
     h.state = humanoid::health_t::STATE_DEGRADED;
   } else {
     h.state = steps_ > 0 || own_clock ? humanoid::health_t::STATE_OK : humanoid::health_t::STATE_STARTING;

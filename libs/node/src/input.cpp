@@ -79,25 +79,34 @@ std::string InputBase::implausible_time(std::int64_t tick, std::int64_t utime, d
 }
 
 std::string InputBase::second_source(std::int64_t source) const {
-  if (tick_ < 0 || source == source_) return {};
-  return fmt::format("source {:016x} is not the stream's source {:016x} (a second sender on the channel)",
-                     static_cast<std::uint64_t>(source), static_cast<std::uint64_t>(source_));
+  if (tick_ < 0 || source_identity(source) == source_identity(source_)) return {};
+  return fmt::format("source {:08x} is not the stream's source {:08x} (a second sender on the channel)", source_identity(source),
+                     source_identity(source_));
 }
 
 bool InputBase::retired(std::int64_t source) const {
-  return source != 0 && std::find(retired_.begin(), retired_.end(), source) != retired_.end();
+  const std::uint32_t id = source_identity(source);
+  return id != 0 && std::find(retired_.begin(), retired_.end(), id) != retired_.end();
+}
+
+std::string InputBase::replay(std::int64_t source, std::int64_t tick) const {
+  const std::uint32_t id = source_identity(source);
+  if (tick_ < 0 || id == 0) return {};  // 0: unstamped (a tool's or a test's message), judged by its ticks alone
+  if (retired(source)) {
+    // A restarted process draws a new identity: one the input followed once and left is a replay.
+    return fmt::format("tick {} of source {:08x}, a source this input followed once and left: a replay, never followed", tick, id);
+  }
+  if (id != source_identity(source_)) return {};
+  // The sender's counter goes up by one a message (modulo 2^32): one that is not ahead of the
+  // latest taken is a copy or a recording. (Its ticks may go back: its upstream restarted.)
+  const std::uint32_t ahead = source_counter(source) - source_counter(source_);
+  if (ahead != 0 && ahead < 0x80000000U) return {};
+  return fmt::format("tick {} of source {:08x} is message {} of its sender, not after message {} taken: a replay, never followed", tick,
+                     id, source_counter(source), source_counter(source_));
 }
 
 void InputBase::hold(std::size_t bytes, std::int64_t tick, std::int64_t source, const std::string& why) {
   const double now = monotonic_s();
-  // A restarted process draws a new identity: one the input followed once and left is a replay.
-  // (The followed source's own ticks may go back: its upstream restarted.)
-  if (tick_ >= 0 && retired(source)) {
-    ++replays_;
-    reject(bytes, fmt::format("tick {} of source {:016x}, a source this input followed once and left: a replay, never followed", tick,
-                              static_cast<std::uint64_t>(source)));
-    return;
-  }
   held_ = true;
   held_tick_ = tick;
   held_source_ = source;
@@ -122,8 +131,8 @@ void InputBase::follow_if_quiet(double now) {
   if (!held_ || now < follow_time()) return;
   const std::int64_t old_tick = tick_, new_tick = held_tick_;
   const double quiet = now - advance_time_;
-  if (source_ != 0 && source_ != held_source_) {
-    retired_[retired_next_] = source_;
+  if (source_identity(source_) != 0 && source_identity(source_) != source_identity(held_source_)) {
+    retired_[retired_next_] = source_identity(source_);
     retired_next_ = (retired_next_ + 1) % retired_.size();
   }
   restart_stream();

@@ -49,7 +49,7 @@ Transport::Transport(const Ports& declared, std::string node, const std::string&
     };
   }
   std::random_device entropy;
-  while (source_id_ == 0) source_id_ = static_cast<std::int64_t>((std::uint64_t{entropy()} << 32) | entropy());
+  while (source_id_ == 0) source_id_ = static_cast<std::int64_t>(std::uint64_t{entropy()} << 32);
 }
 
 Transport::~Transport() = default;

@@ -15,6 +15,7 @@
 #include <humanoid/robot_state_t.hpp>
 #include <humanoid/sim_truth_t.hpp>
 #include <humanoid/supervisor_command_t.hpp>
+#include <humanoid/supervisor_status_t.hpp>
 #include <humanoid/wholebody_command_t.hpp>
 #include <sys/stat.h>
 #include <sys/wait.h>
@@ -56,9 +57,10 @@ std::vector<std::uint8_t> code_of(std::string_view channel, std::vector<std::uin
   return {bytes.end() - hpr::auth::kTagBytes, bytes.end()};
 }
 
-// Every message a process acts on carries a code: the commands and every clocked channel of the
-// control chain (a forged or corrupted sample is as dangerous as a forged command). Reports that no
-// process acts on (HEALTH, PARAMS, SUPERVISOR_STATUS) and the simulator's test push are not signed.
+// Every message a process acts on carries a code: the commands, every clocked channel of the
+// control chain (a forged or corrupted sample is as dangerous as a forged command), and the reports
+// the supervisors act on (HEALTH, SUPERVISOR_STATUS). PARAMS (read by the operator tool) and the
+// simulator's test push are not signed.
 static_assert(hpr::auth::Signed<humanoid::joint_command_t>);
 static_assert(hpr::auth::Signed<humanoid::operator_t>);
 static_assert(hpr::auth::Signed<humanoid::supervisor_command_t>);
@@ -69,7 +71,8 @@ static_assert(hpr::auth::Signed<humanoid::cam_reference_t>);
 static_assert(hpr::auth::Signed<humanoid::wholebody_command_t>);
 static_assert(hpr::auth::Signed<humanoid::sim_truth_t>);
 static_assert(hpr::auth::Signed<humanoid::hal_status_t>);
-static_assert(!hpr::auth::Signed<humanoid::health_t>);
+static_assert(hpr::auth::Signed<humanoid::health_t>);  // the supervisor acts on it
+static_assert(hpr::auth::Signed<humanoid::supervisor_status_t>);
 
 TEST(Auth, TheCodeIsKeyedBlake2b256AsAnIndependentImplementationComputesIt) {
   // The code covers the channel's length (one byte), its name, then the message:

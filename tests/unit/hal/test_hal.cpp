@@ -245,7 +245,7 @@ TEST(Hal, APositionBeyondTheDrivesReachSinceItsLastReplyIsRefused) {
   const auto j = static_cast<std::size_t>(r.robot.model.joint_index("r_knee"));
   const auto& d = r.config.drives[j];
   const double q_before = r.h->sensors().q(static_cast<Eigen::Index>(j));
-  const double reach = std::max(std::abs(d.limits.v_min), d.limits.v_max) * 1e-3;  // one tick at full speed
+  const double reach = 20.0 * std::max(std::abs(d.limits.v_min), d.limits.v_max) * 1e-3;  // one tick: 20 × the velocity range
   hal::MitCodec codec;
   double offset = 3.0 * reach;
   r.after_replies = [&](Rig& rig) {

@@ -100,6 +100,11 @@ TEST(Supervisor, StartsInDependencyOrderOnceEachIsReady) {
   EXPECT_EQ(f.st("a").state, ProcessState::kStarting);
   EXPECT_EQ(f.st("b").state, ProcessState::kWaiting) << "b must wait for a's HEALTH";
   EXPECT_TRUE(alive(f.st("a").pid));
+  // HEALTH is taken from the process started under the node's name only (its pid).
+  EXPECT_TRUE(f.sup->started("a", f.st("a").pid));
+  EXPECT_FALSE(f.sup->started("a", f.st("a").pid + 1));
+  EXPECT_FALSE(f.sup->started("b", f.st("a").pid)) << "b is not running";
+  EXPECT_FALSE(f.sup->started("a", 0));
   f.run_until([] { return false; }, 0.1);
   EXPECT_EQ(f.st("b").state, ProcessState::kWaiting);
   f.sup->on_health("a", 1, 2, 1000.0, 3, {}, hpr::monotonic_s());

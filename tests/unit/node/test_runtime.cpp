@@ -55,14 +55,26 @@ class TickStream : public ::testing::Test {
     return o;
   }
 
-  /// A sample of `tick` at 1 ms per tick, or at `utime` [us], from publisher `source`.
-  void send(std::int64_t tick, const std::string& channel = "SENSORS", std::optional<std::int64_t> utime = {},
-            std::int64_t source = 0) {
+  /// A sample of `tick` at 1 ms per tick, or at `utime` [us], from publisher `source` (its identity,
+  /// the upper 32 bits; a stamped one gets the next message count in the lower 32, as a publisher's
+  /// Output stamps it). Returns the source sent.
+  std::int64_t send(std::int64_t tick, const std::string& channel = "SENSORS", std::optional<std::int64_t> utime = {},
+                    std::int64_t source = 0) {
     humanoid::robot_sensors_t m{};
     m.tick = tick;
     m.utime = utime.value_or(tick * 1000);
-    m.source = source;
+    m.source = hpr::node::source_identity(source) == 0 ? source : static_cast<std::int64_t>((static_cast<std::uint64_t>(source) >> 32 << 32) | ++counter);
     inject(rt, channel, m);
+    rt.spin_once(0.0);
+    return m.source;
+  }
+  /// A sample sent with `source` exactly as it is (a recording played back).
+  void send_exactly(std::int64_t tick, std::int64_t source) {
+    humanoid::robot_sensors_t m{};
+    m.tick = tick;
+    m.utime = tick * 1000;
+    m.source = source;
+    inject(rt, "SENSORS", m);
     rt.spin_once(0.0);
   }
   void send_balance(std::int64_t tick) {
@@ -75,6 +87,7 @@ class TickStream : public ::testing::Test {
   Runtime rt{kTestPorts, "test", "memq://", options()};
   hpr::node::Input<humanoid::robot_sensors_t>& sensors = rt.subscribe(kSensors);
   std::vector<std::int64_t> stepped;
+  std::uint32_t counter = 0;
 };
 
 TEST_F(TickStream, AForgedFutureTickIsHeldCountedAndNeverStepped) {
@@ -167,7 +180,7 @@ TEST_F(TickStream, ASecondSourceInsideTheWindowIsHeldUntilTheFollowedOneIsQuiet)
   rt.on_restart(sensors, [&] { ++restarts; });
   rt.on_tick(sensors, {}, 0.0, [&](const hpr::node::TickInfo& info) { stepped.push_back(info.tick); });
   for (int k = 1; k <= 100; ++k) send(k, "SENSORS", {}, kReal);
-  EXPECT_EQ(sensors.source(), kReal);
+  EXPECT_EQ(sensors.source(), kReal);  // unstamped: no counter
   for (int k = 101; k <= 200; ++k) {
     send(k + 1, "SENSORS", {}, kOther);  // one tick ahead of the real one: in the window, a plausible time
     send(k, "SENSORS", {}, kReal);
@@ -177,47 +190,60 @@ TEST_F(TickStream, ASecondSourceInsideTheWindowIsHeldUntilTheFollowedOneIsQuiet)
   EXPECT_EQ(sensors.second_sources(), 100);
   EXPECT_EQ(sensors.out_of_window(), 100);
   EXPECT_EQ(sensors.follows(), 0);
-  EXPECT_NE(sensors.last_error().find("source ffffffffffffffb3 is not the stream's source 0000000000001234"), std::string::npos)
+  EXPECT_NE(sensors.last_error().find("source ffffffff is not the stream's source 00000000"), std::string::npos)
       << sensors.last_error();
   EXPECT_TRUE(rt.has_fault("decode:SENSORS"));
   // The real source stops and the other goes on: it is followed once the stream has been quiet long enough.
   send(202, "SENSORS", {}, kOther);
   ASSERT_TRUE(rt.spin_until([&] { return sensors.follows() == 1; }, 5.0));
-  EXPECT_EQ(sensors.source(), kOther);
+  EXPECT_EQ(hpr::node::source_identity(sensors.source()), hpr::node::source_identity(kOther));
   EXPECT_EQ(restarts, 1);
   EXPECT_EQ(stepped.back(), 202);
   send(203, "SENSORS", {}, kOther);
   EXPECT_EQ(stepped.back(), 203);
 }
 
-// The attack: the stream recorded (signed, with its source and consistent ticks and times), then
-// played back while the real source is stopped for 0.5 s. A recording of a source the input has
-// left (the process before its restart) is never followed, each message counted; the real source,
-// back, runs on.
-TEST_F(TickStream, ARecordedStreamOfALeftSourceIsNeverFollowed) {
-  constexpr std::int64_t kBefore = 0x0badc0de, kLive = 0x5eed;
+// The attack: the stream recorded (signed, with its sources and consistent ticks and times), then
+// played back while the real source is stopped for 0.5 s: the live source's own past (its counter is
+// behind the latest taken) and the process before its restart (a source the input left). Never
+// followed, each message counted; the real source, back, runs on.
+TEST_F(TickStream, ARecordedStreamPlayedWhileTheSourceIsStoppedIsNeverFollowed) {
+  constexpr std::int64_t kBefore = std::int64_t{0x0badc0de} << 32, kLive = std::int64_t{0x5eed} << 32;
   rt.on_tick(sensors, {}, 0.0, [&](const hpr::node::TickInfo& info) { stepped.push_back(info.tick); });
-  for (int k = 1; k <= 300; ++k) send(k, "SENSORS", {}, kBefore);
+  std::vector<std::pair<std::int64_t, std::int64_t>> recording;  // (tick, source) as sent
+  for (int k = 1; k <= 300; ++k) recording.emplace_back(k, send(k, "SENSORS", {}, kBefore));
   // The source restarts (a new identity) and is followed.
   send(0, "SENSORS", {}, kLive);
   ASSERT_TRUE(rt.spin_until([&] { return sensors.follows() == 1; }, 5.0));
-  for (int k = 1; k <= 100; ++k) send(k, "SENSORS", {}, kLive);
-  ASSERT_EQ(stepped.back(), 100);
-  // Stopped for 0.5 s; meanwhile the recording of the stream before the restart is played.
+  for (int k = 1; k <= 300; ++k) recording.emplace_back(k, send(k, "SENSORS", {}, kLive));
+  ASSERT_EQ(stepped.back(), 300);
+  // Stopped for 0.5 s; meanwhile the recording is played, message by message, both sources.
   const double end = hpr::monotonic_s() + 0.5;
   std::int64_t played = 0;
-  for (int k = 1; hpr::monotonic_s() < end; k = k % 300 + 1) {
-    send(k, "SENSORS", {}, kBefore);
+  for (std::size_t k = 0; hpr::monotonic_s() < end; k = (k + 7) % recording.size()) {
+    send_exactly(recording[k].first, recording[k].second);
     ++played;
     std::this_thread::sleep_for(std::chrono::microseconds(500));
   }
-  EXPECT_EQ(stepped.back(), 100) << "a replayed tick was stepped";
+  EXPECT_EQ(stepped.back(), 300) << "a replayed tick was stepped";
   EXPECT_EQ(sensors.follows(), 1) << "the recording was followed";
-  EXPECT_EQ(sensors.source(), kLive);
+  EXPECT_EQ(hpr::node::source_identity(sensors.source()), hpr::node::source_identity(kLive));
   EXPECT_EQ(sensors.replays(), played);
   EXPECT_NE(sensors.last_error().find("a replay, never followed"), std::string::npos) << sensors.last_error();
-  send(101, "SENSORS", {}, kLive);
-  EXPECT_EQ(stepped.back(), 101);
+  send(301, "SENSORS", {}, kLive);
+  EXPECT_EQ(stepped.back(), 301);
+}
+
+// A process whose upstream restarted goes on with its own identity and counter while its ticks go
+// back: followed, not taken for a replay.
+TEST_F(TickStream, TheSameSourceWhoseTicksGoBackWithItsCounterAheadIsFollowed) {
+  constexpr std::int64_t kEstimator = std::int64_t{0x0e57} << 32;
+  rt.on_tick(sensors, {}, 0.0, [&](const hpr::node::TickInfo& info) { stepped.push_back(info.tick); });
+  for (int k = 1; k <= 500; ++k) send(k, "SENSORS", {}, kEstimator);
+  send(0, "SENSORS", {}, kEstimator);
+  ASSERT_TRUE(rt.spin_until([&] { return sensors.follows() == 1; }, 5.0));
+  EXPECT_EQ(stepped.back(), 0);
+  EXPECT_EQ(sensors.replays(), 0);
 }
 
 // What a process publishes carries its identity, at the offset the readers' rule assumes, for every
@@ -235,7 +261,13 @@ TEST(SourceIdentity, OutputsStampTheProcessIdentityOnEveryClockedType) {
   out.publish(m);
   a.spin_once(0.0);
   ASSERT_EQ(in.count(), 1);
-  EXPECT_EQ(in.latest().source, a.source_id());
+  // The identity in the upper 32 bits, the process's message count (its first message) in the lower.
+  EXPECT_EQ(in.latest().source, a.source_id() | 1);
+  EXPECT_EQ(hpr::node::source_counter(a.source_id()), 0U);
+  out.publish(m);
+  a.spin_once(0.0);
+  ASSERT_EQ(in.count(), 2);
+  EXPECT_EQ(in.latest().source, a.source_id() | 2) << "the next message, the next count";
   // Every type: a Sourced one decodes the stamped identity (bytes 24-31), with every other field as
   // it was; the list of Sourced types is the clocked channels.
   std::vector<std::string> sourced;
@@ -606,6 +638,32 @@ TEST(Authentication, AnInputOfASignedTypeTakesOnlyWhatTheKeySigned) {
   ASSERT_TRUE(health.has_value());
   EXPECT_EQ(health.latest().unauthenticated, 3);
   EXPECT_EQ(health.latest().decode_errors, 3);
+}
+
+// The attack: two stacks on one LCM group, separated by their channel prefixes, sharing one key.
+// A message of one stack copied onto the other's channel is refused: its code covers the channel.
+TEST(Authentication, TwoPrefixedStacksWithOneKeyRefuseEachOthersMessages) {
+  (void)hpr::auth::load_or_create_key(hpr::auth::key_path());
+  RuntimeOptions a_options, b_options;
+  a_options.channel_prefix = "a/";
+  b_options.channel_prefix = "b/";
+  Runtime a{kTestPorts, "a", "memq://", a_options};
+  Runtime b{kTestPorts, "b", "memq://", b_options};
+  auto& in = a.subscribe(kOperator);
+  humanoid::operator_t m = enable_request();
+  std::vector<std::uint8_t> bytes;
+  const int n = hpr::node::encode_message(m, bytes, b.transport().channel("OPERATOR"), b.deployment_key());
+  ASSERT_GT(n, 0);
+  a.transport().publish_bytes("OPERATOR", bytes.data(), static_cast<std::size_t>(n));  // onto a/OPERATOR
+  a.spin_once(0.0);
+  EXPECT_EQ(in.count(), 0);
+  EXPECT_EQ(in.unauthenticated(), 1);
+  // The same message signed for a/OPERATOR is taken.
+  m.utime = hpr::wall_us();
+  const int k = hpr::node::encode_message(m, bytes, a.transport().channel("OPERATOR"), a.deployment_key());
+  a.transport().publish_bytes("OPERATOR", bytes.data(), static_cast<std::size_t>(k));
+  a.spin_once(0.0);
+  EXPECT_EQ(in.count(), 1);
 }
 
 TEST(Authentication, OffTakesAnySenderAndSignsNothing) {

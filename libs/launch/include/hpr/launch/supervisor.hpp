@@ -81,6 +81,8 @@ class Supervisor {
                  const std::vector<std::string>& faults, double now);
   /// A process of this group that another host runs became ready (or stopped being ready).
   void on_remote_ready(const std::string& name, bool ready);
+  /// Whether `pid` is the running process this supervisor started whose HEALTH names `health_node`.
+  [[nodiscard]] bool started(const std::string& health_node, pid_t pid) const;
 
   std::vector<SupervisorEvent> take_events();
   [[nodiscard]] GroupState state() const { return state_; }

@@ -84,6 +84,10 @@ class Health {
   std::int64_t steps_ = 0, last_tick_ = -1, deadline_misses_ = 0, stale_inputs_ = 0;
   std::int64_t steps_at_rate_time_ = 0;
   double rate_time_ = 0.0, rate_hz_ = 0.0, last_refusal_log_ = -1e9;
+  double last_step_time_ = 0.0;  ///< [s, monotonic] of the latest step
+  /// [s] A node stepped by its inputs that has not stepped for this long says so in HEALTH (not
+  /// stepping, waiting): what it does, not what it did.
+  static constexpr double kStalledAfterS = 1.0;
 };
 
 }  // namespace hpr::node

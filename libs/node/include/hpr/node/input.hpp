@@ -90,8 +90,8 @@ class InputBase {
   [[nodiscard]] std::int64_t source() const { return source_; }
   /// Messages refused for a missing or wrong authentication code (included in errors()).
   [[nodiscard]] std::int64_t unauthenticated() const { return unauthenticated_; }
-  /// Stream messages refused as replays of a source the input left (included in errors()); never
-  /// followed.
+  /// Stream messages refused as replays (included in errors()), never followed: of a source the
+  /// input left, or of the followed source with a counter not after the latest taken.
   [[nodiscard]] std::int64_t replays() const { return replays_; }
   /// Commands refused as stale or replayed (included in errors()); stops taken although stale.
   [[nodiscard]] std::int64_t stale_commands() const { return stale_commands_; }
@@ -115,11 +115,13 @@ class InputBase {
   /// Why a message of `source` is not the stream's (empty: it is, or the stream follows none yet).
   [[nodiscard]] std::string second_source(std::int64_t source) const;
   /// Counts and reports a message of `source` held back for its tick or its time (only the newest
-  /// is kept). A replay is refused outright, never held to be followed: a message of a source the
-  /// input followed once and left (a restarted process draws a new identity, so it is no restart).
+  /// is kept).
   void hold(std::size_t bytes, std::int64_t tick, std::int64_t source, const std::string& why);
-  /// Whether the input followed `source` once and left it.
+  /// Whether the input followed `source`'s identity once and left it.
   [[nodiscard]] bool retired(std::int64_t source) const;
+  /// Why a stream message of `source` at `tick` is a replay (empty: it is not): its sender is one
+  /// the input left, or it is the followed sender's and its counter is not after the latest taken.
+  [[nodiscard]] std::string replay(std::int64_t source, std::int64_t tick) const;
   /// When a stream is held and the accepted one has been quiet long enough: follows it.
   void follow_if_quiet(double now);
   /// Monotonic time at which follow_if_quiet() may follow the held stream (inf: nothing held).
@@ -149,7 +151,7 @@ class InputBase {
   std::int64_t unauthenticated_ = 0, second_sources_ = 0;
   std::int64_t source_ = 0;
   std::int64_t stale_commands_ = 0, stale_stops_ = 0, copies_ = 0, replays_ = 0;
-  std::array<std::int64_t, 16> retired_{};  ///< sources followed once and left, newest at retired_next_ - 1
+  std::array<std::uint32_t, 16> retired_{};  ///< identities followed once and left, newest at retired_next_ - 1
   std::size_t retired_next_ = 0;
   std::int64_t held_source_ = 0;
   CommandFreshness freshness_;
@@ -201,6 +203,11 @@ class Input final : public InputBase {
     if (why.empty() && stream_) {
       std::string held_why;
       if constexpr (Sourced<Msg>) {
+        if (const std::string replayed = replay(spare_.source, spare_.tick); !replayed.empty()) {
+          ++replays_;
+          reject(size, replayed);
+          return;
+        }
         held_why = second_source(spare_.source);
         if (!held_why.empty()) ++second_sources_;
       }

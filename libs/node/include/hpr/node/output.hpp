@@ -6,7 +6,9 @@
 
 #include <lcm/lcm-cpp.hpp>
 
+#include <atomic>
 #include <concepts>
+#include <memory>
 #include <cstdint>
 #include <string>
 #include <string_view>
@@ -17,7 +19,10 @@
 
 namespace hpr::node {
 
-/// An lcm-gen type whose third field is `int64_t source` (the publisher's identity, bytes 24-31).
+/// An lcm-gen type whose third field is `int64_t source` (bytes 24-31): the publisher's identity in
+/// its upper 32 bits (random, drawn at the process's start; 0: unstamped, a tool's or a test's
+/// message) and in its lower 32 bits the publisher's message counter, which goes up by one with
+/// every message the process publishes (docs/SAFETY.md, "Replayed messages").
 template <class Msg>
 concept Sourced = requires(const Msg& m) {
   { m.source } -> std::convertible_to<std::int64_t>;
@@ -64,16 +69,26 @@ void publish_signed(lcm::LCM& lcm, const std::string& channel, const Msg& m, con
   if (used >= 0) lcm.publish(channel, buffer.data(), static_cast<unsigned>(used));
 }
 
+/// The identity part of a `source` (its upper 32 bits) and its counter (the lower 32).
+inline std::uint32_t source_identity(std::int64_t source) { return static_cast<std::uint32_t>(static_cast<std::uint64_t>(source) >> 32); }
+inline std::uint32_t source_counter(std::int64_t source) { return static_cast<std::uint32_t>(static_cast<std::uint64_t>(source)); }
+/// A process's message counter, shared by its outputs: every message it publishes gets the next.
+using SourceCounter = std::shared_ptr<std::atomic<std::uint32_t>>;
+
 /// A typed output; encodes into a buffer reused across calls, stamped with the process's `source`
-/// (a Sourced type) and signed with `key` (a signed type).
+/// and its next message count (a Sourced type) and signed with `key` (a signed type).
 template <class Msg>
 class Output {
  public:
   Output() = default;
-  Output(lcm::LCM* lcm, std::string channel, const auth::Key* key = nullptr, std::int64_t source = 0)
-      : lcm_(lcm), channel_(std::move(channel)), key_(key), source_(source) {}
+  Output(lcm::LCM* lcm, std::string channel, const auth::Key* key = nullptr, std::int64_t source = 0, SourceCounter counter = {})
+      : lcm_(lcm), channel_(std::move(channel)), key_(key), source_(source), counter_(std::move(counter)) {}
   void publish(const Msg& m) {
-    const int used = encode_message(m, buffer_, channel_, key_, source_);
+    std::int64_t source = source_;
+    if constexpr (Sourced<Msg>) {
+      if (source != 0 && counter_) source = static_cast<std::int64_t>(static_cast<std::uint64_t>(source) | (counter_->fetch_add(1) + 1U));
+    }
+    const int used = encode_message(m, buffer_, channel_, key_, source);
     if (used >= 0) lcm_->publish(channel_, buffer_.data(), static_cast<unsigned>(used));
   }
   [[nodiscard]] const std::string& channel() const { return channel_; }
@@ -83,6 +98,7 @@ class Output {
   std::string channel_;
   const auth::Key* key_ = nullptr;
   std::int64_t source_ = 0;
+  SourceCounter counter_;
   std::vector<std::uint8_t> buffer_;
 };
 

@@ -88,6 +88,8 @@ class Transport {
   [[nodiscard]] int receive_fd() const;
   /// Whether the typed inputs are read from the transport's own socket.
   [[nodiscard]] bool receives_directly() const { return receiver_ != nullptr; }
+  /// The own socket's reader (null: through liblcm): what it refused and what it held.
+  [[nodiscard]] const UdpmReceiver* direct_receiver() const { return receiver_.get(); }
   /// liblcm's descriptor when it must be watched besides receive_fd() (the own socket reads the
   /// typed inputs and something subscribed through liblcm); -1 otherwise.
   [[nodiscard]] int extra_fd() const;
@@ -125,14 +127,17 @@ class Transport {
   Output<Msg> make_output(std::string_view name) {
     const auth::Key* key = nullptr;
     if constexpr (auth::Signed<Msg>) key = deployment_key();
-    return Output<Msg>(lcm_.get(), channel(name), key, source_id_);
+    return Output<Msg>(lcm_.get(), channel(name), key, source_id_, counter_);
   }
-  /// Publishes a message the runtime itself sends (HEALTH, PARAMS), unsigned, through a buffer
-  /// kept between calls.
+  /// Publishes a message the runtime itself sends (HEALTH signed, PARAMS), through a buffer kept
+  /// between calls.
   template <class Msg>
   void publish_own(std::string_view name, const Msg& m) {
-    const int used = encode_message(m, own_buffer_, {}, nullptr);
-    if (used >= 0) lcm_->publish(channel(name), own_buffer_.data(), static_cast<unsigned>(used));
+    const std::string full = channel(name);
+    const auth::Key* key = nullptr;
+    if constexpr (auth::Signed<Msg>) key = deployment_key();
+    const int used = encode_message(m, own_buffer_, full, key);
+    if (used >= 0) lcm_->publish(full, own_buffer_.data(), static_cast<unsigned>(used));
   }
   /// Reads what is waiting on the own socket and hands each message to its channel's inputs.
   void receive_direct();
@@ -162,7 +167,8 @@ class Transport {
   std::vector<std::uint8_t> own_buffer_;  ///< HEALTH's and PARAMS's encoding
   std::unique_ptr<auth::Key> key_;
   bool warned_unauthenticated_ = false;
-  std::int64_t source_id_ = 0;
+  std::int64_t source_id_ = 0;  ///< the identity in the upper 32 bits, the lower 32 zero
+  SourceCounter counter_ = std::make_shared<std::atomic<std::uint32_t>>(0);
 };
 
 }  // namespace hpr::node

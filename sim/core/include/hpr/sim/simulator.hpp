@@ -45,7 +45,7 @@ struct NoiseConfig {
 /// truth, scenario) and SimConfig does not: another process that reads the section (the drive
 /// emulator) leaves them alone (Config::known).
 inline const std::vector<std::string> kSimProcessKeys = {"mode", "lockstep_timeout", "startup_timeout", "duration",
-                                                         "publish_truth", "scenario"};
+                                                         "publish_truth", "scenario", "push_input"};
 
 /// MuJoCo's contact and integration settings (`sim.mujoco`).
 struct MujocoConfig {
