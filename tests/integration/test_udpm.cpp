@@ -19,6 +19,7 @@
 #include "hpr/node/lcm_url.hpp"
 #include "hpr/node/runtime.hpp"
 #include "hpr/node/udpm.hpp"
+#include "multicast_sender.hpp"
 #include "process_group.hpp"
 
 namespace {
@@ -143,18 +144,12 @@ TEST_P(TypedInput, ReadsWhatLiblcmPublishesAndRefusesAForeignDatagramWithoutLosi
   EXPECT_EQ(in.latest().tick, 11);
   EXPECT_EQ(in.latest().q, m.q);
   // A datagram on LCM's group and port that is not LCM's format, then a good message.
-  const auto addr = hpr::node::parse_udpm_url(url);
-  const int fd = ::socket(AF_INET, SOCK_DGRAM, 0);
-  ASSERT_GE(fd, 0);
-  unsigned char ttl = 0;
-  ::setsockopt(fd, IPPROTO_IP, IP_MULTICAST_TTL, &ttl, sizeof ttl);
-  sockaddr_in to{};
-  to.sin_family = AF_INET;
-  to.sin_port = htons(static_cast<std::uint16_t>(addr.port));
-  ::inet_pton(AF_INET, addr.group.c_str(), &to.sin_addr);
-  const char junk[] = "not an LCM datagram";
-  ASSERT_EQ(::sendto(fd, junk, sizeof junk, 0, reinterpret_cast<const sockaddr*>(&to), sizeof to), static_cast<ssize_t>(sizeof junk));
-  ::close(fd);
+  {
+    hpr::test::MulticastSender stranger(url);
+    ASSERT_TRUE(stranger.good());
+    const char junk[] = "not an LCM datagram";
+    ASSERT_TRUE(stranger.send(junk, sizeof junk));
+  }
   m.tick = 12;
   m.utime = 12'000;
   sender.publish("SENSORS", &m);

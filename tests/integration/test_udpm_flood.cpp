@@ -3,11 +3,8 @@
 // beside the live 1 kHz stream. Nothing is allocated for them, the node's memory does not grow, and
 // the live stream arrives as without them. Run alone (SERIAL): it measures the process's memory
 // and counts messages on the loopback.
-#include <arpa/inet.h>
 #include <gtest/gtest.h>
 #include <humanoid/robot_sensors_t.hpp>
-#include <netinet/in.h>
-#include <sys/socket.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -21,6 +18,7 @@
 #include "hpr/node/lcm_url.hpp"
 #include "hpr/node/runtime.hpp"
 #include "hpr/node/udpm.hpp"
+#include "multicast_sender.hpp"
 #include "process_group.hpp"
 
 namespace {
@@ -89,22 +87,14 @@ FloodRun run_stream(bool flood) {
   });
   std::thread forger([&] {
     if (!flood) return;
-    const auto addr = hpr::node::parse_udpm_url(url);
-    const int fd = ::socket(AF_INET, SOCK_DGRAM, 0);
-    unsigned char ttl = 0;
-    ::setsockopt(fd, IPPROTO_IP, IP_MULTICAST_TTL, &ttl, sizeof ttl);
-    sockaddr_in to{};
-    to.sin_family = AF_INET;
-    to.sin_port = htons(static_cast<std::uint16_t>(addr.port));
-    ::inet_pton(AF_INET, addr.group.c_str(), &to.sin_addr);
+    hpr::test::MulticastSender forged(url);
     auto next = std::chrono::steady_clock::now();
     for (std::uint32_t k = 0; !done; ++k) {
       const auto d = first_fragment(k % 2 == 0 ? "SENSORS" : "NOBODY_READS", 16u << 20, k);
-      if (::sendto(fd, d.data(), d.size(), 0, reinterpret_cast<const sockaddr*>(&to), sizeof to) > 0) ++r.flood;
+      if (forged.send(d.data(), d.size())) ++r.flood;
       next += std::chrono::milliseconds(1);
       std::this_thread::sleep_until(next);
     }
-    ::close(fd);
   });
   while (!done) rt.spin_once(0.01);
   const auto settle = std::chrono::steady_clock::now() + std::chrono::milliseconds(300);

@@ -81,6 +81,18 @@ struct Rig {
     }
     emu->step(now);
   }
+  /// Sends the hold command and ticks, `ticks` times.
+  void hold_for(int ticks) {
+    for (int k = 0; k < ticks; ++k) {
+      (void)h->set_command(hold(), now);
+      tick_once();
+    }
+  }
+  /// An operator's enable, then hold_for(ticks).
+  void enable_and_hold(int ticks) {
+    (void)h->operator_command(hal::kOperatorEnable, now, "test", issued());
+    hold_for(ticks);
+  }
   /// A command holding the standing posture, each one of a newer tick than the one before.
   JointCommand hold() const {
     JointCommand c;

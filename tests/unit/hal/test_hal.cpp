@@ -204,11 +204,7 @@ TEST(Hal, TheLastCommandSentAgainDoesNotKeepTheDrivesEnabled) {
 // twice for missed_replies_fault ticks in a row is a fault.
 TEST(Hal, ASecondReplyInATickNeverOverwritesTheFirstAndIsAFaultWhenItGoesOn) {
   Rig r;
-  (void)r.h->operator_command(hal::kOperatorEnable, r.now, "test", test::issued());
-  for (int k = 0; k < 20; ++k) {
-    (void)r.h->set_command(r.hold(), r.now);
-    r.tick_once();
-  }
+  r.enable_and_hold(20);
   const auto j = static_cast<std::size_t>(r.robot.model.joint_index("r_knee"));
   const auto& d = r.config.drives[j];
   hal::MitCodec codec;
@@ -269,16 +265,9 @@ TEST(Hal, APositionBeyondTheDrivesReachSinceItsLastReplyIsRefused) {
 
 TEST(Hal, MissedRepliesFaultAndEnableNeedsThemBack) {
   Rig r;
-  (void)r.h->operator_command(hal::kOperatorEnable, r.now, "test", test::issued());
-  for (int k = 0; k < 20; ++k) {
-    (void)r.h->set_command(r.hold(), r.now);
-    r.tick_once();
-  }
+  r.enable_and_hold(20);
   r.drives_answer = false;
-  for (int k = 0; k < 5; ++k) {
-    (void)r.h->set_command(r.hold(), r.now);
-    r.tick_once();
-  }
+  r.hold_for(5);
   EXPECT_EQ(r.h->safety().state(), SafetyState::kFault);
   EXPECT_EQ(r.h->safety().drive_mode(), hal::DriveMode::kDamp);
   EXPECT_NE(r.h->fault_conditions().find("missed 5 replies"), std::string::npos) << r.h->fault_conditions();
